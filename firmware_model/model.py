@@ -1,0 +1,253 @@
+"""Bit-accurate scalar model of the C solver ``ik5r.c``: one Python function per C function.
+
+This is the specification of the fixed-point IK. Python integers are unbounded, so every place
+where the C relies on a width (int32 words, int64 products and CORDIC state) is bounded here by
+construction and checked by the tests, never by wrapping. ``>>`` on a negative Python int floors,
+exactly like the C's arithmetic right shift (see docs/algorithm.md, "C semantics").
+
+Names follow the C: ``_l`` length Q(frac.length), ``_u`` unit-vector Q(frac.unit),
+``_a`` angle Q(frac.angle) radians, ``_z`` CORDIC angle Q(frac.angle + angle_guard_bits),
+``_l2`` squared length Q(2 * frac.length).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ik5r.fxconfig import INV_GAIN_FRAC, Constants
+from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
+
+
+def rshift_round(value: int, shift: int, nearest: bool) -> int:
+    """value * 2**-shift, rounded half up (nearest) or floored (truncate)."""
+    if shift <= 0:
+        return value << -shift
+    if nearest:
+        value += 1 << (shift - 1)
+    return value >> shift
+
+
+def saturate(value: int, k: Constants) -> tuple[int, int]:
+    """Clip to the word range; returns (value, SATURATED or 0)."""
+    if value > k.word_max:
+        return k.word_max, SATURATED
+    if value < k.word_min:
+        return k.word_min, SATURATED
+    return value, 0
+
+
+def mul_const(value: int, m, nearest: bool) -> int:
+    """value * c for a ConstMul m (pre-shift, 31-bit mantissa, post-shift)."""
+    return rshift_round(rshift_round(value, m.pre, nearest) * m.mant, m.post, nearest)
+
+
+def wrap_angle(angle_a: int, k: Constants) -> int:
+    """Bring an angle within one turn of zero back to [-pi, pi] (one correction)."""
+    if angle_a > k.pi_a:
+        return angle_a - 2 * k.pi_a
+    if angle_a < -k.pi_a:
+        return angle_a + 2 * k.pi_a
+    return angle_a
+
+
+def opposite(angle_a: int, k: Constants) -> int:
+    """The angle of the opposite vector: atan2(-y, -x) from atan2(y, x), with no negation of a word."""
+    return angle_a - k.pi_a if angle_a > 0 else angle_a + k.pi_a
+
+
+def _bit_length_ones_abs(x: int, y: int) -> int:
+    """Bit length of x | ones'-complement-abs(y), x >= 0: what the HDL's priority encoder sees."""
+    return (x | (~y if y < 0 else y)).bit_length()
+
+
+def cordic_atan2(y: int, x: int, k: Constants) -> tuple[int, int, bool]:
+    """Full-circle atan2 of two words by CORDIC vectoring.
+
+    Returns (angle_a, magnitude in the inputs' format (saturated), zero) where zero means
+    x == y == 0 and angle 0.
+    """
+    c = k.cfg
+    if x == 0 and y == 0:
+        return 0, 0, True
+    # Coarse rotation by -+90 degrees into the right half-plane (widens by one bit).
+    if x < 0:
+        if y >= 0:
+            xs, ys, z = y, -x, k.half_pi_z
+        else:
+            xs, ys, z = -y, x, -k.half_pi_z
+    else:
+        xs, ys, z = x, y, 0
+    # Normalise: largest component's top bit to bit width-2 (block floating point).
+    norm = max(0, c.width - 1 - _bit_length_ones_abs(xs, ys))
+    xs <<= norm + c.guard_bits
+    ys <<= norm + c.guard_bits
+    for i, step_z in enumerate(k.atan_table):
+        if ys >= 0:
+            xs, ys, z = xs + (ys >> i), ys - (xs >> i), z + step_z
+        else:
+            xs, ys, z = xs - (ys >> i), ys + (xs >> i), z - step_z
+    angle_a = rshift_round(z, c.angle_guard_bits, c.round_nearest)
+    # Magnitude: drop the guard bits, undo the gain K, then undo the normalisation.
+    magnitude = rshift_round(
+        (xs >> c.guard_bits) * k.inv_gain, INV_GAIN_FRAC + norm, c.round_nearest)
+    magnitude, _ = saturate(magnitude, k)
+    return angle_a, magnitude, False
+
+
+def cordic_rotate(x: int, y: int, angle_a: int, k: Constants) -> tuple[int, int, int]:
+    """Rotate the vector (x, y) of words by angle_a (|angle_a| <= pi + a few LSB).
+
+    The CORDIC gain is compensated on the input. Returns (x', y', SATURATED or 0).
+    """
+    c = k.cfg
+    z = angle_a << c.angle_guard_bits
+    if z > k.half_pi_z:
+        x, y, z = -y, x, z - k.half_pi_z
+    elif z < -k.half_pi_z:
+        x, y, z = y, -x, z + k.half_pi_z
+    shift = INV_GAIN_FRAC - c.guard_bits
+    xs = rshift_round(x * k.inv_gain, shift, c.round_nearest)
+    ys = rshift_round(y * k.inv_gain, shift, c.round_nearest)
+    for i, step_z in enumerate(k.atan_table):
+        if z >= 0:
+            xs, ys, z = xs - (ys >> i), ys + (xs >> i), z - step_z
+        else:
+            xs, ys, z = xs + (ys >> i), ys - (xs >> i), z + step_z
+    xo, sat_x = saturate(rshift_round(xs, c.guard_bits, c.round_nearest), k)
+    yo, sat_y = saturate(rshift_round(ys, c.guard_bits, c.round_nearest), k)
+    return xo, yo, sat_x | sat_y
+
+
+def isqrt(radicand: int, bits: int, nearest: bool) -> int:
+    """Square root of an unsigned integer below 2**bits by digit recurrence (bits even)."""
+    root = rem = 0
+    for i in range(bits // 2 - 1, -1, -1):
+        rem = (rem << 2) | ((radicand >> (2 * i)) & 3)
+        trial = (root << 2) | 1
+        root <<= 1
+        if rem >= trial:
+            rem -= trial
+            root |= 1
+    if nearest and rem > root:
+        root += 1
+    return root
+
+
+def sqrt_word(x: int, frac: int, k: Constants) -> int:
+    """Square root of a non-negative word with ``frac`` fraction bits, same format."""
+    c = k.cfg
+    bits = c.width + frac + ((c.width + frac) & 1)
+    return isqrt(x << frac, bits, c.round_nearest)
+
+
+def cordic_acos(x_u: int, k: Constants) -> tuple[int, int, int]:
+    """acos of a unit-format word as atan2(sqrt((1 - x)(1 + x)), x).
+
+    Input outside [-1, 1] is clipped and flagged. Returns (angle_a, sine_u = sin(angle), flags).
+    """
+    c = k.cfg
+    flags = 0
+    if x_u > k.one_u:
+        x_u, flags = k.one_u, SATURATED
+    elif x_u < -k.one_u:
+        x_u, flags = -k.one_u, SATURATED
+    # (1 - x)(1 + x) is in [0, 1] with 2*frac_unit fraction bits: below 2**(2*frac_unit + 1).
+    product_u2 = (k.one_u - x_u) * (k.one_u + x_u)
+    sine_u = isqrt(product_u2, 2 * c.frac_unit + 2, c.round_nearest)
+    angle_a, _, _ = cordic_atan2(sine_u, x_u, k)
+    return angle_a, sine_u, flags
+
+
+@dataclass(frozen=True)
+class Pose:
+    """One pose in raw words: position (length format), approach a and optionally n, o (unit)."""
+
+    p_l: tuple[int, int, int]
+    a_u: tuple[int, int, int]
+    n_u: tuple[int, int, int] | None = None
+    o_u: tuple[int, int, int] | None = None
+
+
+def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: int,
+             k: Constants) -> tuple[tuple[int, int, int, int, int], int]:
+    """The fixed-point IK of one pose for one branch: ((q1..q5) angle words, status bits).
+
+    Branch: shoulder_back puts the tool point behind joint 1 (q1 + pi); elbow_down takes
+    q3 = -acos(c3) instead of +acos(c3). q5_default_a is used when n, o are absent.
+    """
+    c = k.cfg
+    nearest = c.round_nearest
+    status = 0
+    px, py, pz = pose.p_l
+    ax, ay, az = pose.a_u
+
+    # Joint 1: the arm's plane contains the tool point, or the approach if the point is on the axis.
+    rho_l = isqrt(px * px + py * py, 64, nearest)
+    rho_l, sat = saturate(rho_l, k)
+    status |= sat
+    if rho_l != 0:
+        theta1_a, _, _ = cordic_atan2(py, px, k)
+    else:
+        theta1_a, _, vertical = cordic_atan2(ay, ax, k)
+        if vertical:
+            status |= SINGULAR_BASE
+    if shoulder_back:
+        q1_a = opposite(theta1_a, k)
+        r_l = -rho_l
+    else:
+        q1_a = theta1_a
+        r_l = rho_l
+    c1_u, s1_u, sat = cordic_rotate(k.one_u, 0, q1_a, k)
+    status |= sat
+
+    # Tool pitch phi = q2 + q3 + q4 from the approach projected onto the arm's plane.
+    a_radial_u, sat = saturate(rshift_round(ax * c1_u + ay * s1_u, c.frac_unit, nearest), k)
+    status |= sat
+    pitch_a, _, no_direction = cordic_atan2(a_radial_u, az, k)
+    if no_direction:
+        status |= INVALID
+    phi_a = opposite(pitch_a, k)
+
+    # Wrist centre (joint 4 axis) in the arm's plane: subtract R(phi) (a4, d5).
+    off_x_l, off_y_l, sat = cordic_rotate(k.a4_l, k.d5_l, phi_a, k)
+    status |= sat
+    xw_l, sat = saturate(r_l - k.a1_l - off_x_l, k)
+    status |= sat
+    yw_l, sat = saturate(k.d1_l - pz - off_y_l, k)
+    status |= sat
+
+    # Elbow: law of cosines, clipped to the reachable annulus.
+    d_sq_l2 = xw_l * xw_l + yw_l * yw_l
+    num_l2 = d_sq_l2 - k.links_sq_l2
+    if num_l2 > k.twice_a2a3_l2:
+        num_l2, status = k.twice_a2a3_l2, status | UNREACHABLE
+    elif num_l2 < -k.twice_a2a3_l2:
+        num_l2, status = -k.twice_a2a3_l2, status | UNREACHABLE
+    c3_u = max(-k.one_u, min(k.one_u, mul_const(num_l2, k.c3_from_l2, nearest)))
+    elbow_a, s3_u, _ = cordic_acos(c3_u, k)
+    if s3_u <= k.singular_s3_u:
+        status |= SINGULAR_ELBOW
+    q3_a = -elbow_a if elbow_down else elbow_a
+
+    # Shoulder: q2 = atan2(yw, xw) -+ atan2(a3 sin|q3|, a2 + a3 cos q3).
+    gamma_a, _, _ = cordic_atan2(yw_l, xw_l, k)
+    beta_a, _, _ = cordic_atan2(mul_const(s3_u, k.a3_from_u, nearest),
+                                k.a2_l + mul_const(c3_u, k.a3_from_u, nearest), k)
+    q2_a = wrap_angle(gamma_a + beta_a if elbow_down else gamma_a - beta_a, k)
+    q4_a = wrap_angle(wrap_angle(phi_a - q2_a, k) - q3_a, k)
+
+    # Joint 5: tool roll from n and o, else the caller's value.
+    if pose.n_u is not None and pose.o_u is not None:
+        nx, ny, _ = pose.n_u
+        ox, oy, _ = pose.o_u
+        s5_u, sat_s = saturate(rshift_round(nx * s1_u - ny * c1_u, c.frac_unit, nearest), k)
+        c5_u, sat_c = saturate(rshift_round(ox * s1_u - oy * c1_u, c.frac_unit, nearest), k)
+        status |= sat_s | sat_c
+        q5_a, _, no_roll = cordic_atan2(s5_u, c5_u, k)
+        if no_roll:
+            status |= INVALID
+    else:
+        q5_a = q5_default_a
+
+    joints = tuple(wrap_angle(q - off, k) for q, off in zip((q1_a, q2_a, q3_a, q4_a, q5_a), k.offset_a))
+    return joints, status

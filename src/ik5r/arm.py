@@ -1,0 +1,119 @@
+"""Standard-DH description of a serial 5R arm, loaded from TOML and validated.
+
+The closed-form IK of ik5r needs the structure of the arm of record (Hu et al., Table 1): joint 1
+vertical, joints 2-4 parallel and horizontal, joint 5 along the tool. So ``alpha`` must be
+(-90, 0, 0, -90, 0) degrees, ``d2 = d3 = d4 = 0`` and ``a5 = 0``; every other parameter is free.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+N_JOINTS = 5
+_ALPHA_PATTERN_DEG = (-90.0, 0.0, 0.0, -90.0, 0.0)
+_LENGTH_SCALE = {"mm": 0.1, "cm": 1.0, "m": 100.0}
+_ANGLE_SCALE = {"deg": math.pi / 180.0, "rad": 1.0}
+
+
+@dataclass(frozen=True)
+class Arm:
+    """A 5R arm in standard DH convention; lengths in cm, angles in radians."""
+
+    name: str
+    a: tuple[float, ...]
+    alpha: tuple[float, ...]
+    d: tuple[float, ...]
+    theta_offset: tuple[float, ...]
+    limits: tuple[tuple[float, float], ...]
+
+    @property
+    def lower(self) -> np.ndarray:
+        return np.array([lo for lo, _ in self.limits])
+
+    @property
+    def upper(self) -> np.ndarray:
+        return np.array([hi for _, hi in self.limits])
+
+    @property
+    def max_reach(self) -> float:
+        """Upper bound of |tool point - joint 2 axis| over all joint values (cm)."""
+        return self.a[1] + self.a[2] + math.hypot(self.a[3], self.d[4])
+
+
+def _number(path, where, table, key, default=None):
+    value = table.get(key, default)
+    if value is None:
+        raise InputError(path, "missing", field=f"{where}.{key}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(path, f"must be a finite number, got {value!r}", field=f"{where}.{key}")
+    return float(value)
+
+
+def parse_arm(doc: dict, path: str | Path = "<arm>") -> Arm:
+    """Validate a parsed arm TOML document; every error names ``path`` and the field."""
+    length_unit = doc.get("length_unit", "cm")
+    angle_unit = doc.get("angle_unit", "deg")
+    if length_unit not in _LENGTH_SCALE:
+        raise InputError(path, f"must be one of {sorted(_LENGTH_SCALE)}, got {length_unit!r}", field="length_unit")
+    if angle_unit not in _ANGLE_SCALE:
+        raise InputError(path, f"must be one of {sorted(_ANGLE_SCALE)}, got {angle_unit!r}", field="angle_unit")
+    ls, an = _LENGTH_SCALE[length_unit], _ANGLE_SCALE[angle_unit]
+    joints = doc.get("joint")
+    if not isinstance(joints, list) or len(joints) != N_JOINTS:
+        raise InputError(path, f"need exactly {N_JOINTS} [[joint]] tables", field="joint")
+    a, alpha, d, offset, limits = [], [], [], [], []
+    for i, joint in enumerate(joints):
+        where = f"joint[{i + 1}]"
+        if not isinstance(joint, dict):
+            raise InputError(path, "must be a table", field=where)
+        unknown = set(joint) - {"a", "alpha", "d", "theta_offset", "limits"}
+        if unknown:
+            raise InputError(path, f"unknown key(s) {sorted(unknown)}", field=where)
+        a.append(_number(path, where, joint, "a") * ls)
+        alpha.append(_number(path, where, joint, "alpha") * an)
+        d.append(_number(path, where, joint, "d", 0.0) * ls)
+        offset.append(_number(path, where, joint, "theta_offset", 0.0) * an)
+        lim = joint.get("limits", [-180.0, 180.0] if angle_unit == "deg" else [-math.pi, math.pi])
+        if (not isinstance(lim, list) or len(lim) != 2
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in lim)):
+            raise InputError(path, "must be [lower, upper]", field=f"{where}.limits")
+        lo, hi = lim[0] * an, lim[1] * an
+        if not lo < hi:
+            raise InputError(path, "lower must be below upper", field=f"{where}.limits")
+        limits.append((lo, hi))
+    for i, want in enumerate(_ALPHA_PATTERN_DEG):
+        if abs(alpha[i] - math.radians(want)) > 1e-9:
+            raise InputError(path, f"the closed-form IK needs alpha = {want} deg", field=f"joint[{i + 1}].alpha")
+    for i in (1, 2, 3):
+        if d[i] != 0.0:
+            raise InputError(path, "the closed-form IK needs d = 0 here", field=f"joint[{i + 1}].d")
+    if a[4] != 0.0:
+        raise InputError(path, "the closed-form IK needs a = 0 here", field="joint[5].a")
+    if a[1] <= 0 or a[2] <= 0:
+        raise InputError(path, "links 2 and 3 must have positive length", field="joint[2].a" if a[1] <= 0 else "joint[3].a")
+    return Arm(str(doc.get("name", Path(str(path)).stem)), tuple(a), tuple(alpha), tuple(d), tuple(offset), tuple(limits))
+
+
+def load_arm(path: str | Path | None = None) -> Arm:
+    """Load an arm TOML; ``None`` gives the arm of record."""
+    if path is None:
+        text = resources.files("ik5r").joinpath("data/seed_arm.toml").read_text()
+        path = "seed_arm.toml"
+    else:
+        try:
+            text = Path(path).read_text()
+        except OSError as exc:
+            raise InputError(path, exc.strerror or str(exc)) from exc
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"not valid TOML: {exc}") from exc
+    return parse_arm(doc, path)

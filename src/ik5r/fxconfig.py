@@ -1,0 +1,210 @@
+"""The fixed-point configuration: one TOML, the single source of truth.
+
+The C header (``ik5r.firmware.codegen``), the bit-accurate models (``ik5r.firmware.model``,
+``ik5r.firmware.vector``) and the Amaranth HDL (``ik5r.hdl``) all take their widths, fraction bits,
+iteration counts, rounding and every derived integer constant from :class:`Constants`, so they
+cannot drift apart.
+
+Formats: every word is a signed two's-complement integer of ``width`` bits; a value ``v`` of a
+quantity with ``n`` fraction bits stands for ``v * 2**-n`` (Q m.n with m + n = width).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+from .arm import Arm, load_arm
+from .errors import InputError
+
+MAX_WIDTH = 32
+#: Fraction bits of the CORDIC gain-compensation factor 1/K (stored below 2**31).
+INV_GAIN_FRAC = 31
+#: Width of the mantissa of a constant multiplier (fits a signed 32-bit word).
+CONST_MANT_BITS = 31
+
+
+@dataclass(frozen=True)
+class FixedConfig:
+    name: str
+    width: int
+    frac_length: int
+    frac_unit: int
+    frac_angle: int
+    iterations: int
+    guard_bits: int
+    angle_guard_bits: int
+    rounding: str
+    singular_sin_q3: float
+    source: str = "<config>"
+
+    @property
+    def round_nearest(self) -> bool:
+        return self.rounding == "nearest"
+
+    def to_toml(self) -> str:
+        return (
+            f'name = "{self.name}"\nwidth = {self.width}\n\n[frac]\nlength = {self.frac_length}\n'
+            f"unit = {self.frac_unit}\nangle = {self.frac_angle}\n\n[cordic]\n"
+            f"iterations = {self.iterations}\nguard_bits = {self.guard_bits}\n"
+            f"angle_guard_bits = {self.angle_guard_bits}\n\n[ik]\n"
+            f'rounding = "{self.rounding}"\nsingular_sin_q3 = {self.singular_sin_q3!r}\n'
+        )
+
+
+_SCHEMA = {
+    # key path: (type, lower, upper) -- upper may depend on width, checked after.
+    ("width",): (int, 8, MAX_WIDTH),
+    ("frac", "length"): (int, 1, MAX_WIDTH - 2),
+    ("frac", "unit"): (int, 2, MAX_WIDTH - 2),
+    ("frac", "angle"): (int, 2, MAX_WIDTH - 3),
+    ("cordic", "iterations"): (int, 4, 40),
+    ("cordic", "guard_bits"): (int, 0, 8),
+    ("cordic", "angle_guard_bits"): (int, 1, 8),
+    ("ik", "singular_sin_q3"): (float, 0.0, 0.5),
+}
+
+
+def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
+    """Validate a parsed config TOML; errors name ``path`` and the field."""
+    values = {}
+    for keys, (kind, lo, hi) in _SCHEMA.items():
+        name = ".".join(keys)
+        node = doc
+        for key in keys:
+            if not isinstance(node, dict) or key not in node:
+                raise InputError(path, "missing", field=name)
+            node = node[key]
+        if isinstance(node, bool) or not isinstance(node, (int, float)) or (kind is int and not isinstance(node, int)):
+            raise InputError(path, f"must be {'an integer' if kind is int else 'a number'}, got {node!r}", field=name)
+        if not lo <= node <= hi:
+            raise InputError(path, f"must be in [{lo}, {hi}], got {node}", field=name)
+        values[name] = node
+    width = values["width"]
+    for name, spare in (("frac.length", 2), ("frac.unit", 2), ("frac.angle", 3)):
+        if values[name] > width - spare:
+            raise InputError(path, f"must leave {spare} integer bits in a {width}-bit word", field=name)
+    rounding = doc.get("ik", {}).get("rounding", "nearest")
+    if rounding not in ("nearest", "truncate"):
+        raise InputError(path, f"must be 'nearest' or 'truncate', got {rounding!r}", field="ik.rounding")
+    return FixedConfig(
+        name=str(doc.get("name", Path(str(path)).stem)), width=width,
+        frac_length=values["frac.length"], frac_unit=values["frac.unit"], frac_angle=values["frac.angle"],
+        iterations=values["cordic.iterations"], guard_bits=values["cordic.guard_bits"],
+        angle_guard_bits=values["cordic.angle_guard_bits"], rounding=rounding,
+        singular_sin_q3=float(values["ik.singular_sin_q3"]), source=str(path),
+    )
+
+
+def config_dir() -> Path:
+    """The shipped configs (``configs/`` of the source tree)."""
+    return Path(str(resources.files("ik5r"))).resolve().parents[1] / "configs"
+
+
+def load_config(path: str | Path | None = None) -> FixedConfig:
+    """Load a config TOML; ``None`` gives ``configs/q32.toml``; a bare name ``q18`` a shipped one."""
+    if path is None:
+        path = "q32"
+    candidate = Path(path)
+    if not candidate.suffix and not candidate.exists():
+        candidate = config_dir() / f"{path}.toml"
+    try:
+        text = candidate.read_text()
+    except OSError as exc:
+        raise InputError(candidate, exc.strerror or str(exc)) from exc
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(candidate, f"not valid TOML: {exc}") from exc
+    return parse_config(doc, candidate)
+
+
+@dataclass(frozen=True)
+class ConstMul:
+    """Multiplication by a real constant c: ``y = rshift(rshift(x, pre) * mant, post)``.
+
+    ``pre`` brings the largest |x| under 2**31 so the product fits int64; ``mant`` < 2**31.
+    """
+
+    pre: int
+    mant: int
+    post: int
+
+
+def const_mul(factor: float, x_max_bits: int) -> ConstMul:
+    pre = max(0, x_max_bits - 31)
+    scaled = abs(factor) * 2.0**pre
+    post = CONST_MANT_BITS - 1 - math.floor(math.log2(scaled))
+    mant = round(scaled * 2.0**post)
+    if mant >= 2**CONST_MANT_BITS:
+        post -= 1
+        mant = round(scaled * 2.0**post)
+    return ConstMul(pre, int(math.copysign(mant, factor)), post)
+
+
+def _q(value: float, frac: int) -> int:
+    return round(value * 2**frac)
+
+
+@dataclass(frozen=True)
+class Constants:
+    """Every integer constant of the fixed-point IK, derived from a config and an arm."""
+
+    cfg: FixedConfig
+    arm: Arm
+    atan_table: tuple[int, ...] = field(init=False)   # atan(2^-i), Q(frac_angle + angle_guard_bits)
+    inv_gain: int = field(init=False)                 # 1/K_N, Q(INV_GAIN_FRAC)
+
+    def __post_init__(self):
+        c, a = self.cfg, self.arm
+        set_ = object.__setattr__
+        zf = c.frac_angle + c.angle_guard_bits
+        set_(self, "atan_table", tuple(_q(math.atan(2.0**-i), zf) for i in range(c.iterations)))
+        gain = math.prod(math.sqrt(1 + 2.0 ** (-2 * i)) for i in range(c.iterations))
+        set_(self, "inv_gain", _q(1 / gain, INV_GAIN_FRAC))
+        fl, fu, fa, w = c.frac_length, c.frac_unit, c.frac_angle, c.width
+        set_(self, "z_frac", zf)
+        set_(self, "half_pi_z", _q(math.pi / 2, zf))
+        set_(self, "pi_a", _q(math.pi, fa))
+        set_(self, "one_u", 1 << fu)
+        set_(self, "word_max", (1 << (w - 1)) - 1)
+        set_(self, "word_min", -(1 << (w - 1)))
+        set_(self, "a1_l", _q(a.a[0], fl))
+        set_(self, "a2_l", _q(a.a[1], fl))
+        set_(self, "a4_l", _q(a.a[3], fl))
+        set_(self, "d1_l", _q(a.d[0], fl))
+        set_(self, "d5_l", _q(a.d[4], fl))
+        set_(self, "offset_a", tuple(_q(o, fa) for o in a.theta_offset))
+        # Law of cosines in Q(2*frac_length): c3 = (D^2 - a2^2 - a3^2) / (2 a2 a3).
+        set_(self, "links_sq_l2", _q(a.a[1] ** 2 + a.a[2] ** 2, 2 * fl))
+        set_(self, "twice_a2a3_l2", _q(2 * a.a[1] * a.a[2], 2 * fl))
+        set_(self, "c3_from_l2", const_mul(2.0 ** (fu - 2 * fl) / (2 * a.a[1] * a.a[2]),
+                                           self.twice_a2a3_l2.bit_length()))
+        set_(self, "a3_from_u", const_mul(a.a[2] * 2.0 ** (fl - fu), fu + 1))
+        set_(self, "singular_s3_u", _q(c.singular_sin_q3, fu))
+        for name in ("a1_l", "a2_l", "a4_l", "d1_l", "d5_l", "pi_a", "one_u"):
+            if not self.word_min <= getattr(self, name) <= self.word_max:
+                raise InputError(c.source, f"{name} = {getattr(self, name)} does not fit {w} bits")
+
+
+def constants(cfg: FixedConfig | None = None, arm: Arm | None = None) -> Constants:
+    return Constants(cfg or load_config(), arm or load_arm())
+
+
+def quantize(values, frac: int, cfg: FixedConfig):
+    """Real values to words with ``frac`` fraction bits, rounded to nearest and saturated.
+
+    Returns (raw int64 array, saturated bool array). Non-finite values give 0 and saturated=False;
+    the caller flags them as invalid input.
+    """
+    import numpy as np
+
+    values = np.asarray(values, dtype=np.float64)
+    finite = np.isfinite(values)
+    scaled = np.where(finite, values, 0.0) * 2.0**frac
+    lo, hi = -(2 ** (cfg.width - 1)), 2 ** (cfg.width - 1) - 1
+    saturated = finite & ((scaled < lo) | (scaled > hi))
+    return np.clip(np.round(scaled), lo, hi).astype(np.int64), saturated
