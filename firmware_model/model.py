@@ -251,3 +251,24 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
 
     joints = tuple(wrap_angle(q - off, k) for q, off in zip((q1_a, q2_a, q3_a, q4_a, q5_a), k.offset_a))
     return joints, status
+
+
+def solve_batch(k: Constants, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a):
+    """ik_solve over a batch, the common signature of the three solvers (model, vector, C).
+
+    p_l, a_u, n_u, o_u: (N, 3) integer arrays; has_roll, shoulder_back, elbow_down: (N,) bools;
+    q5_default_a: (N,) ints. Returns (q_a (N, 5) int64, status (N,) int64).
+    """
+    import numpy as np
+
+    count = len(p_l)
+    q_a = np.zeros((count, 5), dtype=np.int64)
+    status = np.zeros(count, dtype=np.int64)
+    for i in range(count):
+        roll = bool(has_roll[i])
+        pose = Pose(tuple(int(v) for v in p_l[i]), tuple(int(v) for v in a_u[i]),
+                    tuple(int(v) for v in n_u[i]) if roll else None,
+                    tuple(int(v) for v in o_u[i]) if roll else None)
+        joints, status[i] = ik_solve(pose, bool(shoulder_back[i]), bool(elbow_down[i]), int(q5_default_a[i]), k)
+        q_a[i] = joints
+    return q_a, status
