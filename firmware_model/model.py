@@ -182,6 +182,7 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
     ax, ay, az = pose.a_u
 
     # Joint 1: the arm's plane contains the tool point, or the approach if the point is on the axis.
+    # px^2 + py^2 reaches 2**63 (px = py = word_min), one past int64: the C sums it in uint64.
     rho_l = isqrt(px * px + py * py, 64, nearest)
     rho_l, sat = saturate(rho_l, k)
     status |= sat
@@ -217,8 +218,9 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
     status |= sat
 
     # Elbow: law of cosines, clipped to the reachable annulus.
-    d_sq_l2 = xw_l * xw_l + yw_l * yw_l
-    num_l2 = d_sq_l2 - k.links_sq_l2
+    # xw^2 + yw^2 reaches 2**63 (xw = yw = word_min), one past int64: subtract first.
+    # xw^2 - links_sq is in (-2**56, 2**62], so num_l2 < 2**63 - links_sq fits int64.
+    num_l2 = (xw_l * xw_l - k.links_sq_l2) + yw_l * yw_l
     if num_l2 > k.twice_a2a3_l2:
         num_l2, status = k.twice_a2a3_l2, status | UNREACHABLE
     elif num_l2 < -k.twice_a2a3_l2:

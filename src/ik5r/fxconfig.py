@@ -109,7 +109,7 @@ def load_config(path: str | Path | None = None) -> FixedConfig:
     if path is None:
         path = "q32"
     candidate = Path(path)
-    if not candidate.suffix and not candidate.exists():
+    if not candidate.suffix and not candidate.is_file():
         candidate = config_dir() / f"{path}.toml"
     try:
         text = candidate.read_text()

@@ -1,0 +1,178 @@
+"""Generate ``ik5r_config.h``, the C solver's view of a fixed-point config and an arm.
+
+The config TOML and the arm TOML are the single source of truth: every width, fraction-bit count,
+iteration count, the rounding mode and every derived integer constant of
+:class:`ik5r.fxconfig.Constants` (plus the status bits of :mod:`ik5r.status`) reach ``ik5r.c``
+only through this header, so nothing is typed twice in C.
+
+Constants are emitted generically from ``vars(k)`` (in their definition order): an ``int`` becomes
+``#define IK5R_<NAME> INT64_C(...)``, a :class:`ik5r.fxconfig.ConstMul` becomes
+``IK5R_<NAME>_PRE/_MANT/_POST`` and a tuple becomes a ``static const int64_t ik5r_<name>[]`` table
+(compiled only where ``IK5R_DEFINE_TABLES`` is defined, i.e. in ``ik5r.c``, so that other
+translation units including ``ik5r.h`` get no unused-variable warnings). A constant added to
+``Constants`` later appears here with no change to this file.
+
+Before emitting, :func:`check_bounds` verifies the static bounds the C relies on for this config
+(no int64 overflow in a constant multiplication, the beta atan2 arguments and the joint offsets fit
+a word): the C then has no undefined behaviour for any word input.
+
+Usage: ``python -m ik5r.firmware.codegen [--config q32] [--arm ARM.toml] [-o ik5r_config.h]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ik5r import status as st
+from ik5r.fxconfig import CONST_MANT_BITS, INV_GAIN_FRAC, MAX_WIDTH, ConstMul, Constants, constants, load_config
+
+HEADER_NAME = "ik5r_config.h"
+INT64_MAX = (1 << 63) - 1
+INT64_MIN = -(1 << 63)
+
+#: FixedConfig fields emitted as plain ints (rounding is emitted as IK5R_ROUND_NEAREST 0/1).
+_CFG_FIELDS = ("width", "frac_length", "frac_unit", "frac_angle", "iterations", "guard_bits",
+               "angle_guard_bits")
+
+
+def _c_int(value: int) -> str:
+    """An int64_t constant expression for ``value`` (INT64_MIN cannot be a literal)."""
+    value = int(value)
+    if not INT64_MIN <= value <= INT64_MAX:
+        raise ValueError(f"constant {value} does not fit int64")
+    if value == INT64_MIN:
+        return "(-INT64_C(9223372036854775807) - 1)"
+    return f"INT64_C({value})"
+
+
+def _rshift_round(value: int, shift: int, nearest: bool) -> int:
+    if shift <= 0:
+        return value << -shift
+    return (value + (1 << (shift - 1) if nearest else 0)) >> shift
+
+
+def _mul_const(value: int, m: ConstMul, nearest: bool) -> int:
+    return _rshift_round(_rshift_round(value, m.pre, nearest) * m.mant, m.post, nearest)
+
+
+def _check_const_mul(name: str, m: ConstMul, x_max: int, nearest: bool) -> None:
+    """|x| <= x_max: the product (x >> pre) * mant plus the rounding term must fit int64."""
+    if not (0 <= m.pre <= 62 and -62 <= m.post <= 62 and abs(m.mant) < 1 << CONST_MANT_BITS):
+        raise ValueError(f"{name}: shifts/mantissa out of the C's range: {m}")
+    product = ((abs(x_max) >> m.pre) + 1) * abs(m.mant)
+    bound = product + (1 << (m.post - 1)) if m.post > 0 else product << -m.post
+    if bound > INT64_MAX:
+        raise ValueError(f"{name}: |x| <= {x_max} times {m} can overflow int64")
+
+
+def check_bounds(k: Constants) -> None:
+    """Static bounds of ``ik5r.c`` for this config and arm; ValueError names the one violated."""
+    c = k.cfg
+    if not 8 <= c.width <= MAX_WIDTH:
+        raise ValueError(f"width {c.width} outside [8, {MAX_WIDTH}]")
+    if c.width + c.frac_unit + 2 > 64 or 2 * c.frac_unit + 2 > 64:
+        raise ValueError("unit format too wide for the uint64 square roots")
+    nearest = c.round_nearest
+    _check_const_mul("c3_from_l2", k.c3_from_l2, k.twice_a2a3_l2, nearest)
+    _check_const_mul("a3_from_u", k.a3_from_u, k.one_u, nearest)
+    # beta = atan2(a3 s3, a2 + a3 c3) with 0 <= s3 <= one_u, |c3| <= one_u: arguments are words.
+    for c3 in (-k.one_u, k.one_u):
+        x = k.a2_l + _mul_const(c3, k.a3_from_u, nearest)
+        if not k.word_min <= x <= k.word_max:
+            raise ValueError(f"a2 + a3 cos q3 = {x} does not fit a {c.width}-bit word")
+    if _mul_const(k.one_u, k.a3_from_u, nearest) > k.word_max:
+        raise ValueError(f"a3 does not fit a {c.width}-bit word")
+    # Joint outputs wrap(q - offset) with |q| <= pi + eps stay words when |offset| <= pi.
+    for i, off in enumerate(k.offset_a):
+        if abs(off) > k.pi_a:
+            raise ValueError(f"theta_offset of joint {i + 1} is beyond +-pi: {off}")
+    # num_l2 = (xw^2 - links_sq) + yw^2 <= 2**63 - links_sq must fit int64.
+    if not 1 <= k.links_sq_l2 <= INT64_MAX or not 0 <= k.twice_a2a3_l2 <= INT64_MAX:
+        raise ValueError("squared link lengths out of [1, 2**63)")
+
+
+def generate_header(k: Constants) -> str:
+    """The text of ``ik5r_config.h`` for ``k``: deterministic (no paths, no time stamps)."""
+    check_bounds(k)
+    c, arm = k.cfg, k.arm
+    source = Path(str(c.source)).name
+    out = [
+        f"/* {HEADER_NAME} -- GENERATED by ik5r.firmware.codegen from the fixed-point config",
+        f" * \"{c.name}\" ({source}) and the arm \"{arm.name}\". DO NOT EDIT: change the TOML and",
+        " * regenerate (python -m ik5r.firmware.codegen). The config and the arm are the single",
+        " * source of truth of every number below. */",
+        "#ifndef IK5R_CONFIG_H",
+        "#define IK5R_CONFIG_H",
+        "",
+        "#include <stdint.h>",
+        "",
+        f'#define IK5R_CONFIG_NAME "{c.name}"',
+        f'#define IK5R_ARM_NAME "{arm.name}"',
+        "",
+        "/* Fixed-point configuration. */",
+    ]
+    for name in _CFG_FIELDS:
+        out.append(f"#define IK5R_{name.upper()} {int(getattr(c, name))}")
+    out.append(f"#define IK5R_ROUND_NEAREST {1 if c.round_nearest else 0}")
+    out.append(f"#define IK5R_INV_GAIN_FRAC {INV_GAIN_FRAC}")
+    out.append(f"#define IK5R_CONST_MANT_BITS {CONST_MANT_BITS}")
+    out.append("")
+    out.append("/* Derived integer constants (ik5r.fxconfig.Constants); suffix = Q format. */")
+    tables = []
+    for name, value in vars(k).items():
+        if name in ("cfg", "arm"):
+            continue
+        if isinstance(value, bool):
+            raise TypeError(f"unexpected bool constant {name}")
+        if isinstance(value, int):
+            out.append(f"#define IK5R_{name.upper()} {_c_int(value)}")
+        elif isinstance(value, ConstMul):
+            out.append(f"#define IK5R_{name.upper()}_PRE {int(value.pre)}")
+            out.append(f"#define IK5R_{name.upper()}_MANT {_c_int(value.mant)}")
+            out.append(f"#define IK5R_{name.upper()}_POST {int(value.post)}")
+        elif isinstance(value, tuple) and all(isinstance(v, int) for v in value):
+            out.append(f"#define IK5R_{name.upper()}_LEN {len(value)}")
+            tables.append((name, value))
+        else:
+            raise TypeError(f"cannot emit constant {name} of type {type(value).__name__}")
+    out.append("")
+    out.append("/* Status bits (ik5r.status), one set per pose. */")
+    out.append(f"#define IK5R_STATUS_OK {st.OK}u")
+    for bit, name in st.NAMES.items():
+        out.append(f"#define IK5R_STATUS_{name.upper()} 0x{bit:02x}u")
+    out.append("")
+    out.append("/* Tables: defined only in the translation unit that uses them (ik5r.c). */")
+    out.append("#ifdef IK5R_DEFINE_TABLES")
+    for name, values in tables:
+        out.append(f"static const int64_t ik5r_{name}[IK5R_{name.upper()}_LEN] = {{")
+        for start in range(0, len(values), 4):
+            chunk = ", ".join(_c_int(v) for v in values[start:start + 4])
+            sep = "," if start + 4 < len(values) else ""
+            out.append(f"    {chunk}{sep}")
+        out.append("};")
+    out.append("#endif /* IK5R_DEFINE_TABLES */")
+    out.append("")
+    out.append("#endif /* IK5R_CONFIG_H */")
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m ik5r.firmware.codegen", description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default=None, help="config TOML or shipped name (default q32)")
+    parser.add_argument("--arm", default=None, help="arm TOML (default: the arm of record)")
+    parser.add_argument("-o", "--output", default="-", help=f"output file (default stdout), e.g. {HEADER_NAME}")
+    args = parser.parse_args(argv)
+    from ik5r.arm import load_arm
+
+    text = generate_header(constants(load_config(args.config), load_arm(args.arm) if args.arm else None))
+    if args.output == "-":
+        sys.stdout.write(text)
+    else:
+        Path(args.output).write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,438 @@
+"""Shared machinery of the ik5r arithmetic blocks: a staged datapath, stream blocks, helpers.
+
+Every block (:class:`~ik5r.hdl.cordic.Atan2`, :class:`~ik5r.hdl.cordic.Rotate`,
+:class:`~ik5r.hdl.sqrt.Sqrt`, :class:`~ik5r.hdl.acos.Acos`) describes its arithmetic once, as a
+:class:`Datapath`: an ordered list of *stages*, each a pure function from a dictionary of named
+values (the state carried by one item) to the next such dictionary. The same description is
+elaborated in one of two architectures:
+
+``"pipelined"``
+    Every stage (and every repetition of an iterated stage) gets its own register set: one item
+    enters per clock, results leave in order after :attr:`Datapath.latency` cycles. The whole
+    pipeline has one clock enable, ``o.ready | ~o.valid``: when the output is held, everything
+    holds and ``i.ready`` is low, so no item is lost or duplicated.
+
+``"iterative"``
+    One item in flight. An iterated stage (CORDIC micro-rotation, square-root digit) is one
+    register set fed back ``count`` times with a run-time step index; the other stages keep their
+    own registers. A new item is accepted when the block is idle, or in the cycle its previous
+    result leaves, so a result is produced every :attr:`Datapath.latency` cycles.
+
+Both architectures evaluate literally the same expressions on the same widths, so they agree
+bit for bit; the widths are derived from :class:`~ik5r.fxconfig.Constants` with proofs of no
+overflow in the comments of each block.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.wiring import In, Out
+
+from ik5r.fxconfig import Constants
+
+__all__ = ["ARCHS", "LIMB_BITS", "Datapath", "StreamBlock", "asr", "rshift_round", "saturate",
+           "leading_zeros", "add_products", "table_entry", "drop"]
+
+#: The two architectures every block is available in.
+ARCHS = ("pipelined", "iterative")
+
+#: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
+#: fits one ECP5 MULT18X18D.
+LIMB_BITS = 17
+
+
+# --- pure expression helpers ---------------------------------------------------------------------
+
+def asr(value, amount):
+    """``value >> amount``: arithmetic for a signed value, by an int or an unsigned Value."""
+    value = Value.cast(value)
+    if isinstance(amount, int):
+        return value.shift_right(amount)
+    return value >> amount
+
+
+def rshift_round(value, shift: int, nearest: bool):
+    """``value * 2**-shift`` by a constant shift, rounded half up (nearest) or floored.
+
+    Exactly ``model.rshift_round``: one adder when ``nearest`` and ``shift > 0``, else wiring.
+    """
+    value = Value.cast(value)
+    if shift <= 0:
+        return value.shift_left(-shift)
+    if nearest:
+        value = value + (1 << (shift - 1))
+    return value.shift_right(shift)
+
+
+def saturate(value, width: int):
+    """Clip ``value`` to the signed ``width``-bit range; returns ``(word, saturated)``.
+
+    Pure logic (no comparator): the value fits iff its bits above ``width - 1`` are all copies
+    of the sign. Exactly ``model.saturate``.
+    """
+    value = Value.cast(value)
+    if len(value) <= width:
+        return value, Const(0, 1)
+    if not value.shape().signed:
+        value = Cat(value, Const(0, 1)).as_signed()
+    top = value[width - 1:]
+    negative = value[-1]
+    over = ~negative & top.any()
+    under = negative & ~top.all()
+    word_max = (1 << (width - 1)) - 1
+    word_min = -(1 << (width - 1))
+    clipped = Mux(over, Const(word_max, signed(width)),
+                  Mux(under, Const(word_min, signed(width)), value[:width].as_signed()))
+    return clipped, over | under
+
+
+def _lzc_tree(value):
+    """(all zero, leading zero count) of a power-of-two-wide value, as a balanced tree."""
+    if len(value) == 1:
+        return ~value[0], Const(0, 0)
+    half = len(value) // 2
+    zero_lo, count_lo = _lzc_tree(value[:half])
+    zero_hi, count_hi = _lzc_tree(value[half:])
+    count = Mux(zero_hi, Cat(count_lo, Const(1, 1)), Cat(count_hi, Const(0, 1)))
+    return zero_hi & zero_lo, count
+
+
+def leading_zeros(value):
+    """Number of leading zero bits of an unsigned value of width n (n when it is zero).
+
+    A tree of log2(n) mux levels. The value is padded on the LSB side with ``1 0 ... 0`` up to a
+    power of two, so the padded value is never zero and its count is the answer.
+    """
+    value = Value.cast(value)
+    size = 1
+    while size < len(value) + 1:
+        size *= 2
+    pad = size - len(value)
+    _, count = _lzc_tree(Cat(Const(1 << (pad - 1), pad), value))
+    return count
+
+
+def table_entry(table, index):
+    """``table[index]`` for a constant table: a constant for an int index, else a mux (0 past
+    the end of the table)."""
+    if isinstance(index, int):
+        return Const(table[index])
+    index = Value.cast(index)
+    # Padded with zeros to every value of the index, so the mux covers all cases.
+    entries = list(table) + [0] * ((1 << len(index)) - len(table))
+    return Array(Const(entry) for entry in entries)[index]
+
+
+def drop(state, *keys):
+    """A copy of a state dictionary without ``keys``."""
+    return {key: value for key, value in state.items() if key not in keys}
+
+
+# --- the staged datapath -------------------------------------------------------------------------
+
+class Datapath:
+    """An ordered list of stages over named values; see the module docstring.
+
+    ``add(name, fn)``: a registered stage, ``fn(state) -> state``.
+    ``add_iter(name, fn, count)``: ``count`` repetitions of ``fn(state, i) -> state`` with ``i`` an
+    int (pipelined, unrolled) or an unsigned Value (iterative, one step per clock).
+    ``add_wiring(fn)``: a renaming with no register (zero latency; ``fn`` must be wiring only).
+
+    A stage's functions must be pure: they build expressions and never add statements. Values
+    named by :meth:`declare` are stored in their declared shape (the blocks prove the values fit),
+    others in the shape of their expression (never lossy).
+    """
+
+    def __init__(self, name: str):
+        self.name = name
+        self.stages = []
+        self.shapes = {}
+
+    def declare(self, **shapes):
+        for key, shape in shapes.items():
+            self.shapes[key] = Shape.cast(shape)
+
+    def add(self, name, fn):
+        self.stages.append((name, fn, 1, False))
+
+    def add_iter(self, name, fn, count: int):
+        if count < 1:
+            raise ValueError(f"stage {name!r}: count must be at least 1, got {count}")
+        self.stages.append((name, fn, count, True))
+
+    def add_wiring(self, fn):
+        self.stages.append(("wiring", fn, 0, False))
+
+    @property
+    def latency(self) -> int:
+        """Cycles from an input transfer to the result being valid on the output."""
+        return sum(count for _, _, count, _ in self.stages)
+
+    def _registers(self, prefix, values):
+        regs = {}
+        for key, value in values.items():
+            shape = self.shapes.get(key, Value.cast(value).shape())
+            regs[key] = Signal(shape, name=f"{prefix}_{key}", reset_less=True)
+        return regs
+
+    def build(self, m: Module, arch: str, inputs: dict, i_valid, i_ready, o_valid, o_ready) -> dict:
+        """Elaborate into ``m``; returns the final state (registers) for the output payload."""
+        if arch == "pipelined":
+            return self._build_pipelined(m, inputs, i_valid, i_ready, o_valid, o_ready)
+        if arch == "iterative":
+            return self._build_iterative(m, inputs, i_valid, i_ready, o_valid, o_ready)
+        raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+
+    def _build_pipelined(self, m, inputs, i_valid, i_ready, o_valid, o_ready):
+        enable = Signal(name=f"{self.name}_enable")
+        state, valid = dict(inputs), i_valid
+        for name, fn, count, iterated in self.stages:
+            if count == 0:
+                state = fn(state)
+                continue
+            for step in range(count):
+                out = fn(state, step) if iterated else fn(state)
+                prefix = f"{name}{step}" if iterated else name
+                regs = self._registers(prefix, out)
+                stage_valid = Signal(name=f"{prefix}_valid")
+                with m.If(enable):
+                    m.d.sync += [regs[key].eq(out[key]) for key in regs]
+                    m.d.sync += stage_valid.eq(valid)
+                state, valid = regs, stage_valid
+        m.d.comb += [
+            enable.eq(o_ready | ~valid),
+            i_ready.eq(enable),
+            o_valid.eq(valid),
+        ]
+        return state
+
+    def _build_iterative(self, m, inputs, i_valid, i_ready, o_valid, o_ready):
+        # One item in flight: the stage holding it moves it on as soon as it is done, except the
+        # last, which waits for o.ready.
+        state = dict(inputs)
+        load = Signal(name=f"{self.name}_accept")
+        m.d.comb += load.eq(i_valid & i_ready)
+        occupied, leaves = [], []
+        for name, fn, count, iterated in self.stages:
+            if count == 0:
+                state = fn(state)
+                continue
+            stage_valid = Signal(name=f"{name}_valid")
+            leave = Signal(name=f"{name}_leave")
+            if not iterated:
+                out = fn(state)
+                regs = self._registers(name, out)
+                done = stage_valid
+                with m.If(leave):
+                    m.d.sync += stage_valid.eq(0)
+                with m.If(load):
+                    m.d.sync += [regs[key].eq(out[key]) for key in regs]
+                    m.d.sync += stage_valid.eq(1)
+            else:
+                # The key set and shapes come from a probe call (pure: builds no hardware).
+                regs = self._registers(name, fn(state, 0))
+                step = Signal(range(count + 1), name=f"{name}_step")
+                extra = set(state) - set(regs)
+                if extra:
+                    raise ValueError(f"iterated stage {name!r} drops {sorted(extra)}")
+                source = {key: Mux(load, state[key] if key in state else 0, regs[key])
+                          for key in regs}
+                out = fn(source, step)
+                done = stage_valid & (step == count)
+                with m.If(leave):
+                    m.d.sync += [stage_valid.eq(0), step.eq(0)]
+                with m.If(load):
+                    m.d.sync += [regs[key].eq(out[key]) for key in regs]
+                    m.d.sync += [stage_valid.eq(1), step.eq(1)]
+                with m.Elif(stage_valid & (step != count)):
+                    m.d.sync += [regs[key].eq(out[key]) for key in regs]
+                    m.d.sync += step.eq(step + 1)
+            occupied.append(stage_valid)
+            leaves.append((leave, done))
+            state = regs
+            load = Signal(name=f"{name}_next")
+            m.d.comb += load.eq(done)
+        # The last stage leaves on an output transfer; the others as soon as they are done.
+        for leave, done in leaves[:-1]:
+            m.d.comb += leave.eq(done)
+        last_leave, last_done = leaves[-1]
+        busy = Signal(name=f"{self.name}_busy")
+        m.d.comb += [
+            o_valid.eq(last_done),
+            last_leave.eq(last_done & o_ready),
+            busy.eq(Cat(*occupied).any()),
+            i_ready.eq(~busy | (last_done & o_ready)),
+        ]
+        return state
+
+
+# --- partial-product multipliers -----------------------------------------------------------------
+
+def _limbs(shape: Shape):
+    """Bit ranges (lo, hi, signed) of LIMB_BITS-wide slices of an operand; top one keeps sign."""
+    width = shape.width
+    ranges = []
+    for lo in range(0, width, LIMB_BITS):
+        hi = min(lo + LIMB_BITS, width)
+        ranges.append((lo, hi, shape.signed and hi == width))
+    return ranges
+
+
+def _slice(value, lo, hi, is_signed):
+    part = Value.cast(value)[lo:hi]
+    return part.as_signed() if is_signed else part
+
+
+def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=()):
+    """Append the stages of one or more parallel multipliers ``a * b`` to ``dp``.
+
+    ``specs``: list of ``(a_of, a_shape, b, out_key)``; ``a_of(state)`` gives operand a (which
+    must fit ``a_shape``); ``b`` is a non-negative int constant or ``(b_of, b_shape)``.
+
+    Stage 1 forms the LIMB_BITS x LIMB_BITS partial products (one DSP each); each further stage
+    adds pairs of partial sums (one adder level), until one sum per multiplier is left under
+    ``out_key``. ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and
+    ``drop_keys`` are removed from the state at stage 1. Returns the number of stages.
+    """
+    trees = []
+    for index, (a_of, a_shape, b, out_key) in enumerate(specs):
+        a_shape = Shape.cast(a_shape)
+        terms = []
+        if isinstance(b, int):
+            if b < 0:
+                raise ValueError("constant multiplier must be non-negative")
+            for a_lo, a_hi, a_signed in _limbs(a_shape):
+                for b_lo in range(0, max(b.bit_length(), 1), LIMB_BITS):
+                    b_part = (b >> b_lo) & ((1 << LIMB_BITS) - 1)
+                    if b_part:
+                        terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo,
+                                      (a_lo, a_hi, a_signed), b_part))
+        else:
+            b_of, b_shape = b
+            for a_lo, a_hi, a_signed in _limbs(a_shape):
+                for b_lo, b_hi, b_signed in _limbs(Shape.cast(b_shape)):
+                    terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo,
+                                  (a_lo, a_hi, a_signed), (b_of, b_lo, b_hi, b_signed)))
+        trees.append((a_of, out_key, terms))
+
+    def products(state):
+        out = drop(state, *drop_keys)
+        for a_of, out_key, terms in trees:
+            a = a_of(state)
+            if not terms:
+                out[out_key] = Const(0, 1)
+            for key, _, (a_lo, a_hi, a_signed), b_part in terms:
+                a_part = _slice(a, a_lo, a_hi, a_signed)
+                if isinstance(b_part, int):
+                    product = a_part * Const(b_part, unsigned(b_part.bit_length()))
+                else:
+                    b_of, b_lo, b_hi, b_signed = b_part
+                    product = a_part * _slice(b_of(state), b_lo, b_hi, b_signed)
+                out[key] = product
+            if len(terms) == 1:
+                key, shift, _, _ = terms[0]
+                out[out_key] = out.pop(key).shift_left(shift)
+        if parallel is not None:
+            out.update(parallel(state))
+        return out
+
+    dp.add(f"{prefix}_mul", products)
+    # Adder tree: each level adds adjacent (by weight) pairs of terms; an odd one passes through.
+    pending = {out_key: [(key, shift) for key, shift, _, _ in terms]
+               for _, out_key, terms in trees if len(terms) > 1}
+    depth = 0
+    while pending:
+        plan = {}
+        for out_key, terms in pending.items():
+            terms = sorted(terms, key=lambda term: term[1])
+            plan[out_key] = [terms[pair:pair + 2] for pair in range(0, len(terms), 2)]
+
+        def level(state, plan=plan):
+            out = dict(state)
+            for out_key, groups in plan.items():
+                sums = []
+                for group in groups:
+                    base = min(shift for _, shift in group)
+                    total = None
+                    for key, shift in group:
+                        term = out.pop(key).shift_left(shift - base)
+                        total = term if total is None else total + term
+                    sums.append((f"{group[0][0]}s", base, total))
+                if len(sums) == 1:
+                    _, base, total = sums[0]
+                    out[out_key] = total.shift_left(base)
+                else:
+                    out.update({key: total for key, _, total in sums})
+            return out
+
+        dp.add(f"{prefix}_sum{depth}", level)
+        depth += 1
+        pending = {out_key: [(f"{group[0][0]}s", min(shift for _, shift in group))
+                             for group in groups]
+                   for out_key, groups in plan.items() if len(groups) > 1}
+    return 1 + depth
+
+
+# --- the stream block base class -----------------------------------------------------------------
+
+def check_common(constants, arch, tag_width):
+    if not isinstance(constants, Constants):
+        raise TypeError(f"constants must be an ik5r.fxconfig.Constants, got {constants!r}")
+    if arch not in ARCHS:
+        raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+    if isinstance(tag_width, bool) or not isinstance(tag_width, int) or tag_width < 0:
+        raise ValueError(f"tag_width must be a non-negative integer, got {tag_width!r}")
+
+
+class StreamBlock(wiring.Component):
+    """Base of the arithmetic blocks: ``i``/``o`` streams of struct payloads around a Datapath.
+
+    Subclasses set ``self._dp`` (the datapath), ``in_fields``/``out_fields`` (dicts name ->
+    ``(shape, frac, description)``; frac is the number of fraction bits or ``None`` when the
+    field is format-agnostic) and implement ``_inputs(payload) -> state`` and
+    ``_outputs(state) -> {field: value}``.
+    """
+
+    def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath):
+        check_common(constants, arch, tag_width)
+        self.constants = constants
+        self.arch = arch
+        self.tag_width = tag_width
+        if tag_width:
+            in_fields = dict(in_fields, tag=(unsigned(tag_width), 0, "carried unchanged to o.tag"))
+            out_fields = dict(out_fields, tag=(unsigned(tag_width), 0, "i.tag of the same item"))
+        self.in_fields = in_fields
+        self.out_fields = out_fields
+        self._dp = datapath
+        #: Cycles from an input transfer (cycle c) to its result on the output (cycle c + latency)
+        #: when the output is not held.
+        self.latency = datapath.latency
+        #: Clock cycles per result at full rate (1 pipelined; latency iterative).
+        self.cycles_per_result = 1 if arch == "pipelined" else datapath.latency
+        super().__init__({
+            "i": In(stream.Signature(data.StructLayout(
+                {name: shape for name, (shape, _, _) in in_fields.items()}))),
+            "o": Out(stream.Signature(data.StructLayout(
+                {name: shape for name, (shape, _, _) in out_fields.items()}))),
+        })
+
+    def _inputs(self, payload) -> dict:
+        raise NotImplementedError
+
+    def _outputs(self, state) -> dict:
+        raise NotImplementedError
+
+    def elaborate(self, platform):
+        m = Module()
+        state = self._inputs(self.i.payload)
+        if self.tag_width:
+            state["tag"] = self.i.payload.tag
+        final = self._dp.build(m, self.arch, state, self.i.valid, self.i.ready,
+                               self.o.valid, self.o.ready)
+        outputs = self._outputs(final)
+        if self.tag_width:
+            outputs["tag"] = final["tag"]
+        for name in self.out_fields:
+            m.d.comb += getattr(self.o.payload, name).eq(outputs[name])
+        return m

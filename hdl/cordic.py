@@ -1,0 +1,327 @@
+"""Circular CORDIC blocks: :class:`Atan2` (vectoring) and :class:`Rotate` (rotation).
+
+Bit-exact hardware of ``model.cordic_atan2`` and ``model.cordic_rotate``
+(``firmware_model/model.py``), parameterised by :class:`~ik5r.fxconfig.Constants`.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Const, Mux, signed, unsigned
+
+from ik5r.fxconfig import INV_GAIN_FRAC, Constants
+
+from .common import (Datapath, StreamBlock, add_products, asr, drop, leading_zeros,
+                     rshift_round, saturate, table_entry)
+
+__all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
+
+
+def atan2_widths(k: Constants) -> dict:
+    """Register widths of the vectoring datapath (see the bounds in :func:`add_atan2`)."""
+    c = k.cfg
+    return {
+        "cx": signed(c.width + c.guard_bits + 3),
+        "cy": signed(c.width + c.guard_bits + 3),
+        "cz": signed((k.half_pi_z + sum(k.atan_table)).bit_length() + 2),
+        "norm": unsigned((c.width - 1).bit_length()),
+    }
+
+
+def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, zero: bool):
+    """Append the stages of ``model.cordic_atan2(state[y], state[x])`` to ``dp``.
+
+    Consumes ``y`` and ``x`` (signed words); produces ``angle`` (word, Q.frac_angle), and when
+    asked ``magnitude`` (word, the inputs' format) and ``zero`` (1 bit). Other keys pass through.
+
+    Bounds (W = width, g = guard_bits): after the coarse rotation 0 <= xs <= 2**(W-1) and
+    |ys| <= 2**(W-1); the normalisation puts the top bit of ``xs | ones_abs(ys)`` at W-2 (or
+    leaves it at W-1 when norm = 0), so after the shift by norm + g, |xs|, |ys| <= 2**(W-1+g).
+    The micro-rotations grow the vector by at most K_n * sqrt(2) < 2.33 (plus one LSB per step
+    from the floors), so |xs|, |ys| < 2**(W+1+g): signed(W+g+3) has a spare bit. The angle
+    accumulator holds at most half_pi_z + sum(atan_table). xs never decreases, so it stays >= 0,
+    and (xs >> g) < 2**(W+1) is the unsigned multiplicand of 1/K.
+    """
+    c = k.cfg
+    width, guard, nearest = c.width, c.guard_bits, c.round_nearest
+    dp.declare(**atan2_widths(k))
+
+    def coarse(s):
+        # Rotation by -+90 degrees into the right half-plane; zero flag.
+        xv, yv = s[x], s[y]
+        x_neg, y_neg = xv[-1], yv[-1]
+        out = drop(s, x, y)
+        out["cx"] = Mux(x_neg, Mux(y_neg, -yv, yv), xv)
+        out["cy"] = Mux(x_neg, Mux(y_neg, xv, -xv), yv)
+        out["cz"] = Mux(x_neg, Mux(y_neg, Const(-k.half_pi_z), Const(k.half_pi_z)), Const(0))
+        out["czero"] = (xv == 0) & (yv == 0)
+        return out
+
+    def normalise_count(s):
+        # norm = max(0, W - 1 - bit_length(xs | ones_abs(ys))), by a leading-zero tree.
+        xs, ys = s["cx"], s["cy"]
+        ones_abs = Mux(ys[-1], ~ys, ys)
+        v = xs[:width] | ones_abs[:width]
+        return dict(s, norm=Mux(v[width - 1], 0, leading_zeros(v[:width - 1])))
+
+    def normalise_shift(s):
+        return dict(s, cx=(s["cx"] << s["norm"]).shift_left(guard),
+                    cy=(s["cy"] << s["norm"]).shift_left(guard))
+
+    def micro_rotation(s, i):
+        xs, ys, z = s["cx"], s["cy"], s["cz"]
+        step = table_entry(k.atan_table, i)
+        down = ys[-1]     # ys < 0: rotate the other way
+        return dict(s,
+                    cx=Mux(down, xs - asr(ys, i), xs + asr(ys, i)),
+                    cy=Mux(down, ys + asr(xs, i), ys - asr(xs, i)),
+                    cz=Mux(down, z - step, z + step))
+
+    dp.add("at_coarse", coarse)
+    dp.add("at_lzc", normalise_count)
+    dp.add("at_norm", normalise_shift)
+    dp.add_iter("at_it", micro_rotation, c.iterations)
+
+    def angle(s):
+        # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
+        return {"angle": Mux(s["czero"], 0, rshift_round(s["cz"], c.angle_guard_bits, nearest))}
+
+    keep_zero = {"zero": lambda s: s["czero"]} if zero else {}
+
+    if not magnitude:
+        def post(s):
+            out = drop(s, "cx", "cy", "cz", "norm", "czero")
+            out.update(angle(s))
+            out.update({key: fn(s) for key, fn in keep_zero.items()})
+            return out
+        dp.add("at_angle", post)
+        return
+
+    # magnitude = sat(rshift_round((xs >> g) * inv_gain, INV_GAIN_FRAC + norm)).
+    # Rounded: floor((p / 2**(s-1) + 1) / 2) = ((p >> (s-1)) + 1) >> 1, s - 1 = 30 + norm >= 0.
+    def product_side(s):
+        out = angle(s)
+        out.update({key: fn(s) for key, fn in keep_zero.items()})
+        out["mzero"] = s["czero"]
+        return out
+
+    add_products(dp, "at_mag", [(lambda s: asr(s["cx"], guard)[:width + 1],
+                                 unsigned(width + 1), k.inv_gain, "mag_p")],
+                 parallel=product_side, drop_keys=("cx", "cy", "cz", "czero"))
+    shift_const = INV_GAIN_FRAC - 1 if nearest else INV_GAIN_FRAC
+
+    def denormalise(s):
+        out = drop(s, "mag_p", "norm")
+        out["mag_t"] = s["mag_p"].shift_right(shift_const) >> s["norm"]
+        return out
+
+    def round_saturate(s):
+        t = s["mag_t"]
+        out = drop(s, "mag_t", "mzero")
+        if nearest:
+            # (t + 1) >> 1 > word_max  <=>  t >= 2**W - 1 (a comparison parallel to the adder).
+            over = t >= (1 << width) - 1
+            value = (t + 1).shift_right(1)
+        else:
+            over = t > k.word_max
+            value = t
+        out["magnitude"] = Mux(s["mzero"], 0, Mux(over, k.word_max, value[:width]))
+        return out
+
+    dp.add("at_denorm", denormalise)
+    dp.add("at_round", round_saturate)
+
+
+class Atan2(StreamBlock):
+    """Full-circle ``atan2(y, x)`` of two words by CORDIC vectoring, bit-exact to
+    ``model.cordic_atan2``.
+
+    The vector is rotated by -+90 degrees into the right half-plane, normalised (block floating
+    point: a ones'-complement priority encoder finds the shift ``norm`` that puts the top bit of
+    ``xs | ones_abs(ys)`` at bit W-2) and shifted up by ``guard_bits`` more, then
+    ``iterations`` micro-rotations (arithmetic-shift, floor) drive y to 0 while an accumulator
+    sums ``atan_table``. The angle is rounded off its ``angle_guard_bits``; the magnitude is
+    ``(xs >> guard_bits) * inv_gain`` rounded-shifted by ``31 + norm`` and saturated.
+
+    Payloads (W = ``constants.cfg.width``; Q m.n means n fraction bits, m + n = W):
+
+    * ``i.payload.y``, ``i.payload.x``: ``signed(W)``, any common format Q m.n (atan2 is
+      scale-free).
+    * ``o.payload.angle``: ``signed(W)``, Q(W - frac_angle).frac_angle radians in [-pi, pi].
+    * ``o.payload.magnitude`` (only if ``magnitude``): ``signed(W)``, the inputs' format Q m.n,
+      ``sqrt(x**2 + y**2)`` saturated to the word maximum.
+    * ``o.payload.zero``: 1 bit, set iff ``x == y == 0`` (then angle = magnitude = 0).
+    * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
+
+    Timing: ``latency`` cycles from the input transfer to the output valid, 3 + iterations + 1
+    without the magnitude, 3 + iterations + 5 with it (at 32 bits: 36 / 40; at 18 bits: 22 /
+    26). Throughput (``cycles_per_result``): ``"pipelined"`` one result per cycle, the whole
+    pipeline stalling while ``o`` is held; ``"iterative"`` one micro-rotation per cycle and one
+    item in flight, a new item accepted when idle or as the previous result leaves: one result
+    every ``latency`` cycles.
+
+    Parameters
+    ----------
+    constants : Constants
+        Widths, iterations, guard bits, rounding and the atan table.
+    arch : ``"pipelined"`` or ``"iterative"``
+    tag_width : int
+        Width of the optional ``tag`` field (0: none).
+    magnitude : bool
+        Whether to compute and output ``magnitude``.
+    """
+
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
+                 magnitude: bool = True):
+        if not isinstance(magnitude, bool):
+            raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
+        if isinstance(constants, Constants):
+            c = constants.cfg
+            dp = Datapath("atan2")
+            add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
+            word = signed(c.width)
+            in_fields = {"y": (word, None, "ordinate, same format as x"),
+                         "x": (word, None, "abscissa, same format as y")}
+            out_fields = {"angle": (word, c.frac_angle, "atan2(y, x), radians, in [-pi, pi]")}
+            if magnitude:
+                out_fields["magnitude"] = (word, None,
+                                           "sqrt(x^2 + y^2), format of x and y, saturated")
+            out_fields["zero"] = (unsigned(1), 0, "x == y == 0 (angle and magnitude are 0)")
+        else:
+            dp = in_fields = out_fields = None
+        self.magnitude = magnitude
+        super().__init__(constants=constants, arch=arch, tag_width=tag_width,
+                         in_fields=in_fields, out_fields=out_fields, datapath=dp)
+
+    def _inputs(self, payload):
+        return {"y": payload.y, "x": payload.x}
+
+    def _outputs(self, state):
+        out = {"angle": state["angle"], "zero": state["zero"]}
+        if self.magnitude:
+            out["magnitude"] = state["magnitude"]
+        return out
+
+
+class Rotate(StreamBlock):
+    """Rotation of the vector (x, y) by an angle, by CORDIC, bit-exact to ``model.cordic_rotate``.
+
+    The angle (moved to the accumulator format by ``angle_guard_bits``) is brought within
+    +-pi/2 by a rotation of the vector by +-90 degrees; the vector is multiplied by
+    ``inv_gain`` (1/K, gain compensation on the input) and rounded to ``guard_bits`` extra
+    fraction bits; ``iterations`` micro-rotations (arithmetic-shift, floor) drive the angle to 0;
+    the results are rounded off the guard bits and saturated to words.
+
+    Payloads (W = ``constants.cfg.width``):
+
+    * ``i.payload.x``, ``i.payload.y``: ``signed(W)``, any common format Q m.n.
+    * ``i.payload.angle``: ``signed(W)``, Q(W - frac_angle).frac_angle radians,
+      |angle| <= pi + a few LSB for a converged result (any word gives the model's result).
+    * ``o.payload.x``, ``o.payload.y``: ``signed(W)``, the inputs' format, saturated.
+    * ``o.payload.saturated``: 1 bit, set iff x or y was clipped to the word range.
+    * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
+
+    Timing: ``latency`` = 6 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words)
+    + iterations (at 32 bits: 40; at 18 bits: 26). Throughput: ``"pipelined"`` one result per cycle;
+    ``"iterative"`` one result every ``latency`` cycles (one micro-rotation per cycle).
+
+    Parameters
+    ----------
+    constants : Constants
+    arch : ``"pipelined"`` or ``"iterative"``
+    tag_width : int
+        Width of the optional ``tag`` field (0: none).
+    """
+
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0):
+        if isinstance(constants, Constants):
+            k, c = constants, constants.cfg
+            dp = self._datapath(k)
+            word = signed(c.width)
+            in_fields = {"x": (word, None, "abscissa, same format as y"),
+                         "y": (word, None, "ordinate, same format as x"),
+                         "angle": (word, c.frac_angle, "rotation angle, radians")}
+            out_fields = {"x": (word, None, "rotated abscissa, format of the inputs, saturated"),
+                          "y": (word, None, "rotated ordinate, format of the inputs, saturated"),
+                          "saturated": (unsigned(1), 0, "x or y clipped to the word range")}
+        else:
+            dp = in_fields = out_fields = None
+        super().__init__(constants=constants, arch=arch, tag_width=tag_width,
+                         in_fields=in_fields, out_fields=out_fields, datapath=dp)
+
+    @staticmethod
+    def _datapath(k: Constants) -> Datapath:
+        """Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
+        times 1/K < 0.61 with g guard bits, |xs|, |ys| < 0.61 * 2**(W-1+g) + 1; the
+        micro-rotations multiply the length by K_n (< 1.65) plus one LSB per step, so
+        |xs|, |ys| < sqrt(2) * 2**(W-1+g) * 1.01: signed(W+g+3) has two spare bits. The angle
+        accumulator starts below 2**(W-1+ag) + half_pi_z and moves by at most sum(atan_table).
+        """
+        c = k.cfg
+        width, guard, nearest = c.width, c.guard_bits, c.round_nearest
+        dp = Datapath("rotate")
+        z_bound = (1 << (width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
+        dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),
+                   cz=signed(z_bound.bit_length() + 1),
+                   rx=signed(width + 1), ry=signed(width + 1))
+
+        def quadrant(s):
+            z = s["angle"].shift_left(c.angle_guard_bits)
+            out = drop(s, "angle")
+            out.update(rz=z, up=z > k.half_pi_z, down=z < -k.half_pi_z)
+            return out
+
+        def coarse(s):
+            x, y, z, up, down = s["x"], s["y"], s["rz"], s["up"], s["down"]
+            out = drop(s, "x", "y", "rz", "up", "down")
+            out["rx"] = Mux(up, -y, Mux(down, y, x))
+            out["ry"] = Mux(up, x, Mux(down, -x, y))
+            out["cz"] = Mux(up, z - k.half_pi_z, Mux(down, z + k.half_pi_z, z))
+            return out
+
+        dp.add("ro_quadrant", quadrant)
+        dp.add("ro_coarse", coarse)
+        operand = signed(width + 1)
+        add_products(dp, "ro_gain", [(lambda s: s["rx"], operand, k.inv_gain, "gx"),
+                                     (lambda s: s["ry"], operand, k.inv_gain, "gy")],
+                     drop_keys=("rx", "ry"))
+        shift = INV_GAIN_FRAC - guard
+
+        def gain_round(s):
+            out = drop(s, "gx", "gy")
+            out["cx"] = rshift_round(s["gx"], shift, nearest)
+            out["cy"] = rshift_round(s["gy"], shift, nearest)
+            return out
+
+        def micro_rotation(s, i):
+            xs, ys, z = s["cx"], s["cy"], s["cz"]
+            step = table_entry(k.atan_table, i)
+            neg = z[-1]       # z < 0: rotate clockwise
+            return dict(s,
+                        cx=Mux(neg, xs + asr(ys, i), xs - asr(ys, i)),
+                        cy=Mux(neg, ys - asr(xs, i), ys + asr(xs, i)),
+                        cz=Mux(neg, z + step, z - step))
+
+        def unguard(s):
+            out = drop(s, "cx", "cy", "cz")
+            out["ox"] = rshift_round(s["cx"], guard, nearest)
+            out["oy"] = rshift_round(s["cy"], guard, nearest)
+            return out
+
+        def clip(s):
+            out = drop(s, "ox", "oy")
+            xo, sat_x = saturate(s["ox"], width)
+            yo, sat_y = saturate(s["oy"], width)
+            out.update(x=xo, y=yo, saturated=sat_x | sat_y)
+            return out
+
+        dp.add("ro_gain_round", gain_round)
+        dp.add_iter("ro_it", micro_rotation, c.iterations)
+        dp.add("ro_unguard", unguard)
+        dp.add("ro_clip", clip)
+        return dp
+
+    def _inputs(self, payload):
+        return {"x": payload.x, "y": payload.y, "angle": payload.angle}
+
+    def _outputs(self, state):
+        return {"x": state["x"], "y": state["y"], "saturated": state["saturated"]}

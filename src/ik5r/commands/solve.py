@@ -1,0 +1,166 @@
+"""``ik5r solve``: inverse kinematics of poses (CSV in, CSV out) by one of three solvers.
+
+Input columns px,py,pz,ax,ay,az and optionally nx,ny,nz,ox,oy,oz (all six or none), as ``ik5r fk``
+writes them. Without n and o, q5 is --near's q5 (0 by default).
+
+Solvers: ``float`` the float64 reference (:mod:`ik5r.reference`); ``fixed`` the bit-accurate
+fixed-point model (``ik5r.firmware.vector``, the vectorised twin of ``model.py``); ``c`` the integer
+C solver through ctypes (``ik5r.firmware.csolver``).
+
+Branch choice: by default one line per pose, the float reference's choice: the valid branch nearest
+--near when given, else the first valid one of front/elbow-up, front/elbow-down, back/elbow-up,
+back/elbow-down (branch = 2 * shoulder_back + elbow_down). The fixed-point solvers (like the
+hardware) take the branch as select bits (shoulder_back, elbow_down): they solve the branch the
+float reference chose on the same pose. --all writes every valid branch of every pose (every
+branch, with its status, when none is valid); for fixed and c it solves all four branches.
+
+Output columns: row (0-based index of the pose in the input), branch, q1..q5 (radians), status
+(``ok`` or names such as ``unreachable+singular_elbow``), then residual_rad for float (angle of the
+approach off the arm's plane, projected away), or q1_raw..q5_raw (integer angle codes, Q frac.angle)
+and status_bits for fixed and c. Fixed and c quantize the inputs with the config's formats; an input
+value that saturates sets the row's ``saturated`` bit. A row with a non-finite number is ``invalid``
+(q NaN; raw codes 0); the other rows are solved as usual. Exit status 0 once the input was read,
+2 for a malformed input file. A negative --near needs ``--near=-0.5,...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+SOLVERS = ("float", "fixed", "c")
+
+
+def _near(text: str) -> np.ndarray:
+    parts = text.split(",")
+    if len(parts) != 5:
+        raise argparse.ArgumentTypeError(f"need 5 comma-separated joint angles (radians), got {text!r}")
+    try:
+        values = np.array([float(p) for p in parts])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not numbers: {text!r}") from None
+    if not np.isfinite(values).all():
+        raise argparse.ArgumentTypeError(f"must be finite: {text!r}")
+    return values
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser("solve", help="inverse kinematics: poses CSV -> joints CSV",
+                                   description=__doc__,
+                                   formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("poses", metavar="POSES.csv", help="CSV with columns px..az ('-': stdin)")
+    parser.add_argument("-o", "--output", metavar="OUT.csv", default=None,
+                        help="output CSV (default: standard output)")
+    parser.add_argument("--solver", choices=SOLVERS, default="float",
+                        help="float reference, fixed-point model or C solver (default: float)")
+    parser.add_argument("--config", metavar="CFG.toml", default=None,
+                        help="fixed-point config TOML or shipped name (default: q32)")
+    parser.add_argument("--arm", metavar="ARM.toml", default=None,
+                        help="arm description TOML (default: the arm of record, Hu et al.)")
+    parser.add_argument("--all", action="store_true", help="write every valid branch of every pose")
+    parser.add_argument("--near", type=_near, default=None, metavar="q1,q2,q3,q4,q5",
+                        help="choose the branch nearest these joints (radians); also the free q1 "
+                             "and the q5 of poses without n, o")
+    parser.set_defaults(run=run)
+
+
+def _fixed_solver(kind: str, k):
+    """solve_batch(p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a)."""
+    if kind == "fixed":
+        try:
+            from ik5r.firmware import vector
+        except ImportError as exc:
+            raise RuntimeError(f"--solver fixed needs ik5r.firmware.vector: {exc}") from exc
+        return lambda *args: vector.solve_batch(k, *args)
+    try:
+        from ik5r.firmware.csolver import CSolver
+        return CSolver(k).solve_batch
+    except (ImportError, OSError, RuntimeError) as exc:
+        raise RuntimeError(f"--solver c: cannot load the C solver: {exc}") from exc
+
+
+def run(args) -> int:
+    from ik5r import csvio, reference
+    from ik5r import status as st
+    from ik5r.arm import load_arm
+    from ik5r.fxconfig import constants, load_config, quantize
+
+    arm = load_arm(args.arm)
+    cfg = load_config(args.config) if (args.solver != "float" or args.config is not None) else None
+    table = csvio.read_table(args.poses, csvio.POSITION_COLUMNS + csvio.APPROACH_COLUMNS,
+                             groups=[csvio.ROLL_COLUMNS])
+    has_roll = "nx" in table
+    p = table.matrix(csvio.POSITION_COLUMNS)
+    a = table.matrix(csvio.APPROACH_COLUMNS)
+    n = table.matrix(csvio.ROLL_COLUMNS[:3]) if has_roll else None
+    o = table.matrix(csvio.ROLL_COLUMNS[3:]) if has_roll else None
+    near = args.near
+    count = len(table)
+    kwargs = {} if cfg is None else {"singular_sin_q3": cfg.singular_sin_q3}
+    res = reference.ik(arm, p, a, n, o, near=near, **kwargs)
+    harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
+    names = ["row", "branch", *csvio.JOINT_COLUMNS, "status"]
+
+    if args.solver == "float":
+        if args.all:
+            valid = res.valid
+            rows, branch = np.nonzero(valid | ~valid.any(axis=1, keepdims=True))
+        else:
+            rows, branch = np.arange(count), res.choose(near)
+        q = res.q[rows, branch]
+        status = res.status[rows, branch]
+        columns = [rows, branch, *(q[:, j] for j in range(5)), [st.describe(s) for s in status],
+                   res.residual[rows].astype(np.float64)]
+        csvio.write_table(args.output, names + ["residual_rad"], columns)
+        return 0
+
+    k = constants(cfg, arm)
+    try:
+        solve = _fixed_solver(args.solver, k)
+    except RuntimeError as exc:
+        print(f"ik5r solve: {exc}", file=sys.stderr)
+        return 1
+    values = [p, a] + ([n, o] if has_roll else [])
+    finite = np.ones(count, dtype=bool)
+    for v in values:
+        finite &= np.isfinite(v).all(axis=1)
+    p_l, sat = quantize(p, cfg.frac_length, cfg)
+    saturated = sat.any(axis=1)
+    words = []
+    for v in values[1:]:
+        w, sat = quantize(v, cfg.frac_unit, cfg)
+        saturated |= sat.any(axis=1)
+        words.append(w)
+    a_u = words[0]
+    n_u, o_u = (words[1], words[2]) if has_roll else (None, None)
+    q5_raw, q5_sat = quantize(0.0 if near is None else near[4], cfg.frac_angle, cfg)
+    if bool(q5_sat):
+        print("ik5r solve: --near q5 saturates the angle format", file=sys.stderr)
+    if args.all:
+        rows = np.repeat(np.arange(count), 4)
+        branch = np.tile(np.arange(4), count)
+    else:
+        rows, branch = np.arange(count), res.choose(near)
+    shoulder_back, elbow_down = reference.branch_bits(branch)
+    m = len(rows)
+    q_raw, status = solve(p_l[rows], a_u[rows], None if n_u is None else n_u[rows],
+                          None if o_u is None else o_u[rows], np.full(m, has_roll),
+                          shoulder_back, elbow_down, np.full(m, int(q5_raw), dtype=np.int64))
+    q_raw = np.asarray(q_raw, dtype=np.int64).copy()
+    status = np.asarray(status, dtype=np.int64).copy()
+    status[saturated[rows]] |= st.SATURATED
+    bad = ~finite[rows]
+    status[bad] = st.INVALID | np.where(saturated[rows][bad], st.SATURATED, 0)
+    q_raw[bad] = 0
+    q = q_raw * 2.0 ** -cfg.frac_angle
+    q[bad] = np.nan
+    if args.all:
+        valid = ((status & ~harmless) == 0).reshape(count, 4)
+        keep = (valid | ~valid.any(axis=1, keepdims=True)).reshape(-1)
+        rows, branch, q, q_raw, status = rows[keep], branch[keep], q[keep], q_raw[keep], status[keep]
+    columns = [rows, branch, *(q[:, j] for j in range(5)), [st.describe(s) for s in status],
+               *(q_raw[:, j] for j in range(5)), status]
+    csvio.write_table(args.output, names + [f"{c}_raw" for c in csvio.JOINT_COLUMNS] + ["status_bits"], columns)
+    return 0

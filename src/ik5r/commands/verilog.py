@@ -1,0 +1,62 @@
+"""``ik5r verilog``: Verilog of the CORDIC/sqrt/acos blocks and their port maps (JSON).
+
+Writes ``DIR/<module>.v`` and ``DIR/<module>.json`` per block and architecture, with
+``<module>`` = ``ik5r_<block>_<arch>``. The output is deterministic (byte-identical between runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "all")
+ARCH_CHOICES = ("pipelined", "iterative", "all")
+
+
+def _tag_width(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value <= 64:
+        raise argparse.ArgumentTypeError(f"must be in [0, 64], got {value}")
+    return value
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "verilog", help="Verilog of the hardware blocks and their port maps (JSON)",
+        description=__doc__)
+    parser.add_argument("-o", "--output", default="build/verilog", metavar="DIR",
+                        help="output folder (default: build/verilog)")
+    parser.add_argument("--config", default=None, metavar="CFG",
+                        help="fixed-point config TOML or shipped name (default: q32)")
+    parser.add_argument("--block", choices=BLOCK_CHOICES, default="all",
+                        help="block to generate (default: all)")
+    parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
+                        help="pipelined (1 result/cycle) or iterative (1 step/cycle) "
+                             "(default: pipelined)")
+    parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
+                        help="width of the tag field carried through each block (default: 0)")
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from ik5r.fxconfig import constants, load_config
+    from ik5r.hdl.generate import ARCHS, BLOCKS, generate
+
+    k = constants(load_config(args.config))
+    blocks = BLOCKS if args.block == "all" else (args.block,)
+    archs = ARCHS if args.arch == "all" else (args.arch,)
+    out_dir = Path(args.output)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for block in blocks:
+        for arch in archs:
+            text, pmap = generate(block, arch, k, args.tag_width)
+            module = pmap["module"]
+            (out_dir / f"{module}.v").write_text(text)
+            (out_dir / f"{module}.json").write_text(json.dumps(pmap, indent=2) + "\n")
+            print(f"{out_dir / module}.v  latency {pmap['latency_cycles']} cycles, "
+                  f"{pmap['cycles_per_result']} cycle(s)/result")
+    return 0
