@@ -63,7 +63,7 @@ def bench(count: int = 1_000_000, lm_count: int = 200, repeat: int = 3, seed: in
         nonlocal successes
         successes = 0
         for frame in frames:
-            successes += bool(robot.ik_LM(frame, q0=q0)[1])
+            successes += bool(robot.ik_LM(frame, q0=q0).success)
 
     lm_wall, lm_cpu = _timed(run_lm, 1)
     per_pose = lm_wall / m

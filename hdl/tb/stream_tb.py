@@ -37,7 +37,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _importable  # noqa: E402
 
-_importable.ensure()
+_importable.ensure(light=True)
 
 import cocotb  # noqa: E402
 import numpy as np  # noqa: E402
@@ -153,7 +153,7 @@ def _jsonable(v):
 
 
 def _sig(dut, name):
-    return dut._id(name, extended=False)
+    return dut[name]
 
 
 # ---- cocotb-driven components -------------------------------------------------------------------
@@ -287,8 +287,6 @@ class ResetGen:
 
     def drive(self) -> bool:
         if self.left > 0:
-            if self.count == 0 or self.rst.value == 0:
-                pass
             self.rst.value = 1
             self.left -= 1
             return True
@@ -399,7 +397,7 @@ async def _start(dut, job: Job):
     for name in ("bulk_start", "bulk_count"):
         try:
             _sig(dut, name).value = 0
-        except AttributeError:
+        except (AttributeError, KeyError):
             pass
     pm = job.pm
     _sig(dut, pm.i.valid).value = 0
