@@ -189,6 +189,7 @@ class Atan2(StreamBlock):
         else:
             dp = in_fields = out_fields = None
         self.magnitude = magnitude
+        self.options = {"magnitude": magnitude}
         super().__init__(constants=constants, arch=arch, tag_width=tag_width,
                          in_fields=in_fields, out_fields=out_fields, datapath=dp)
 

@@ -30,8 +30,12 @@ BLOCKS = ("atan2", "rotate", "sqrt", "acos")
 PORTMAP_VERSION = 1
 
 
-def module_name(block: str, arch: str) -> str:
-    return f"ik5r_{block}_{arch}"
+def module_name(block: str, arch: str, **options) -> str:
+    """``ik5r_<block>_<arch>``; non-default options are named in between, e.g.
+    ``ik5r_sqrt_radicand_bits64_pipelined``."""
+    suffix = "".join(f"_{key}{int(value) if isinstance(value, bool) else value}"
+                     for key, value in sorted(options.items()) if value is not None)
+    return f"ik5r_{block}{suffix}_{arch}"
 
 
 def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **options):
@@ -70,8 +74,8 @@ def _fields(fields: dict) -> list:
     return out
 
 
-def portmap(component, block: str, arch: str, constants: Constants) -> dict:
-    """The port map of an elaborated-or-not component (see the module docstring)."""
+def portmap(component, block: str, arch: str, constants: Constants, name: str | None = None) -> dict:
+    """The port map of a component (see the module docstring); ``name``: its module name."""
     c = constants.cfg
     ports = [
         {"name": "clk", "direction": "input", "width": 1, "role": "clock, rising edge"},
@@ -89,7 +93,7 @@ def portmap(component, block: str, arch: str, constants: Constants) -> dict:
         })
     doc = {
         "version": PORTMAP_VERSION,
-        "module": module_name(block, arch),
+        "module": name or module_name(block, arch),
         "block": block,
         "arch": arch,
         "config": c.name,
@@ -121,11 +125,15 @@ def portmap(component, block: str, arch: str, constants: Constants) -> dict:
 
 
 def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **options):
-    """Verilog text and port-map dict of one block; deterministic (see the module docstring)."""
+    """Verilog text and port-map dict of one block; deterministic (see the module docstring).
+
+    ``options`` go to the block's constructor (``magnitude=False`` for atan2, ``frac=`` or
+    ``radicand_bits=`` for sqrt) and into the module name when given.
+    """
     if arch not in ARCHS:
         raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+    name = module_name(block, arch, **options)
     component = build(block, arch, constants, tag_width, **options)
-    pmap = portmap(component, block, arch, constants)
-    text = verilog.convert(component, name=module_name(block, arch), emit_src=False,
-                           strip_internal_attrs=True)
+    pmap = portmap(component, block, arch, constants, name)
+    text = verilog.convert(component, name=name, emit_src=False, strip_internal_attrs=True)
     return text, pmap

@@ -273,6 +273,7 @@ def test_truncate_rounding():
     check_block(Acos(constants=k, arch="pipelined"), *acos_cases(k, rng, 80))
 
 
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 def test_constructor_validation():
     k = _k("q18")
     with pytest.raises(ValueError):

