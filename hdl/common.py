@@ -31,7 +31,7 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.fxconfig import Constants
 
-__all__ = ["ARCHS", "LIMB_BITS", "Datapath", "StreamBlock", "asr", "rshift_round", "saturate",
+__all__ = ["ARCHS", "LIMB_BITS", "Datapath", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
            "leading_zeros", "add_products", "table_entry", "drop"]
 
 #: The two architectures every block is available in.
@@ -50,6 +50,26 @@ def asr(value, amount):
     if isinstance(amount, int):
         return value.shift_right(amount)
     return value >> amount
+
+
+def _extend(value, width):
+    """``value`` sign- (or zero-) extended to ``width`` bits, as raw bits."""
+    fill = value[-1] if value.shape().signed else Const(0, 1)
+    return Cat(value, fill.replicate(width - len(value)))
+
+
+def add_sub(a, b, subtract):
+    """``a - b`` if ``subtract`` else ``a + b``, with ONE adder (not two and a mux).
+
+    ``(a << 1 | s) + ((b ^ s...s) << 1 | s)`` has ``a + (b ^ s...s) + s`` above its LSB: the
+    carry-in is folded into the extra LSB, and the XOR fits in the LUT before each carry cell.
+    Exact: the result is a ``signed`` value wide enough for any ``a +- b``.
+    """
+    a, b, subtract = Value.cast(a), Value.cast(b), Value.cast(subtract)
+    width = max(len(a) + (not a.shape().signed), len(b) + (not b.shape().signed)) + 1
+    inverted = _extend(b, width) ^ subtract.replicate(width)
+    total = Cat(subtract, _extend(a, width)) + Cat(subtract, inverted)
+    return total[1:width + 1].as_signed()
 
 
 def rshift_round(value, shift: int, nearest: bool):

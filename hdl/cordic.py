@@ -10,7 +10,7 @@ from amaranth.hdl import Const, Mux, signed, unsigned
 
 from ik5r.fxconfig import INV_GAIN_FRAC, Constants
 
-from .common import (Datapath, StreamBlock, add_products, asr, drop, leading_zeros,
+from .common import (Datapath, StreamBlock, add_products, add_sub, asr, drop, leading_zeros,
                      rshift_round, saturate, table_entry)
 
 __all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
@@ -72,9 +72,9 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         step = table_entry(k.atan_table, i)
         down = ys[-1]     # ys < 0: rotate the other way
         return dict(s,
-                    cx=Mux(down, xs - asr(ys, i), xs + asr(ys, i)),
-                    cy=Mux(down, ys + asr(xs, i), ys - asr(xs, i)),
-                    cz=Mux(down, z - step, z + step))
+                    cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
+                    cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
+                    cz=add_sub(z, step, down))             # z -+ step
 
     dp.add("at_coarse", coarse)
     dp.add("at_lzc", normalise_count)
@@ -298,9 +298,9 @@ class Rotate(StreamBlock):
             step = table_entry(k.atan_table, i)
             neg = z[-1]       # z < 0: rotate clockwise
             return dict(s,
-                        cx=Mux(neg, xs + asr(ys, i), xs - asr(ys, i)),
-                        cy=Mux(neg, ys - asr(xs, i), ys + asr(xs, i)),
-                        cz=Mux(neg, z + step, z - step))
+                        cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
+                        cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
+                        cz=add_sub(z, step, ~neg))         # z +- step
 
         def unguard(s):
             out = drop(s, "cx", "cy", "cz")

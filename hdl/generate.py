@@ -83,9 +83,9 @@ def portmap(component, block: str, arch: str, constants: Constants, name: str | 
          "role": "synchronous reset, active high"},
     ]
     for path, member, value in component.signature.flatten(component):
-        name = "__".join(map(str, path))
+        port = "__".join(map(str, path))
         ports.append({
-            "name": name,
+            "name": port,
             "direction": "input" if member.flow == wiring.In else "output",
             "width": Shape.cast(member.shape).width,
             "role": {"payload": "payload (struct, fields below)", "valid": "stream valid",

@@ -338,9 +338,11 @@ def test_verilator_lint(cfg, tmp_path):
         pytest.skip("verilator not installed")
     env = dict(os.environ, PATH=f"{Path(verilator).parent}{os.pathsep}{os.environ.get('PATH', '')}")
     k = _k(cfg)
-    for block in BLOCKS:
+    variants = [(block, {}) for block in BLOCKS]
+    variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
+    for block, options in variants:
         for arch in ARCHS:
-            text, pmap = generate(block, arch, k, 2 if arch == "pipelined" else 0)
+            text, pmap = generate(block, arch, k, 2 if arch == "pipelined" else 0, **options)
             source = tmp_path / f"{pmap['module']}.v"
             source.write_text(text)
             result = subprocess.run(
@@ -349,3 +351,19 @@ def test_verilator_lint(cfg, tmp_path):
                 capture_output=True, text=True, env=env)
             assert result.returncode == 0 and "%Warning" not in result.stderr, \
                 f"{pmap['module']}:\n{result.stderr[:3000]}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cfg", ("q18", "q24", "q32"))
+def test_many_vectors_pipelined(cfg):
+    """20,000 random vectors per block through the pipelined blocks at full rate."""
+    k = _k(cfg)
+    rng = random.Random(100)
+    count = 20_000
+    for dut, (inputs, expected) in (
+            (Atan2(constants=k, arch="pipelined"), atan2_cases(k, rng, count)),
+            (Rotate(constants=k, arch="pipelined"), rotate_cases(k, rng, count)),
+            (Sqrt(constants=k, arch="pipelined"), sqrt_cases(k, rng, count, k.cfg.frac_length)),
+            (Acos(constants=k, arch="pipelined"), acos_cases(k, rng, count))):
+        outputs, _, _ = run_stream(dut, inputs)
+        _compare(inputs, expected, outputs)

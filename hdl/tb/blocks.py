@@ -20,7 +20,10 @@ import numpy as np
 from ik5r.firmware import model as M
 from ik5r.fxconfig import Constants
 
-from . import vecmodel as V
+try:        # the project's vectorised model when present, else the testbench's own numpy version
+    from ik5r.firmware import vector as V
+except ImportError:     # pragma: no cover
+    from . import vecmodel as V
 from .portmap import PortMap
 
 Arrays = dict[str, np.ndarray]
@@ -87,7 +90,7 @@ def _frac(pm: PortMap, field_name: str, side: str, default: int) -> int:
 
 def _atan2_vec(x, pm, k):
     a, m, z = V.cordic_atan2(x["y"], x["x"], k)
-    return {"angle": a, "magnitude": m, "zero": z.astype(np.int64)}
+    return {"angle": a, "magnitude": m, "zero": np.asarray(z).astype(np.int64)}
 
 
 def _atan2_scalar(x, pm, k):
@@ -118,7 +121,7 @@ def _atan2_err(x, got, pm, k):
 
 def _rotate_vec(x, pm, k):
     xo, yo, s = V.cordic_rotate(x["x"], x["y"], x["angle"], k)
-    return {"x": xo, "y": yo, "saturated": s.astype(np.int64)}
+    return {"x": xo, "y": yo, "saturated": (np.asarray(s) != 0).astype(np.int64)}
 
 
 def _rotate_scalar(x, pm, k):
@@ -196,7 +199,7 @@ def _sqrt_err(x, got, pm, k):
 
 def _acos_vec(x, pm, k):
     a, s, sat = V.cordic_acos(x["x"], k)
-    return {"angle": a, "sine": s, "saturated": sat.astype(np.int64)}
+    return {"angle": a, "sine": s, "saturated": (np.asarray(sat) != 0).astype(np.int64)}
 
 
 def _acos_scalar(x, pm, k):

@@ -14,6 +14,7 @@ import json
 import os
 import shutil
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -120,6 +121,16 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
                     # date them ahead so make keeps them.
                     ahead = time.time() + 10 * 365 * 86400
                     os.utime(build_dir / src.name, (ahead, ahead))
+    with _BUILD_LOCK:       # one build at a time (make -j uses every core); MAKEFLAGS is process-wide
+        return _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0)
+
+
+_BUILD_LOCK = threading.Lock()
+
+
+def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0) -> float:
+    from cocotb_tools.runner import get_runner
+
     runner = get_runner(sim)
     saved = os.environ.get("MAKEFLAGS")
     if sim == "verilator":

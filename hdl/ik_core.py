@@ -1,0 +1,649 @@
+"""The inverse kinematics of the 5R arm in hardware: :class:`IKCore`, bit-exact to ``model.ik_solve``.
+
+The whole solver is ONE :class:`~ik5r.hdl.common.Datapath` composed from the blocks' stage builders
+(:func:`~ik5r.hdl.cordic.add_atan2`, the :class:`~ik5r.hdl.cordic.Rotate` micro-rotations, the
+:class:`~ik5r.hdl.acos.Acos` datapath, :func:`~ik5r.hdl.sqrt.add_isqrt`,
+:func:`~ik5r.hdl.common.add_products`) and small glue stages written here. Three pieces of
+machinery make that composition cheap, all local to this file (the blocks are used unchanged):
+
+* **Namespaces.** A builder's stages are built into a scratch ``Datapath`` with its fixed key names
+  (``cx``, ``cy``, ``angle`` ...) and wrapped so that they see and produce only the keys under a
+  prefix (``T1__cx`` ...). Declared register shapes are copied with the prefix.
+* **Parallel chains.** :func:`_append_parallel` runs several chains side by side in the same
+  stages: their iterated stages (micro-rotations, square-root digits) are aligned, the
+  non-iterated stages before / between / after them are padded with pass-through stages, and the
+  stage functions of one cycle are composed (each chain reads only its own keys). An iterated
+  stage shorter than its partners is frozen by a step guard, so both architectures work.
+* **Stash.** A value needed many stages after it is computed is not carried through every
+  pipeline register: :meth:`_Builder.stash` takes it out of the state and :meth:`_Builder.unstash`
+  brings it back. ``pipelined``: a delay line driven by the pipeline's global enable (a register
+  chain for short distances, else a RAM ring buffer, one per (from, to) stage pair);
+  ``compact`` (one pose in flight): the stage register itself, which holds its value until the
+  next pose reaches it.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
+from amaranth.lib.memory import Memory
+
+from ik5r import status as S
+from ik5r.firmware import model
+from ik5r.fxconfig import INV_GAIN_FRAC, Constants
+
+from .acos import Acos
+from .common import Datapath, StreamBlock, add_products, drop, rshift_round, saturate
+from .cordic import Rotate, add_atan2
+from .sqrt import add_isqrt, fit
+
+__all__ = ["IKCore", "CORE_ARCHS"]
+
+#: Architectures of the core.
+CORE_ARCHS = ("pipelined", "compact")
+
+#: Stash distances up to this many stages use a register chain instead of a RAM ring buffer.
+_REGISTER_DELAY_MAX = 4
+
+STATUS_BITS = 5
+
+
+def _flag(cond, bit: int):
+    return Mux(cond, Const(bit, STATUS_BITS), Const(0, STATUS_BITS))
+
+
+# --- chain machinery -----------------------------------------------------------------------------
+
+def _namespaced(chain: Datapath, prefix: str) -> Datapath:
+    """``chain``'s stages seeing only the keys under ``prefix`` (without it); others pass through."""
+    size = len(prefix)
+    out = Datapath(chain.name)
+    out.shapes = {prefix + key: shape for key, shape in chain.shapes.items()}
+
+    def split(s):
+        inner = {key[size:]: value for key, value in s.items() if key.startswith(prefix)}
+        outer = {key: value for key, value in s.items() if not key.startswith(prefix)}
+        return inner, outer
+
+    for name, fn, count, iterated in chain.stages:
+        if iterated:
+            def run(s, i, fn=fn):
+                inner, outer = split(s)
+                outer.update({prefix + key: value for key, value in fn(inner, i).items()})
+                return outer
+        else:
+            def run(s, fn=fn):
+                inner, outer = split(s)
+                outer.update({prefix + key: value for key, value in fn(inner).items()})
+                return outer
+        out.stages.append((f"{prefix.rstrip('_').lower()}_{name}", run, count, iterated))
+    return out
+
+
+def _concat(name: str, *chains: Datapath) -> Datapath:
+    out = Datapath(name)
+    for chain in chains:
+        out.stages.extend(chain.stages)
+        out.shapes.update(chain.shapes)
+    return out
+
+
+def _compose(*fns):
+    def run(s):
+        for fn in fns:
+            s = fn(s)
+        return s
+    return run
+
+
+def _segments(chain: Datapath):
+    """[N0, (I1), N1, (I2), ...]: lists of registered stage functions between iterated stages
+    ``(fn, count)``. Wiring stages are folded into a neighbouring registered stage (after the
+    previous one, else before the next one, else made a registered stage of their own)."""
+    items = []     # ("N", fn) | ("I", fn, count) | ("W", fn)
+    for _, fn, count, iterated in chain.stages:
+        items.append(("I", fn, count) if iterated else ("W", fn) if count == 0 else ("N", fn))
+    folded = []
+    pending = []
+    for item in items:
+        if item[0] == "W":
+            if folded and folded[-1][0] == "N" and not pending:
+                folded[-1] = ("N", _compose(folded[-1][1], item[1]))
+            else:
+                pending.append(item[1])
+            continue
+        if pending:
+            if item[0] == "N":
+                item = ("N", _compose(*pending, item[1]))
+            else:
+                folded.append(("N", _compose(*pending)))
+            pending = []
+        folded.append(item)
+    if pending:
+        folded.append(("N", _compose(*pending)))
+    segments = [[]]
+    for item in folded:
+        if item[0] == "N":
+            segments[-1].append(item[1])
+        else:
+            segments.append((item[1], item[2]))
+            segments.append([])
+    return segments
+
+
+def _guarded(fn, count):
+    """An iterated stage function frozen once ``i >= count``."""
+    def run(s, i):
+        if isinstance(i, int):
+            return fn(s, i) if i < count else s
+        out = fn(s, i)
+        active = i < count
+        return {key: value if key not in s or value is s[key] else Mux(active, value, s[key])
+                for key, value in out.items()}
+    return run
+
+
+def _append_parallel(dp: Datapath, name: str, *chains: Datapath) -> None:
+    """Append ``chains`` to ``dp`` side by side (see the module docstring)."""
+    segs = [_segments(chain) for chain in chains]
+    for chain in chains:
+        dp.declare(**chain.shapes)
+    depth = max(len(seg) for seg in segs)
+    if any(len(seg) != depth for seg in segs):
+        raise ValueError(f"{name}: parallel chains need the same number of iterated stages")
+    for index in range(depth):
+        if index % 2 == 0:
+            lists = [seg[index] for seg in segs]
+            length = max(len(fns) for fns in lists)
+            for t in range(length):
+                fns = []
+                for fns_c in lists:
+                    # Pad the first segment at the front (inputs wait), the others at the end.
+                    pos = t - (length - len(fns_c)) if index == 0 else t
+                    if 0 <= pos < len(fns_c):
+                        fns.append(fns_c[pos])
+                dp.add(f"{name}_{index}_{t}", _compose(*fns))
+        else:
+            count = max(seg[index][1] for seg in segs)
+            fns = [fn if c == count else _guarded(fn, c) for fn, c in (seg[index] for seg in segs)]
+
+            def iterated(s, i, fns=fns):
+                for fn in fns:
+                    s = fn(s, i)
+                return s
+            dp.add_iter(f"{name}_it{index}", iterated, count)
+
+
+# --- chains built from the blocks' builders -------------------------------------------------------
+
+def _atan2_chain(k: Constants, prefix: str, *, zero: bool) -> Datapath:
+    """atan2(prefix+y, prefix+x) -> prefix+angle (and prefix+zero)."""
+    chain = Datapath(prefix)
+    add_atan2(chain, k, y="y", x="x", magnitude=False, zero=zero)
+    return _namespaced(chain, prefix)
+
+
+def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int]) -> Datapath:
+    """``model.cordic_rotate(*vector, state[prefix+angle])`` of a constant vector -> prefix+x, y,
+    saturated. The quadrant step and the 1/K gain of a constant vector are constants: one stage
+    (compare + subtract) replaces the Rotate block's quadrant, coarse and multiplier stages; the
+    micro-rotations, rounding and clipping are the Rotate block's own stages."""
+    c = k.cfg
+    rot = Rotate._datapath(k)
+    names = [name for name, _, _, _ in rot.stages]
+    if "ro_it" not in names:
+        raise RuntimeError("Rotate datapath has no 'ro_it' stage")
+    tail = rot.stages[names.index("ro_it"):]
+    x0, y0 = vector
+    shift = INV_GAIN_FRAC - c.guard_bits
+
+    def gained(x, y):
+        return (model.rshift_round(x * k.inv_gain, shift, c.round_nearest),
+                model.rshift_round(y * k.inv_gain, shift, c.round_nearest))
+
+    cases = {"up": gained(-y0, x0), "down": gained(y0, -x0), "none": gained(x0, y0)}
+    h = k.half_pi_z
+
+    def quadrant(s):
+        z = s["angle"].shift_left(c.angle_guard_bits)
+        up, down = z > h, z < -h
+        out = drop(s, "angle")
+        out["cx"] = Mux(up, cases["up"][0], Mux(down, cases["down"][0], cases["none"][0]))
+        out["cy"] = Mux(up, cases["up"][1], Mux(down, cases["down"][1], cases["none"][1]))
+        out["cz"] = Mux(up, z - h, Mux(down, z + h, z))
+        return out
+
+    chain = Datapath(prefix)
+    chain.shapes = dict(rot.shapes)
+    chain.add("ro_const", quadrant)
+    chain.stages.extend(tail)
+    return _namespaced(chain, prefix)
+
+
+def _const_mul_operand(k: Constants, m, bound: int):
+    """Shape of rshift_round(x, m.pre) for |x| <= bound."""
+    nearest = k.cfg.round_nearest
+    top = max(abs(model.rshift_round(bound, m.pre, nearest)),
+              abs(model.rshift_round(-bound, m.pre, nearest)))
+    return signed(top.bit_length() + 1)
+
+
+# --- the stash -----------------------------------------------------------------------------------
+
+class _Builder:
+    """Holds the per-elaboration stash registry of an IKCore's datapath."""
+
+    def __init__(self):
+        self.reset()
+
+    def reset(self):
+        self.stashed = {}
+        self.links = []
+
+    def stash(self, dp: Datapath, *keys):
+        where = dp.latency
+
+        def fn(s):
+            for key in keys:
+                self.stashed[key] = (s[key], where)
+            return drop(s, *keys)
+        dp.add_wiring(fn)
+
+    def unstash(self, dp: Datapath, *keys):
+        where = dp.latency
+
+        def fn(s):
+            out = dict(s)
+            for key in keys:
+                value, origin = self.stashed.pop(key)
+                value = Value.cast(value)
+                if where - origin < 1:
+                    raise ValueError(f"stash of {key!r}: zero distance")
+                dst = Signal(value.shape(), name=f"stash_{key}")
+                self.links.append((key, value, origin, where, dst))
+                out[key] = dst
+            return out
+        dp.add_wiring(fn)
+
+    def elaborate(self, m: Module, arch: str, enable):
+        """Drive the unstashed signals (after ``Datapath.build``)."""
+        if self.stashed:
+            raise ValueError(f"stashed but never used: {sorted(self.stashed)}")
+        if arch != "pipelined":
+            # One item in flight: the source register holds its value until the next item.
+            for _, value, _, _, dst in self.links:
+                m.d.comb += dst.eq(value)
+            return
+        groups = {}
+        for link in self.links:
+            groups.setdefault((link[2], link[3]), []).append(link)
+        ring = [g for g in groups if g[1] - g[0] > _REGISTER_DELAY_MAX]
+        max_depth = max((1 << (b - a - 1).bit_length() for a, b in ring), default=0)
+        pointer = None
+        if max_depth:
+            pointer = Signal(range(max_depth), name="stash_ptr")
+            with m.If(enable):
+                m.d.sync += pointer.eq(pointer + 1)
+        for (origin, where), links in sorted(groups.items()):
+            distance = where - origin
+            word = Cat(*(link[1] for link in links))
+            if distance <= _REGISTER_DELAY_MAX:
+                for step in range(distance):
+                    reg = Signal(len(word), name=f"stash_{origin}_{where}_d{step}", reset_less=True)
+                    with m.If(enable):
+                        m.d.sync += reg.eq(word)
+                    word = reg
+                out = word
+            else:
+                depth = 1 << (distance - 1).bit_length()
+                bits = (depth - 1).bit_length()
+                mem = Memory(shape=unsigned(len(word)), depth=depth, init=[])
+                m.submodules[f"stash_{origin}_{where}"] = mem
+                wp = mem.write_port()
+                rp = mem.read_port(transparent_for=())
+                m.d.comb += [
+                    wp.addr.eq(pointer[:bits]), wp.data.eq(word), wp.en.eq(enable),
+                    rp.addr.eq((pointer - (distance - 1))[:bits]), rp.en.eq(enable),
+                ]
+                out = rp.data
+            lsb = 0
+            for _, value, _, _, dst in links:
+                part = out[lsb:lsb + len(value)]
+                m.d.comb += dst.eq(part.as_signed() if value.shape().signed else part)
+                lsb += len(value)
+
+
+# --- the core ------------------------------------------------------------------------------------
+
+def _wrap(value, k: Constants):
+    """``model.wrap_angle``: one correction by a turn (compare and subtract in parallel)."""
+    pi = k.pi_a
+    return Mux(value > pi, value - 2 * pi, Mux(value < -pi, value + 2 * pi, value))
+
+
+def _opposite(angle, k: Constants):
+    """``model.opposite``."""
+    return Mux(angle > 0, angle - k.pi_a, angle + k.pi_a)
+
+
+def _core_datapath(k: Constants, builder: _Builder, tag: bool) -> Datapath:
+    c = k.cfg
+    width, fu, nearest = c.width, c.frac_unit, c.round_nearest
+    word = signed(width)
+    dp = Datapath("ik")
+
+    # ---- Stage 0: joint-1 vector (the point, or the approach on the base axis); d1 - pz.
+    def select(s):
+        px, py = s["px"], s["py"]
+        on_axis = (px == 0) & (py == 0)
+        out = drop(s, "px", "py", "pz")
+        out.update({"T1__y": Mux(on_axis, s["ay"], py), "T1__x": Mux(on_axis, s["ax"], px),
+                    "RH__px": px, "RH__py": py, "dz": k.d1_l - s["pz"]})
+        return out
+
+    dp.add("select", select)
+    builder.stash(dp, "dz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "roll", "q5d", "back", "down",
+                  *(("tag",) if tag else ()))
+
+    # ---- theta1 = atan2(py, px) || rho = sat(isqrt(px^2 + py^2)) (2W-bit radicand: the model's
+    # 64-bit one has only zero bit pairs above px^2 + py^2 < 2**(2W-1)).
+    rho = Datapath("rho")
+    add_products(rho, "sq", [(lambda s: s["px"], word, (lambda s: s["px"], word), "xx"),
+                             (lambda s: s["py"], word, (lambda s: s["py"], word), "yy")],
+                 drop_keys=("px", "py"))
+    rho.add("sum", lambda s: dict(drop(s, "xx", "yy"), sq_rad=fit(s["xx"] + s["yy"], 2 * width)))
+    add_isqrt(rho, bits=2 * width, nearest=nearest, root="root")
+
+    def rho_sat(s):
+        value, sat = saturate(s["root"], width)
+        return dict(drop(s, "root"), rho=value, sat=sat)
+
+    rho.add("sat", rho_sat)
+    _append_parallel(dp, "p1", _atan2_chain(k, "T1__", zero=True), _namespaced(rho, "RH__"))
+
+    # ---- q1 (branch), r - a1; then (c1, s1) = rotate((1, 0), q1).
+    builder.unstash(dp, "back")
+
+    def joint1(s):
+        theta, back, rho_l = s["T1__angle"], s["back"], s["RH__rho"]
+        q1 = Mux(back, _opposite(theta, k), theta)
+        out = drop(s, "T1__angle", "T1__zero", "RH__rho", "RH__sat", "back")
+        out.update(q1=q1, C1__angle=q1, xa=Mux(back, -k.a1_l - rho_l, rho_l - k.a1_l),
+                   st=_flag(s["T1__zero"], S.SINGULAR_BASE) | _flag(s["RH__sat"], S.SATURATED))
+        return out
+
+    dp.add("joint1", joint1)
+    builder.stash(dp, "q1", "xa")
+    _append_parallel(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0)))
+
+    # ---- a_radial = a . (c1, s1); s5, c5 = n, o . (s1, -c1): six products, sums, rounding.
+    builder.unstash(dp, "ax", "ay", "nx", "ny", "ox", "oy", "roll")
+    c1_of, s1_of = (lambda s: s["C1__x"]), (lambda s: s["C1__y"])
+    add_products(dp, "dot", [
+        (lambda s: s["ax"], word, (c1_of, word), "pa1"), (lambda s: s["ay"], word, (s1_of, word), "pa2"),
+        (lambda s: s["nx"], word, (s1_of, word), "pn1"), (lambda s: s["ny"], word, (c1_of, word), "pn2"),
+        (lambda s: s["ox"], word, (s1_of, word), "po1"), (lambda s: s["oy"], word, (c1_of, word), "po2"),
+    ], parallel=lambda s: {"st": s["st"] | _flag(s["C1__saturated"], S.SATURATED)},
+        drop_keys=("ax", "ay", "nx", "ny", "ox", "oy", "C1__x", "C1__y", "C1__saturated"))
+    dp.add("dot_sum", lambda s: dict(drop(s, "pa1", "pa2", "pn1", "pn2", "po1", "po2"),
+                                     da=s["pa1"] + s["pa2"], dn=s["pn1"] - s["pn2"],
+                                     do=s["po1"] - s["po2"]))
+    dp.add("dot_round", lambda s: dict(s, **{key: rshift_round(s[key], fu, nearest)
+                                             for key in ("da", "dn", "do")}))
+    builder.unstash(dp, "az")
+
+    def dot_saturate(s):
+        a_rad, sat_a = saturate(s["da"], width)
+        s5, sat_s = saturate(s["dn"], width)
+        c5, sat_c = saturate(s["do"], width)
+        out = drop(s, "da", "dn", "do", "az")
+        out.update({"PT__y": a_rad, "PT__x": s["az"], "Q5__y": s5, "Q5__x": c5,
+                    "st": s["st"] | _flag(sat_a | ((sat_s | sat_c) & s["roll"]), S.SATURATED)})
+        return out
+
+    dp.add("dot_sat", dot_saturate)
+
+    # ---- pitch = atan2(a_radial, az) || roll = atan2(s5, c5).
+    _append_parallel(dp, "p3", _atan2_chain(k, "PT__", zero=True), _atan2_chain(k, "Q5__", zero=True))
+    builder.unstash(dp, "q5d")
+
+    def pitch(s):
+        phi = _opposite(s["PT__angle"], k)
+        roll = s["roll"]
+        out = drop(s, "PT__angle", "PT__zero", "Q5__angle", "Q5__zero", "roll", "q5d")
+        out.update(phi=phi, R2__angle=phi, q5=Mux(roll, s["Q5__angle"], s["q5d"]),
+                   st=s["st"] | _flag(s["PT__zero"] | (roll & s["Q5__zero"]), S.INVALID))
+        return out
+
+    dp.add("pitch", pitch)
+    builder.stash(dp, "phi", "q5")
+
+    # ---- wrist centre: (xw, yw) = sat((r - a1, d1 - pz) - R(phi) (a4, d5)).
+    _append_parallel(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l)))
+    builder.unstash(dp, "xa", "dz")
+    dp.add("wrist", lambda s: dict(drop(s, "xa", "dz", "R2__x", "R2__y", "R2__saturated"),
+                                   xwr=s["xa"] - s["R2__x"], ywr=s["dz"] - s["R2__y"],
+                                   st=s["st"] | _flag(s["R2__saturated"], S.SATURATED)))
+
+    def wrist_saturate(s):
+        xw, sat_x = saturate(s["xwr"], width)
+        yw, sat_y = saturate(s["ywr"], width)
+        out = drop(s, "xwr", "ywr")
+        out.update({"GM__y": yw, "GM__x": xw, "EL__xw": xw, "EL__yw": yw,
+                    "st": s["st"] | _flag(sat_x | sat_y, S.SATURATED)})
+        return out
+
+    dp.add("wrist_sat", wrist_saturate)
+
+    # ---- gamma = atan2(yw, xw) || c3 = clip(mul_const(clip(xw^2 + yw^2 - links), c3_from_l2))
+    # and the first half of acos (sine by the square root).
+    el = Datapath("elbow")
+    add_products(el, "sq", [(lambda s: s["xw"], word, (lambda s: s["xw"], word), "xx"),
+                            (lambda s: s["yw"], word, (lambda s: s["yw"], word), "yy")],
+                 drop_keys=("xw", "yw"))
+    el.add("sum", lambda s: dict(drop(s, "xx", "yy"), d2=s["xx"] + s["yy"]))
+    el.add("links", lambda s: dict(drop(s, "d2"), num=s["d2"] - k.links_sq_l2))
+    limit = k.twice_a2a3_l2
+
+    def reach(s):
+        num = s["num"]
+        over, under = num > limit, num < -limit
+        return dict(drop(s, "num"), unreach=over | under,
+                    numc=Mux(over, limit, Mux(under, -limit, num)))
+
+    el.add("reach", reach)
+    mc = k.c3_from_l2
+    if mc.mant < 0:
+        raise ValueError("c3_from_l2: negative constant not supported")
+    el.add("c3_pre", lambda s: dict(drop(s, "numc"), c3v=rshift_round(s["numc"], mc.pre, nearest)))
+    add_products(el, "c3m", [(lambda s: s["c3v"], _const_mul_operand(k, mc, limit), mc.mant, "c3p")],
+                 drop_keys=("c3v",))
+    el.add("c3_post", lambda s: dict(drop(s, "c3p"), c3r=rshift_round(s["c3p"], mc.post, nearest)))
+    one = k.one_u
+    el.add("c3_clip", lambda s: dict(drop(s, "c3r"), ac_x=Mux(s["c3r"] > one, one,
+                                                              Mux(s["c3r"] < -one, -one, s["c3r"]))))
+    acos = Acos._datapath(k)
+    names = [name for name, _, _, _ in acos.stages]
+    first_atan = next(i for i, name in enumerate(names) if name.startswith("at_"))
+    if names[0] != "ac_clip":
+        raise RuntimeError("Acos datapath does not start with 'ac_clip'")
+    el.shapes.update(acos.shapes)
+    el.stages.extend(acos.stages[1:first_atan])
+    acos_tail = Datapath("acos_tail")
+    acos_tail.shapes = dict(acos.shapes)
+    acos_tail.stages = list(acos.stages[first_atan:])
+    _append_parallel(dp, "e1", _atan2_chain(k, "GM__", zero=False), _namespaced(el, "EL__"))
+
+    def after_sqrt(s):
+        out = drop(s, "EL__sine", "GM__angle", "EL__unreach")
+        out.update(s3=s["EL__sine"], c3=s["EL__ac_x"], gamma=s["GM__angle"], unreach=s["EL__unreach"])
+        return out
+
+    dp.add_wiring(after_sqrt)
+    builder.stash(dp, "gamma")
+
+    # ---- q3 = acos(c3) (the atan2 half) || beta = atan2(a3 s3, a2 + a3 c3).
+    mb = k.a3_from_u
+    if mb.mant < 0:
+        raise ValueError("a3_from_u: negative constant not supported")
+    bt = Datapath("beta")
+    operand = word
+    if mb.pre > 0:
+        bt.add("bt_pre", lambda s: dict(s, s3=rshift_round(s["s3"], mb.pre, nearest),
+                                        c3=rshift_round(s["c3"], mb.pre, nearest)))
+        operand = _const_mul_operand(k, mb, k.one_u)
+    add_products(bt, "btm", [(lambda s: s["s3"], operand, mb.mant, "bps"),
+                             (lambda s: s["c3"], operand, mb.mant, "bpc")],
+                 parallel=lambda s: {"sing": s["s3"] <= k.singular_s3_u}, drop_keys=("s3", "c3"))
+
+    def beta_round(s):
+        # a2 + rshift_round(p, post) == (p + bias + (a2 << post)) >> post when post > 0.
+        out = drop(s, "bps", "bpc")
+        out["BT__y"] = rshift_round(s["bps"], mb.post, nearest)
+        if mb.post > 0:
+            bias = (1 << (mb.post - 1)) if nearest else 0
+            out["BT__x"] = (s["bpc"] + (bias + (k.a2_l << mb.post))).shift_right(mb.post)
+        else:
+            out["BT__x"] = k.a2_l + rshift_round(s["bpc"], mb.post, nearest)
+        return out
+
+    bt.add("bt_round", beta_round)
+    _append_parallel(dp, "e2", _namespaced(acos_tail, "EL__"),
+                     _concat("beta", bt, _atan2_chain(k, "BT__", zero=False)))
+
+    # ---- q2, q3, q4 and the joint offsets.
+    builder.unstash(dp, "gamma", "down", "phi")
+
+    def shoulder(s):
+        down, elbow, beta, gamma = s["down"], s["EL__angle"], s["BT__angle"], s["gamma"]
+        out = drop(s, "down", "EL__angle", "BT__angle", "gamma", "sing", "unreach")
+        out.update(q3=Mux(down, -elbow, elbow), q2r=Mux(down, gamma + beta, gamma - beta),
+                   st=s["st"] | _flag(s["sing"], S.SINGULAR_ELBOW) | _flag(s["unreach"], S.UNREACHABLE))
+        return out
+
+    dp.add("shoulder", shoulder)
+    builder.unstash(dp, "q1", "q5")
+    off = k.offset_a
+
+    def minus(value, offset):
+        return value - offset if offset else value
+
+    dp.add("q2_wrap", lambda s: dict(drop(s, "q2r", "q1", "q5"), q2=_wrap(s["q2r"], k),
+                                     j1=minus(s["q1"], off[0]), j3=minus(s["q3"], off[2]),
+                                     j5=minus(s["q5"], off[4])))
+    dp.add("q4_sub", lambda s: dict(drop(s, "q2"), t=s["phi"] - s["q2"], j2=minus(s["q2"], off[1]),
+                                    j1=_wrap(s["j1"], k), j3=_wrap(s["j3"], k), j5=_wrap(s["j5"], k)))
+    dp.add("q4_wrap", lambda s: dict(drop(s, "phi"), t=_wrap(s["t"], k), j2=_wrap(s["j2"], k)))
+    dp.add("q4_sub2", lambda s: dict(drop(s, "q3"), t=s["t"] - s["q3"]))
+    if tag:
+        builder.unstash(dp, "tag")
+    if off[3]:
+        dp.add("q4_wrap2", lambda s: dict(drop(s, "t"), q4=_wrap(s["t"], k)))
+        dp.add("j4_sub", lambda s: dict(drop(s, "q4"), j4=s["q4"] - off[3]))
+        dp.add("j4_wrap", lambda s: dict(s, j4=_wrap(s["j4"], k)))
+    else:
+        # wrap(q4 - 0) == q4: q4 is already wrapped.
+        dp.add("q4_wrap2", lambda s: dict(drop(s, "t"), j4=_wrap(s["t"], k)))
+    return dp
+
+
+class IKCore(StreamBlock):
+    """The fixed-point inverse kinematics of the 5R arm, bit-exact to ``model.ik_solve``.
+
+    One pose in, one branch's joint angles and status out. The branch is chosen per pose, as in
+    the C solver's API (``ik5r_solve(..., has_roll, shoulder_back, elbow_down, q5_default_a, q)``):
+    ``shoulder_back`` puts the tool point behind joint 1 (q1 + pi, r = -rho), ``elbow_down`` takes
+    q3 = -acos(c3) (q2 = gamma + beta) instead of +acos(c3) (q2 = gamma - beta). Without roll
+    (``has_roll`` low) n and o are ignored and q5 = ``q5_default`` (wrapped).
+
+    Dataflow (docs/algorithm.md; every step is the model's, in the model's integer arithmetic):
+    select (point, or approach on the base axis) -> [atan2 theta1 || px^2 + py^2, isqrt, sat rho]
+    -> q1, r - a1 -> rotate (1, 0) by q1 -> six products: a_radial, s5, c5 -> [atan2 pitch ||
+    atan2 roll] -> phi -> rotate (a4, d5) by phi -> wrist centre (xw, yw) -> [atan2 gamma ||
+    xw^2 + yw^2 - links, clip, c3 = mul_const, clip, (1 - c3)(1 + c3), isqrt = sin q3] ->
+    [atan2(sin q3, c3) = acos || a3 sin q3, a2 + a3 c3, atan2 beta] -> q2, q3, q4 -> offsets, wrap.
+    Parallel CORDICs share stages; values needed much later are stashed in delay lines.
+
+    Payloads (W = ``constants.cfg.width``; Q m.n: n fraction bits, m + n = W):
+
+    * ``i.payload``: ``px``, ``py``, ``pz`` ``signed(W)`` Q.frac_length cm; ``ax``, ``ay``, ``az``,
+      ``nx``, ``ny``, ``nz``, ``ox``, ``oy``, ``oz`` ``signed(W)`` Q.frac_unit (nz, oz unused, as in
+      the model); ``has_roll``, ``shoulder_back``, ``elbow_down`` 1 bit; ``q5_default``
+      ``signed(W)`` Q.frac_angle rad; ``tag`` ``unsigned(tag_width)`` (only if ``tag_width``).
+      Every word is accepted (full-scale and most negative inputs give the model's result).
+    * ``o.payload``: ``q1`` .. ``q5`` ``signed(W)`` Q.frac_angle rad in [-pi, pi] (q5: the wrapped
+      default without roll); ``status`` ``unsigned(5)``, the bits of :mod:`ik5r.status`
+      (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
+
+    Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure):
+    q32 (32 iterations) 251, q18 (18 iterations) 167 (see ``latency`` for any config).
+
+    * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order; one global
+      clock enable ``o.ready | ~o.valid`` stalls the whole pipeline (``i.ready`` low) while the
+      output is held. One add/sub level (or one 17 x 17 partial product) per stage.
+    * ``"compact"``: the same datapath elaborated iteratively (``Datapath`` "iterative"): one pose
+      in flight, each iterated stage (micro-rotations, square-root digits) one register set
+      stepped once per clock, so ``cycles_per_result`` = ``latency``; a new pose is accepted when
+      idle or in the cycle the previous result leaves.
+    """
+
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0):
+        if arch not in CORE_ARCHS:
+            raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
+        dp = in_fields = out_fields = None
+        self._builder = _Builder()
+        if isinstance(constants, Constants):
+            c = constants.cfg
+            word = signed(c.width)
+            bit = unsigned(1)
+            fl, fu, fa = c.frac_length, c.frac_unit, c.frac_angle
+            in_fields = {
+                "px": (word, fl, "tool point x, cm"), "py": (word, fl, "tool point y, cm"),
+                "pz": (word, fl, "tool point z, cm"),
+                "ax": (word, fu, "approach x"), "ay": (word, fu, "approach y"),
+                "az": (word, fu, "approach z"),
+                "nx": (word, fu, "normal x (read if has_roll)"), "ny": (word, fu, "normal y"),
+                "nz": (word, fu, "normal z (unused)"),
+                "ox": (word, fu, "orientation x (read if has_roll)"), "oy": (word, fu, "orientation y"),
+                "oz": (word, fu, "orientation z (unused)"),
+                "has_roll": (bit, 0, "q5 from n, o (else q5_default)"),
+                "q5_default": (word, fa, "q5 without roll, rad"),
+                "shoulder_back": (bit, 0, "branch: tool point behind joint 1 (q1 + pi)"),
+                "elbow_down": (bit, 0, "branch: q3 = -acos(c3)"),
+            }
+            out_fields = {f"q{j}": (word, fa, f"joint {j} angle, rad, in [-pi, pi]")
+                          for j in range(1, 6)}
+            out_fields["status"] = (unsigned(STATUS_BITS), 0, "ik5r.status bits")
+            dp = _core_datapath(constants, self._builder, bool(tag_width))
+        super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
+                         tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp)
+        self.arch = arch
+        self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
+        self.options = {}
+
+    def _inputs(self, p):
+        return {"px": p.px, "py": p.py, "pz": p.pz, "ax": p.ax, "ay": p.ay, "az": p.az,
+                "nx": p.nx, "ny": p.ny, "ox": p.ox, "oy": p.oy, "roll": p.has_roll,
+                "q5d": p.q5_default, "back": p.shoulder_back, "down": p.elbow_down}
+
+    def _outputs(self, state):
+        out = {f"q{j}": state[f"j{j}"] for j in range(1, 6)}
+        out["status"] = state["st"]
+        return out
+
+    def elaborate(self, platform):
+        m = Module()
+        self._builder.reset()
+        state = self._inputs(self.i.payload)
+        if self.tag_width:
+            state["tag"] = self.i.payload.tag
+        dp_arch = "pipelined" if self.arch == "pipelined" else "iterative"
+        final = self._dp.build(m, dp_arch, state, self.i.valid, self.i.ready,
+                               self.o.valid, self.o.ready)
+        self._builder.elaborate(m, dp_arch, self.o.ready | ~self.o.valid)
+        outputs = self._outputs(final)
+        if self.tag_width:
+            outputs["tag"] = final["tag"]
+        for name in self.out_fields:
+            field = getattr(self.o.payload, name)
+            m.d.comb += field.eq(outputs[name])
+        return m
