@@ -323,7 +323,8 @@ class Scoreboard:
                 inputs = {role: int(v[index]) for role, v in self.inputs.items()}
                 self.got[index] = None
                 r.compared += 1
-                r.mismatch("x", inputs, None, problem, index)
+                want = {self.job.bind_out[role]: int(v[index]) for role, v in self.expected.items()}
+                r.mismatch("x", inputs, want, problem, index)
             else:
                 r.mismatch("x", None, None, problem)
             return
@@ -575,7 +576,7 @@ async def test_bulk(dut):
         _sig(dut, "bulk_start").value = 1
         cap = (n * ((pm.cycles_per_result or 1) + 1) * 8 + 100 * (pm.latency_cycles or 100) + 100000) * CLOCK_NS
         done = _sig(dut, "bulk_done")
-        trig = await First(RisingEdge(done), Timer(cap, unit="ns"))
+        await First(RisingEdge(done), Timer(cap, unit="ns"))
         timed_out = not int(done.value)
         _sig(dut, "bulk_start").value = 0
         await RisingEdge(clk)
@@ -583,7 +584,6 @@ async def test_bulk(dut):
         sim_seconds += time.perf_counter() - ts
         tm = time.perf_counter()
         out = _read_outputs(job.work / wrapper.OUT_FILE, len(cols))
-        del trig
         if timed_out or len(out) != n:
             results.mismatch("lost", None, None,
                              f"{len(out)} of {n} outputs (timed out: {timed_out}, in {int(_sig(dut, 'bulk_in_count').value)})")
