@@ -16,10 +16,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ik5r import reference as ref
 from ik5r.arm import load_arm
 from ik5r.firmware import model, vector
-from ik5r.fxconfig import Constants, constants, load_config, quantize
+from ik5r.firmware.vectors import Poses, edge_poses, random_poses
+from ik5r.fxconfig import Constants, constants, load_config
 from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
 CONFIGS = ("q18", "q24", "q32")
@@ -260,109 +260,36 @@ def test_sqrt_word_exhaustive_q18():
 # Poses
 
 
-def _random_poses(k: Constants, rng, count: int):
-    """Reachable poses from random joints: (p, a, n, o) words, mixed roll flags, q5 defaults."""
-    cfg = k.cfg
-    q = ref.random_joints(ARM, count, rng)
-    p, n, o, a = ref.fk(ARM, q)
-    words = [quantize(p, cfg.frac_length, cfg)[0]] + [quantize(v, cfg.frac_unit, cfg)[0] for v in (a, n, o)]
-    roll = rng.random(count) < 0.5
-    q5 = rng.integers(-k.pi_a, k.pi_a + 1, count)
-    return (*words, roll, q5)
-
-
-def _compare_poses(k, p, a, n, o, roll, q5, branches=range(4)):
-    """vector == model for every pose in each of ``branches``; returns the statuses."""
-    statuses = []
-    for b in branches:
-        back = np.full(len(p), bool(b >> 1))
-        down = np.full(len(p), bool(b & 1))
-        args = (k, p, a, n, o, roll, back, down, q5)
-        q_s, st_s = model.solve_batch(*args)
-        q_v, st_v = vector.solve_batch(*args)
-        assert q_v.dtype == np.int64 and st_v.dtype == np.int64
-        assert q_v.shape == (len(p), 5) and st_v.shape == (len(p),)
-        bad = np.flatnonzero((q_s != q_v).any(axis=1) | (st_s != st_v))
-        if bad.size:
-            i = bad[0]
-            raise AssertionError(
-                f"branch {b}: {bad.size} of {len(p)} poses differ; first {i}: p={p[i]} a={a[i]} n={n[i]} "
-                f"o={o[i]} roll={roll[i]} q5={q5[i]}: vector {q_v[i]} {st_v[i]}, model {q_s[i]} {st_s[i]}")
-        statuses.append(st_s)
-    return np.concatenate(statuses)
+def _compare_poses(k, poses: Poses) -> np.ndarray:
+    """vector == model on every pose row (branch, roll and q5 per row); returns the statuses."""
+    q_s, st_s = model.solve_batch(k, *poses.args())
+    q_v, st_v = vector.solve_batch(k, *poses.args())
+    assert q_v.dtype == np.int64 and st_v.dtype == np.int64
+    assert q_v.shape == (len(poses), 5) and st_v.shape == (len(poses),)
+    bad = np.flatnonzero((q_s != q_v).any(axis=1) | (st_s != st_v))
+    if bad.size:
+        i = bad[0]
+        raise AssertionError(
+            f"{bad.size} of {len(poses)} poses differ; first {i}: p={poses.p[i]} a={poses.a[i]} "
+            f"n={poses.n[i]} o={poses.o[i]} roll={poses.roll[i]} back={poses.back[i]} down={poses.down[i]} "
+            f"q5={poses.q5[i]}: vector {q_v[i]} {st_v[i]}, model {q_s[i]} {st_s[i]}")
+    return st_s
 
 
 @pytest.mark.parametrize("name", CONFIGS + ("q32-truncate",))
 def test_random_poses(name):
     k = _constants(name)
-    rng = np.random.default_rng(201)
-    status = _compare_poses(k, *_random_poses(k, rng, 5000))
+    status = _compare_poses(k, random_poses(k, 1250, seed=201))
     assert np.mean(status == 0) > 0.3   # the bulk of reachable poses solve cleanly
 
 
-def _edge_poses(k: Constants):
-    """Directed edge cases as (p, a, n, o) words (roll, branches and q5 are crossed later)."""
-    fl, fu = k.cfg.frac_length, k.cfg.frac_unit
-    one, lo, hi = k.one_u, k.word_min, k.word_max
-    L = lambda cm: int(round(cm * 2**fl))          # noqa: E731
-    poses = []
-    add = lambda p, a, n=(one, 0, 0), o=(0, one, 0): poses.append((p, a, n, o))   # noqa: E731
-    # Zero vectors.
-    add((0, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0))
-    add((L(10), 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0))
-    add((0, 0, 0), (0, 0, -one))
-    # Full scale: every input at the most negative word, at the largest, and mixed.
-    for v in (lo, hi):
-        add((v, v, v), (v, v, v), (v, v, v), (v, v, v))
-    add((hi, 0, hi), (0, 0, lo))                      # xw = yw = word_min (back): xw^2 + yw^2 = 2**63
-    add((lo, lo, lo), (0, 0, one))
-    add((lo, 0, 0), (one, 0, 0))
-    add((0, lo, 0), (0, lo, 0), (lo, 0, 0), (0, lo, 0))
-    add((L(12), 0, L(5)), (lo, lo, lo), (lo, lo, lo), (lo, lo, lo))
-    add((L(12), 0, L(5)), (hi, lo, 0), (0, hi, lo), (lo, 0, hi))
-    for i in range(3):                                # the most negative word in one component
-        for j in range(4):
-            pose = [[L(12), L(3), L(-5)], [0, 0, -one], [one, 0, 0], [0, one, 0]]
-            pose[j][i] = lo
-            add(*map(tuple, pose))
-    # Tool point on the base axis: vertical approach (q1 free) and horizontal ones.
-    for az in (one, -one):
-        add((0, 0, L(20)), (0, 0, az))
-    for ax, ay in ((one, 0), (-one, 0), (0, one), (0, -one), (one // 2, -one // 2), (lo, hi)):
-        add((0, 0, L(20)), (ax, ay, 0))
-    add((1, 0, L(20)), (0, 0, -one))                  # one LSB off the axis
-    add((0, -1, L(20)), (0, 0, -one))
-    # Straight and folded elbow (q3 = 0, pi) from the FK, and near them.
-    for q3 in (0.0, np.pi, -np.pi, 1e-6, np.pi - 1e-6):
-        for q2, q4 in ((0.3, -0.2), (-1.0, 0.5)):
-            p, n, o, a = ref.fk(ARM, np.array([0.7, q2, q3, q4, 0.4]))
-            add(tuple(int(v) for v in quantize(p, fl, k.cfg)[0]),
-                *(tuple(int(v) for v in quantize(x, fu, k.cfg)[0]) for x in (a, n, o)))
-    # Unreachable: far away, and the wrist centre on the shoulder axis (too close).
-    add((L(60), 0, 0), (one, 0, 0))
-    add((L(30), L(30), L(-30)), (0, 0, -one))
-    add((L(ARM.a[0] + ARM.a[3]), 0, L(ARM.d[0] - ARM.d[4])), (0, 0, -one))
-    add((0, L(ARM.a[0] + ARM.a[3]), L(ARM.d[0] - ARM.d[4])), (0, 0, -one))
-    # Approach off the arm's plane, and perpendicular to it (no direction in the plane: invalid).
-    add((L(15), 0, L(5)), (int(0.6 * one), int(0.8 * one), 0))
-    add((L(15), 0, L(5)), (0, one, 0))
-    add((L(10), L(10), L(5)), (-one // 2, one // 2, 0))
-    add((L(10), L(10), L(5)), (0, 0, 0))
-    # n, o without a component across the plane: no roll (invalid), and full-scale n, o.
-    add((L(15), 0, L(5)), (0, 0, -one), (one, 0, 0), (one, 0, 0))
-    add((L(15), 0, L(5)), (0, 0, -one), (0, 0, 0), (0, 0, 0))
-    add((L(15), 0, L(5)), (0, 0, -one), (hi, lo, hi), (lo, lo, lo))
-    return poses
-
-
 def test_edge_poses(k):
-    poses = _edge_poses(k)
-    rows = [(pose, roll, q5) for pose in poses for roll in (False, True)
-            for q5 in (0, k.pi_a, -k.pi_a, k.word_min, k.word_max)]
-    p, a, n, o = (np.array([r[0][j] for r in rows], dtype=np.int64) for j in range(4))
-    roll = np.array([r[1] for r in rows])
-    q5 = np.array([r[2] for r in rows], dtype=np.int64)
-    status = _compare_poses(k, p, a, n, o, roll, q5)
+    poses = edge_poses(k)
+    # Cross the q5 input with its extremes too.
+    q5_values = np.array([0, k.pi_a, -k.pi_a, k.word_min, k.word_max])
+    rows = np.arange(len(poses)).repeat(len(q5_values))
+    crossed = Poses(*(v[rows] for v in poses.args()[:-1]), np.tile(q5_values, len(poses)))
+    status = _compare_poses(k, crossed)
     # The edge set does reach the flags it is meant to.
     for bit in (UNREACHABLE, SINGULAR_ELBOW, SINGULAR_BASE, SATURATED, INVALID):
         assert (status & bit).any(), bit
@@ -371,11 +298,11 @@ def test_edge_poses(k):
 def test_solve_batch_interface(k):
     """n_u / o_u rows without roll are not read; words are required; empty batches work."""
     rng = np.random.default_rng(301)
-    p, a, n, o, roll, q5 = _random_poses(k, rng, 50)
-    roll[:] = False
-    back = down = np.zeros(50, dtype=bool)
+    p, a, n, o, roll, _, _, q5 = random_poses(k, 50, seed=301).args()
+    roll = np.zeros(len(p), dtype=bool)
+    back = down = np.zeros(len(p), dtype=bool)
     ref_q, ref_st = vector.solve_batch(k, p, a, n, o, roll, back, down, q5)
-    garbage = rng.integers(k.word_min, k.word_max + 1, (50, 3))
+    garbage = rng.integers(k.word_min, k.word_max + 1, (len(p), 3))
     got_q, got_st = vector.solve_batch(k, p, a, garbage, garbage, roll, back, down, q5)
     assert (got_q == ref_q).all() and (got_st == ref_st).all()
     got_q, got_st = vector.solve_batch(k, p, a, None, None, roll, back, down, q5)
@@ -390,12 +317,10 @@ def test_solve_batch_interface(k):
 
 
 def test_chunk_boundaries(k, monkeypatch):
-    rng = np.random.default_rng(302)
-    p, a, n, o, roll, q5 = _random_poses(k, rng, 1000)
-    back, down = rng.random(1000) < 0.5, rng.random(1000) < 0.5
-    full = vector.solve_batch(k, p, a, n, o, roll, back, down, q5)
+    args = random_poses(k, 125, seed=302).args()
+    full = vector.solve_batch(k, *args)
     monkeypatch.setattr(vector, "CHUNK", 77)
-    chunked = vector.solve_batch(k, p, a, n, o, roll, back, down, q5)
+    chunked = vector.solve_batch(k, *args)
     assert (full[0] == chunked[0]).all() and (full[1] == chunked[1]).all()
 
 
@@ -406,11 +331,10 @@ def test_chunk_boundaries(k, monkeypatch):
 def _scalar_poses(args):
     name, seed, count = args
     k = _constants(name)
-    rng = np.random.default_rng(seed)
-    p, a, n, o, roll, q5 = _random_poses(k, rng, count)
-    back, down = rng.random(count) < 0.5, rng.random(count) < 0.5
-    q_s, st_s = model.solve_batch(k, p, a, n, o, roll, back, down, q5)
-    q_v, st_v = vector.solve_batch(k, p, a, n, o, roll, back, down, q5)
+    # random_poses gives every pose in 8 variants (4 branches x with/without n, o).
+    args = random_poses(k, count // 8, seed=seed).args()
+    q_s, st_s = model.solve_batch(k, *args)
+    q_v, st_v = vector.solve_batch(k, *args)
     return int(((q_s != q_v).any(axis=1) | (st_s != st_v)).sum())
 
 

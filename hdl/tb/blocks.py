@@ -227,6 +227,73 @@ def _acos_err(x, got, pm, k):
     return np.abs(got["angle"] - np.arccos(c) * 2.0**k.cfg.frac_angle)
 
 
+# ---- ik (the IK core, hdl/ik_core.py) ----------------------------------------------------------
+
+def _ik_vec(x, pm, k):
+    from ik5r.hdl import ik_vectors
+    return ik_vectors.solve(k, x, V.solve_batch)
+
+
+def _ik_scalar(x, pm, k):
+    roll = bool(x["has_roll"])
+    pose = M.Pose((x["px"], x["py"], x["pz"]), (x["ax"], x["ay"], x["az"]),
+                  (x["nx"], x["ny"], x["nz"]) if roll else None,
+                  (x["ox"], x["oy"], x["oz"]) if roll else None)
+    joints, status = M.ik_solve(pose, bool(x["shoulder_back"]), bool(x["elbow_down"]),
+                                x["q5_default"], k)
+    out = {f"q{j + 1}": int(q) for j, q in enumerate(joints)}
+    out["status"] = int(status)
+    return out
+
+
+def _ik_random(rng, n, pm, k):
+    """Reachable poses (FK of random joints, all branches, with and without roll); one in ten
+    rows is random words instead (any input, saturation and invalid paths)."""
+    from ik5r.hdl import ik_vectors
+    out = ik_vectors.random_poses(k, n, rng)
+    wild = rng.random(n) < 0.1
+    for name in ik_vectors.INPUTS:
+        f = pm.i.fields[name]
+        out[name] = np.where(wild, _words(rng, n, max(f.lo, k.word_min), min(f.hi, k.word_max), k),
+                             out[name]).astype(np.int64)
+    return out
+
+
+def _ik_edges(pm, k):
+    from ik5r.hdl import ik_vectors
+    return ik_vectors.directed_poses(k)
+
+
+def _ik_err(x, got, pm, k):
+    """Joint error (LSB, worst joint) against the float reference's same branch, over the poses
+    both solve without any status bit."""
+    from ik5r.reference import ik
+    c = k.cfg
+    fl, fu, fa = c.frac_length, c.frac_unit, c.frac_angle
+    n_items = len(x["px"])
+    err = np.full(n_items, np.nan)
+    p = np.stack([x["px"], x["py"], x["pz"]], axis=1) * 2.0**-fl
+    a = np.stack([x["ax"], x["ay"], x["az"]], axis=1) * 2.0**-fu
+    nv = np.stack([x["nx"], x["ny"], x["nz"]], axis=1) * 2.0**-fu
+    ov = np.stack([x["ox"], x["oy"], x["oz"]], axis=1) * 2.0**-fu
+    branch = 2 * x["shoulder_back"] + x["elbow_down"]
+    hw = np.stack([got[f"q{j + 1}"] for j in range(5)], axis=1) * 2.0**-fa
+    for roll in (True, False):
+        rows = np.flatnonzero((x["has_roll"] != 0) == roll)
+        if not rows.size:
+            continue
+        near = np.zeros((rows.size, 5))
+        near[:, 4] = x["q5_default"][rows] * 2.0**-fa
+        res = ik(k.arm, p[rows], a[rows], nv[rows] if roll else None, ov[rows] if roll else None,
+                 near=near, singular_sin_q3=c.singular_sin_q3)
+        b = branch[rows]
+        q_ref = res.q[np.arange(rows.size), b]
+        ok = (res.status[np.arange(rows.size), b] == 0) & (got["status"][rows] == 0)
+        d = (hw[rows] - q_ref + np.pi) % (2 * np.pi) - np.pi
+        err[rows] = np.where(ok, np.abs(d).max(axis=1) * 2.0**fa, np.nan)
+    return err[~np.isnan(err)]
+
+
 BLOCKS: dict[str, BlockSpec] = {
     "atan2": BlockSpec("atan2", {"y": ("y", "y_in"), "x": ("x", "x_in")},
                        {"angle": ("angle", "angle_a", "theta", "z"), "magnitude": ("magnitude", "mag", "r"),
@@ -241,6 +308,12 @@ BLOCKS: dict[str, BlockSpec] = {
                       {"angle": ("angle", "angle_a"), "sine": ("sine", "sine_u", "sin", "s"),
                        "saturated": ("saturated", "sat", "flags")},
                       _acos_vec, _acos_scalar, _acos_random, _acos_edges, _acos_err),
+    # The IK core: fields are the roles (see ik5r.hdl.ik_vectors.INPUTS / OUTPUTS).
+    "ik": BlockSpec("ik", {name: (name,) for name in (
+                        "px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
+                        "has_roll", "q5_default", "shoulder_back", "elbow_down")},
+                    {name: (name,) for name in ("q1", "q2", "q3", "q4", "q5", "status")},
+                    _ik_vec, _ik_scalar, _ik_random, _ik_edges, _ik_err),
 }
 
 
