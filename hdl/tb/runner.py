@@ -261,7 +261,11 @@ def _merge(parts: dict) -> dict:
     n = sum(p.get("error_items", 0) for p in parts.values())
     sq = sum((p.get("rms_error_lsb") or 0.0) ** 2 * p.get("error_items", 0) for p in parts.values())
     mx = max([p["max_error_lsb"] for p in parts.values() if p.get("max_error_lsb") is not None], default=None)
-    return {"vectors": vectors, "mismatches": mism, "first_mismatch": first,
+    fields = {}
+    for p in parts.values():
+        for name, count in p.get("field_mismatches", {}).items():
+            fields[name] = fields.get(name, 0) + count
+    return {"vectors": vectors, "mismatches": mism, "first_mismatch": first, "field_mismatches": fields,
             "tag_errors": sum(p.get("tag_errors", 0) for p in parts.values()),
             "stale_outputs": sum(p.get("stale_outputs", 0) for p in parts.values()),
             "max_error_lsb": mx, "rms_error_lsb": (sq / n) ** 0.5 if n else None}

@@ -113,6 +113,7 @@ class Results:
         self.compared = 0
         self.mismatches = 0
         self.first_mismatch = None
+        self.field_mismatches = {}      # output field -> items where it differs from the model
         self.tag_errors = 0
         self.stale_outputs = 0
         self.err_max = 0.0
@@ -125,6 +126,9 @@ class Results:
         if self.first_mismatch is None:
             self.first_mismatch = {"kind": kind, "index": index, "inputs": inputs, "expected": expected, "got": got}
 
+    def count_fields(self, name: str, count: int) -> None:
+        self.field_mismatches[name] = self.field_mismatches.get(name, 0) + int(count)
+
     def errors(self, inputs, got):
         err = np.asarray(self.job.spec.float_error(inputs, got, self.job.pm, self.job.k), dtype=np.float64)
         if err.size:
@@ -134,6 +138,7 @@ class Results:
 
     def write(self, path, extra=None):
         doc = {"compared": self.compared, "mismatches": self.mismatches, "first_mismatch": self.first_mismatch,
+               "field_mismatches": {name: self.field_mismatches.get(name, 0) for name in self.job.bind_out.values()},
                "tag_errors": self.tag_errors, "stale_outputs": self.stale_outputs,
                "max_error_lsb": self.err_max if self.err_n else None,
                "rms_error_lsb": (self.err_sq / self.err_n) ** 0.5 if self.err_n else None,
@@ -340,6 +345,8 @@ class Scoreboard:
         want = {job.bind_out[role]: int(v[index]) for role, v in self.expected.items()}
         got = {name: values[name] for name in want}
         r.compared += 1
+        for name in want:
+            r.count_fields(name, got[name] != want[name])
         if got != want:
             r.mismatch("value", inputs, want, got, index)
         self.got[index] = {role: values[job.bind_out[role]] for role in self.expected}
@@ -599,7 +606,9 @@ async def test_bulk(dut):
             results.tag_errors += int(tag_bad.sum())
             bad |= tag_bad
         for role, name in job.bind_out.items():
-            bad |= got[name] != expected[role][:m]
+            field_bad = got[name] != expected[role][:m]
+            results.count_fields(name, field_bad.sum())
+            bad |= field_bad
         results.compared += m
         if bad.any():
             i = int(np.flatnonzero(bad)[0])

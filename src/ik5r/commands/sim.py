@@ -91,7 +91,7 @@ def run(args) -> int:
         "block": result["block"], "arch": result["arch"], "config": result["config"],
         "simulator": result["simulator"], "seed": args.seed,
         "vectors": result["vectors"], "mismatches": result["mismatches"],
-        "first_mismatch": result["first_mismatch"],
+        "first_mismatch": result["first_mismatch"], "field_mismatches": result["field_mismatches"],
         "tag_errors": result["tag_errors"], "stale_outputs": result["stale_outputs"],
         "max_error_lsb": result["max_error_lsb"], "rms_error_lsb": result["rms_error_lsb"],
         "latency_cycles": result["latency_cycles"], "cycles_per_result": result["cycles_per_result"],
