@@ -31,8 +31,8 @@ class Acos(StreamBlock):
     * ``o.payload.saturated``: 1 bit, set iff x was clipped.
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
-    Timing: ``latency`` = 2 + multiplier stages + (fu + 1) + 2 (rounding) + 3 + iterations + 1
-    (q32: 74 cycles; q18: 46). Throughput: ``"pipelined"`` one result per cycle;
+    Timing: ``latency`` = 2 + multiplier stages (4 up to 34-bit factors) + (fu + 1) digits
+    + 2 (rounding to nearest; 0 when truncating) + 3 + iterations + 1 (q32: 75 cycles; q18: 47). Throughput: ``"pipelined"`` one result per cycle;
     ``"iterative"`` one square-root digit or micro-rotation per cycle, one result every
     ``latency`` cycles.
 

@@ -310,10 +310,11 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
     ``specs``: list of ``(a_of, a_shape, b, out_key)``; ``a_of(state)`` gives operand a (which
     must fit ``a_shape``); ``b`` is a non-negative int constant or ``(b_of, b_shape)``.
 
-    Stage 1 forms the LIMB_BITS x LIMB_BITS partial products (one DSP each); each further stage
-    adds pairs of partial sums (one adder level), until one sum per multiplier is left under
-    ``out_key``. ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and
-    ``drop_keys`` are removed from the state at stage 1. Returns the number of stages.
+    Stage 1 registers the operands (in their shapes), stage 2 forms the LIMB_BITS x LIMB_BITS
+    partial products (one DSP each, nothing else in the stage); each further stage adds pairs of
+    partial sums (one adder level), until one sum per multiplier is left under ``out_key``.
+    ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and ``drop_keys``
+    are removed from the state at stage 1. Returns the number of stages.
     """
     trees = []
     for index, (a_of, a_shape, b, out_key) in enumerate(specs):
@@ -336,10 +337,28 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
                                   (a_lo, a_hi, a_signed), (b_of, b_lo, b_hi, b_signed)))
         trees.append((a_of, out_key, terms))
 
-    def products(state):
+    # Stage 1 registers the operands: a register next to the DSPs, so that the stage holding a
+    # DSP has only the DSP's own delay (the DSP registers themselves are not inferred).
+    for index, (_, a_shape, b, _) in enumerate(specs):
+        dp.declare(**{f"{prefix}{index}_a": a_shape})
+        if not isinstance(b, int):
+            dp.declare(**{f"{prefix}{index}_b": b[1]})
+
+    def operands(state):
         out = drop(state, *drop_keys)
-        for a_of, out_key, terms in trees:
-            a = a_of(state)
+        for index, (a_of, _, b, _) in enumerate(specs):
+            out[f"{prefix}{index}_a"] = a_of(state)
+            if not isinstance(b, int):
+                out[f"{prefix}{index}_b"] = b[0](state)
+        if parallel is not None:
+            out.update(parallel(state))
+        return out
+
+    def products(state):
+        out = dict(state)
+        for index, (_, out_key, terms) in enumerate(trees):
+            a = out.pop(f"{prefix}{index}_a")
+            b = out.pop(f"{prefix}{index}_b", None)
             if not terms:
                 out[out_key] = Const(0, 1)
             for key, _, (a_lo, a_hi, a_signed), b_part in terms:
@@ -347,16 +366,15 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
                 if isinstance(b_part, int):
                     product = a_part * Const(b_part, unsigned(b_part.bit_length()))
                 else:
-                    b_of, b_lo, b_hi, b_signed = b_part
-                    product = a_part * _slice(b_of(state), b_lo, b_hi, b_signed)
+                    _, b_lo, b_hi, b_signed = b_part
+                    product = a_part * _slice(b, b_lo, b_hi, b_signed)
                 out[key] = product
             if len(terms) == 1:
                 key, shift, _, _ = terms[0]
                 out[out_key] = out.pop(key).shift_left(shift)
-        if parallel is not None:
-            out.update(parallel(state))
         return out
 
+    dp.add(f"{prefix}_op", operands)
     dp.add(f"{prefix}_mul", products)
     # Adder tree: each level adds adjacent (by weight) pairs of terms; an odd one passes through.
     pending = {out_key: [(key, shift) for key, shift, _, _ in terms]
@@ -391,7 +409,7 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
         pending = {out_key: [(f"{group[0][0]}s", min(shift for _, shift in group))
                              for group in groups]
                    for out_key, groups in plan.items() if len(groups) > 1}
-    return 1 + depth
+    return 2 + depth
 
 
 # --- the stream block base class -----------------------------------------------------------------

@@ -153,8 +153,10 @@ class Atan2(StreamBlock):
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
     Timing: ``latency`` cycles from the input transfer to the output valid, 3 + iterations + 1
-    without the magnitude, 3 + iterations + 5 with it (at 32 bits: 36 / 40; at 18 bits: 22 /
-    26). Throughput (``cycles_per_result``): ``"pipelined"`` one result per cycle, the whole
+    without the magnitude, 3 + iterations + 6 with it (at 32 bits: 36 / 41; at 18 bits: 22 /
+    27): coarse rotation, priority encoder, normalising shift, micro-rotations, then the
+    angle rounding in parallel with the 1/K multiplier (operand register, DSP partial products,
+    two adder levels), the de-normalising shift and the magnitude rounding/saturation. Throughput (``cycles_per_result``): ``"pipelined"`` one result per cycle, the whole
     pipeline stalling while ``o`` is held; ``"iterative"`` one micro-rotation per cycle and one
     item in flight, a new item accepted when idle or as the previous result leaves: one result
     every ``latency`` cycles.
@@ -221,8 +223,10 @@ class Rotate(StreamBlock):
     * ``o.payload.saturated``: 1 bit, set iff x or y was clipped to the word range.
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
-    Timing: ``latency`` = 6 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words)
-    + iterations (at 32 bits: 40; at 18 bits: 26). Throughput: ``"pipelined"`` one result per cycle;
+    Timing: ``latency`` = 7 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words)
+    + iterations (at 32 bits: 41; at 18 bits: 27): angle compare, quadrant rotation, 1/K
+    multiplier (operand register, DSP partial products, adder levels), gain rounding,
+    micro-rotations, guard rounding, saturation. Throughput: ``"pipelined"`` one result per cycle;
     ``"iterative"`` one result every ``latency`` cycles (one micro-rotation per cycle).
 
     Parameters

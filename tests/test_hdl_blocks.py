@@ -11,6 +11,7 @@ The full-size runs are the cocotb benches (``-m sim``); this file is the fast ch
 
 from __future__ import annotations
 
+import gc
 import os
 import random
 import shutil
@@ -292,6 +293,7 @@ def test_constructor_validation():
         Sqrt(constants=k, arch="pipelined", frac=4, radicand_bits=64)
     with pytest.raises(TypeError):
         Acos(k, "pipelined")
+    gc.collect()   # the half-built components warn (UnusedElaboratable) here, not in a later test
 
 
 # --- Verilog -------------------------------------------------------------------------------------
@@ -367,3 +369,23 @@ def test_many_vectors_pipelined(cfg):
             (Acos(constants=k, arch="pipelined"), acos_cases(k, rng, count))):
         outputs, _, _ = run_stream(dut, inputs)
         _compare(inputs, expected, outputs)
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
+def test_documented_latencies():
+    """The latencies the class docstrings state (the port maps carry the same numbers)."""
+    expected = {"q18": (27, 22, 27, 16, 47), "q32": (41, 36, 41, 30, 75)}
+    for cfg, (atan2, atan2_nomag, rotate, sqrt, acos) in expected.items():
+        k = _k(cfg)
+        got = (Atan2(constants=k, arch="pipelined").latency,
+               Atan2(constants=k, arch="pipelined", magnitude=False).latency,
+               Rotate(constants=k, arch="pipelined").latency,
+               Sqrt(constants=k, arch="pipelined").latency,
+               Acos(constants=k, arch="pipelined").latency)
+        assert got == (atan2, atan2_nomag, rotate, sqrt, acos), cfg
+        for cls in (Atan2, Rotate, Sqrt, Acos):
+            dut = cls(constants=k, arch="iterative")
+            assert dut.cycles_per_result == dut.latency == cls(constants=k, arch="pipelined").latency
+    assert Sqrt(constants=_k("q32"), arch="pipelined", radicand_bits=64).latency == 34
+    del dut
+    gc.collect()   # these components are never elaborated: warn here, not in a later test

@@ -23,7 +23,7 @@ import os
 import subprocess
 import sys
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
@@ -69,7 +69,7 @@ TARGETS = {
 RESULT_FIELDS = (
     "block", "arch", "module", "config", "width", "iterations", "target", "device", "package",
     "speed_grade", "freq_target_mhz", "placer", "seed", "luts", "lut4", "carry", "ffs", "dsps",
-    "brams", "utilisation", "fmax_mhz", "timing_met", "latency_cycles", "cycles_per_result",
+    "brams", "lutram", "utilisation", "fits_device", "fmax_mhz", "timing_met", "latency_cycles", "cycles_per_result",
     "results_per_second", "latency_ns", "critical_path", "tools", "seconds", "key", "cache_dir",
     "cached",
 )
@@ -148,6 +148,18 @@ def tool_versions(target: str) -> dict:
 
 # --- the flow ------------------------------------------------------------------------------------
 
+def arch_for(block: str, arch: str) -> str:
+    """The architecture name a block takes: the IK core calls its one-pose-in-flight version
+    ``compact``, the arithmetic blocks ``iterative``; either name is accepted for either."""
+    if block == "ik":
+        return "compact" if arch == "iterative" else arch
+    return "iterative" if arch == "compact" else arch
+
+
+def archs_of(block: str) -> tuple[str, ...]:
+    return ("pipelined", "compact") if block == "ik" else ("pipelined", "iterative")
+
+
 def _hash(*parts) -> str:
     h = hashlib.sha256()
     for part in parts:
@@ -193,6 +205,18 @@ def _nextpnr_args(opts: SynthOptions) -> list[str]:
     return args
 
 
+def _overflow(log_path: Path) -> str | None:
+    """The nextpnr message saying the design does not fit the device, if that is why it failed."""
+    if not log_path.is_file():
+        return None
+    for line in log_path.read_text(errors="replace").splitlines():
+        low = line.lower()
+        if "error" in low and ("utilisation" in low or "utilization" in low or "exceed" in low
+                               or "too many" in low or "unable to place" in low):
+            return line.strip()
+    return None
+
+
 def _cell_counts(stat: dict) -> dict:
     design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
     return {str(k): int(v) for k, v in design.get("num_cells_by_type", {}).items()}
@@ -211,6 +235,8 @@ def _critical_path(report: dict) -> dict | None:
         kinds[s["type"]] = kinds.get(s["type"], 0.0) + s.get("delay", 0.0)
     compact = []
     for s in steps:
+        if not s.get("delay"):
+            continue  # zero-delay hops inside carry chains
         name = s.get("net") or f"{s['from']['cell']}.{s['from']['port']}->{s['to']['port']}"
         compact.append({"type": s["type"], "ns": round(s.get("delay", 0.0), 3), "name": name})
     return {"total_ns": round(total, 3), "logic_ns": round(kinds.get("logic", 0.0), 3),
@@ -232,6 +258,7 @@ def _figures(target: str, cells: dict, report: dict | None) -> dict:
         ffs = used.get("TRELLIS_FF", cells.get("TRELLIS_FF", 0))
         dsps = cells.get("MULT18X18D", 0) + cells.get("ALU54B", 0)
         brams = cells.get("DP16KD", 0)
+        lutram = cells.get("TRELLIS_DPR16X4", 0)
     else:
         lut4 = cells.get("SB_LUT4", 0)
         carry = cells.get("SB_CARRY", 0)
@@ -239,9 +266,10 @@ def _figures(target: str, cells: dict, report: dict | None) -> dict:
         ffs = sum(v for k, v in cells.items() if k.startswith("SB_DFF"))
         dsps = cells.get("SB_MAC16", 0)
         brams = cells.get("SB_RAM40_4K", 0)
+        lutram = 0
     fit = all(used[k] <= avail[k] for k in used) if report else None
     return {"luts": luts, "lut4": lut4, "carry": carry, "ffs": ffs, "dsps": dsps, "brams": brams,
-            "utilisation": util, "fits_device": fit, "cells": cells}
+            "lutram": lutram, "utilisation": util, "fits_device": fit, "cells": cells}
 
 
 def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | None = None, *,
@@ -255,20 +283,36 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
+    arch = arch_for(block, arch)
     k = constants(cfg)
     t0 = time.perf_counter()
     text, pmap = generate(block, arch, k, opts.tag_width)
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
     tools = tool_versions(opts.target)
-    flags = asdict(opts)
+    # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told.
+    flags = {name: value for name, value in asdict(opts).items() if name != "threads"}
     key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
-    folder = Path(cache_dir) / f"{module}_{cfg.name}_{opts.target}-{opts.device}_{key[:12]}"
+    # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
+    # shipped q32) give the same Verilog and share one run.
+    folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
     result_path = folder / "result.json"
     if result_path.is_file() and not force:
         result = json.loads(result_path.read_text())
         if result.get("key") == key:
-            result["cached"] = True
+            result.update(cached=True, config=cfg.name, iterations=cfg.iterations)
+            # Re-derive the figures from the stored tool outputs (parsing may have improved).
+            try:
+                stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
+                figures = _figures(opts.target, _cell_counts(json.loads((folder / "stat.json").read_text())), stored)
+                if result.get("pnr_error"):
+                    figures["fits_device"] = False
+                result.update(figures)
+                if stored:
+                    result["critical_path"] = _critical_path(stored)
+            except (OSError, ValueError):
+                pass
+            result.setdefault("pnr_error", None)
             say(f"{module} {cfg.name}: cached ({folder})")
             return result
     folder.mkdir(parents=True, exist_ok=True)
@@ -285,14 +329,24 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     say(f"{module} {cfg.name}: yosys done in {yosys_s:.0f} s "
         f"({cells.get('LUT4', cells.get('SB_LUT4', 0))} LUT4, "
         f"{cells.get('TRELLIS_FF', 0) or sum(v for c, v in cells.items() if c.startswith('SB_DFF'))} FF)")
-    report, pnr_s = None, None
+    report, pnr_s, pnr_error = None, None, None
     if opts.pnr:
         say(f"{module} {cfg.name}: nextpnr {opts.target} {opts.device} "
             f"{'speed ' + str(opts.speed) + ' ' if opts.speed else ''}@ {opts.freq_mhz:g} MHz ...")
-        pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
-                     folder / "nextpnr.log", folder, timeout)
-        report = json.loads((folder / "report.json").read_text())
+        try:
+            pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
+                         folder / "nextpnr.log", folder, timeout)
+        except RuntimeError:
+            overflow = _overflow(folder / "nextpnr.log")
+            if overflow is None:
+                raise
+            pnr_error = overflow
+            say(f"{module} {cfg.name}: does not fit {opts.target} {opts.device}: {overflow}")
+        else:
+            report = json.loads((folder / "report.json").read_text())
     figures = _figures(opts.target, cells, report)
+    if pnr_error:
+        figures["fits_device"] = False
     fmax = None
     if report:
         clocks = report.get("fmax", {})
@@ -312,6 +366,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "results_per_second": None if fmax is None else fmax * 1e6 / cpr,
         "latency_ns": None if fmax is None else pmap["latency_cycles"] * 1e3 / fmax,
         "critical_path": _critical_path(report) if report else None,
+        "pnr_error": pnr_error,
         "tools": tools,
         "seconds": {"generate": round(gen_seconds, 2), "yosys": round(yosys_s, 2),
                     "nextpnr": None if pnr_s is None else round(pnr_s, 2)},
@@ -329,17 +384,18 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
 def summary_row(r: dict) -> list:
     """One row of the terminal / HTML table."""
     return [r["module"], r["config"], r["luts"], r["ffs"], r["carry"], r["dsps"], r["brams"],
+            {True: "yes", False: "NO", None: "?"}[r.get("fits_device")],
             None if r["fmax_mhz"] is None else round(r["fmax_mhz"], 1), r["latency_cycles"],
             r["cycles_per_result"],
             None if r["results_per_second"] is None else r["results_per_second"] / 1e6]
 
 
-SUMMARY_HEADER = ["module", "config", "LUTs", "FFs", "carry", "DSP", "BRAM", "Fmax MHz",
+SUMMARY_HEADER = ["module", "config", "LUTs", "FFs", "carry", "DSP", "BRAM", "fits", "Fmax MHz",
                   "latency", "cycles/result", "Mresults/s"]
 
 
 def format_table(results: list[dict]) -> str:
-    rows = [[("–" if v is None else (f"{v:.3g}" if isinstance(v, float) and i == 10 else str(v)))
+    rows = [[("–" if v is None else (f"{v:.3g}" if isinstance(v, float) and i == len(SUMMARY_HEADER) - 1 else str(v)))
              for i, v in enumerate(summary_row(r))] for r in results]
     widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(SUMMARY_HEADER)]
     line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))  # noqa: E731

