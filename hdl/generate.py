@@ -21,10 +21,27 @@ from ik5r.fxconfig import Constants
 
 from .common import ARCHS
 
-__all__ = ["BLOCKS", "ARCHS", "module_name", "build", "generate", "portmap"]
+__all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
 
-#: Block names accepted by :func:`generate` and the ``ik5r verilog`` verb.
-BLOCKS = ("atan2", "rotate", "sqrt", "acos")
+#: Block names accepted by :func:`generate` and the ``ik5r verilog`` verb; ``ik`` is the IK core.
+BLOCKS = ("atan2", "rotate", "sqrt", "acos", "ik")
+#: The IK core's architectures (the arithmetic blocks have :data:`ARCHS`).
+CORE_ARCHS = ("pipelined", "compact")
+
+
+def archs_of(block: str) -> tuple[str, ...]:
+    """The architectures ``block`` comes in: (the fast one, the small one)."""
+    return CORE_ARCHS if block == "ik" else ARCHS
+
+
+def resolve_arch(block: str, arch: str) -> str:
+    """``arch`` for ``block``, where ``iterative`` and ``compact`` both name the small one."""
+    archs = archs_of(block)
+    if arch in archs:
+        return arch
+    if arch in ("iterative", "compact"):
+        return archs[1]
+    raise ValueError(f"{block}: arch must be one of {archs}, got {arch!r}")
 
 #: Version of the port-map JSON layout.
 PORTMAP_VERSION = 1
@@ -54,6 +71,9 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
     if block == "acos":
         from .acos import Acos
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
+    if block == "ik":
+        from .ik_core import IKCore
+        return IKCore(constants=constants, arch=arch, tag_width=tag_width, **options)
     raise ValueError(f"block must be one of {BLOCKS}, got {block!r}")
 
 
@@ -116,7 +136,8 @@ def portmap(component, block: str, arch: str, constants: Constants, name: str | 
         },
         "options": dict(getattr(component, "options", {})),
         "model": {"atan2": "model.cordic_atan2", "rotate": "model.cordic_rotate",
-                  "sqrt": "model.sqrt_word / model.isqrt", "acos": "model.cordic_acos"}[block],
+                  "sqrt": "model.sqrt_word / model.isqrt", "acos": "model.cordic_acos",
+                  "ik": "model.ik_solve"}[block],
         "notes": ("Handshake: a transfer happens on a rising clk edge with valid & ready high. "
                   "Output o stays valid and stable until taken. frac = null: the field takes "
                   "any format common to the fields so marked."),
@@ -130,8 +151,8 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     ``options`` go to the block's constructor (``magnitude=False`` for atan2, ``frac=`` or
     ``radicand_bits=`` for sqrt) and into the module name when given.
     """
-    if arch not in ARCHS:
-        raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+    if arch not in archs_of(block):
+        raise ValueError(f"{block}: arch must be one of {archs_of(block)}, got {arch!r}")
     name = module_name(block, arch, **options)
     component = build(block, arch, constants, tag_width, **options)
     pmap = portmap(component, block, arch, constants, name)

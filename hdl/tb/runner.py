@@ -174,6 +174,9 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below)."""
     from cocotb_tools.runner import get_runner
 
+    from ik5r.hdl.generate import resolve_arch
+
+    arch = resolve_arch(block, arch)
     sim = sim or default_simulator()
     if sim not in SIMULATORS:
         raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")

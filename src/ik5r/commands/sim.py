@@ -87,8 +87,7 @@ def run(args) -> int:
     stream_vectors = min(args.vectors, 1000) if args.stream_vectors is None else args.stream_vectors
     waves = True if args.waves else None
     t0 = time.perf_counter()
-    arch = "iterative" if args.arch == "compact" else args.arch
-    result = run_block(args.block, arch, args.config or cfg.name, sim,
+    result = run_block(args.block, args.arch, args.config or cfg.name, sim,
                        stream_vectors=stream_vectors, bulk_vectors=max(args.vectors, 1), seed=args.seed,
                        pattern=args.pattern, waves=waves, progress=not args.no_progress,
                        tag_width=args.tag_width, chunk=max(50000, args.vectors // 10))

@@ -10,8 +10,8 @@ import argparse
 import json
 from pathlib import Path
 
-BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "all")
-ARCH_CHOICES = ("pipelined", "iterative", "all")
+BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
+ARCH_CHOICES = ("pipelined", "iterative", "compact", "all")
 
 
 def _tag_width(text: str) -> int:
@@ -35,8 +35,8 @@ def register(subparsers) -> None:
     parser.add_argument("--block", choices=BLOCK_CHOICES, default="all",
                         help="block to generate (default: all)")
     parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
-                        help="pipelined (1 result/cycle) or iterative (1 step/cycle) "
-                             "(default: pipelined)")
+                        help="pipelined (1 result/cycle); iterative or compact: the small one (blocks: 1 "
+                             "step/cycle; IK core: compact); all: both (default: pipelined)")
     parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
                         help="width of the tag field carried through each block (default: 0)")
     parser.set_defaults(run=run)
@@ -44,15 +44,14 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ik5r.fxconfig import constants, load_config
-    from ik5r.hdl.generate import ARCHS, BLOCKS, generate
+    from ik5r.hdl.generate import BLOCKS, archs_of, generate, resolve_arch
 
     k = constants(load_config(args.config))
     blocks = BLOCKS if args.block == "all" else (args.block,)
-    archs = ARCHS if args.arch == "all" else (args.arch,)
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     for block in blocks:
-        for arch in archs:
+        for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
             text, pmap = generate(block, arch, k, args.tag_width)
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)
