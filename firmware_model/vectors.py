@@ -5,6 +5,10 @@ they all see the same cases: zero vectors, full-scale words (the most negative w
 the tool point on the base axis (vertical and horizontal approach), straight and folded elbow,
 unreachable (too far, too near), approach off the arm's plane and perpendicular to it, n/o with no
 component across the plane, and the seed paper's pose q = [0, -pi/2, 0, -pi/2, 0].
+
+:func:`directed_poses` is a small directed set (a few hundred rows, part of :func:`edge_poses`)
+for the runs that cannot afford the whole edge set: the HDL simulations of the IK core. The IK
+core's payload fields are the names of :data:`FIELDS` (:meth:`Poses.fields`).
 """
 
 from __future__ import annotations
@@ -15,6 +19,11 @@ import numpy as np
 
 from ik5r import reference
 from ik5r.fxconfig import Constants, quantize
+
+
+#: Field names of a pose (the IK core's input payload), in the order of :meth:`Poses.fields`.
+FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
+          "has_roll", "shoulder_back", "elbow_down", "q5_default")
 
 
 class Poses:
@@ -31,9 +40,28 @@ class Poses:
     def args(self):
         return self.p, self.a, self.n, self.o, self.roll, self.back, self.down, self.q5
 
+    def __getitem__(self, index):
+        return Poses(*(v[index] for v in self.args()))
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """int64 columns by :data:`FIELDS` name."""
+        cols = [*self.p.T, *self.a.T, *self.n.T, *self.o.T, self.roll, self.back, self.down, self.q5]
+        return {name: np.asarray(col, dtype=np.int64) for name, col in zip(FIELDS, cols)}
+
+    @classmethod
+    def from_fields(cls, f: dict[str, np.ndarray]) -> "Poses":
+        def vec(name):
+            return np.stack([f[name + axis] for axis in "xyz"], axis=1)
+        return cls(vec("p"), vec("a"), vec("n"), vec("o"), np.asarray(f["has_roll"]) != 0,
+                   np.asarray(f["shoulder_back"]) != 0, np.asarray(f["elbow_down"]) != 0, f["q5_default"])
+
     def driver_lines(self):
         cols = np.column_stack([self.p, self.a, self.n, self.o, self.roll, self.back, self.down, self.q5])
         return ["S " + " ".join(map(str, row)) for row in cols.tolist()]
+
+
+def concat(*poses: Poses) -> Poses:
+    return Poses(*(np.concatenate(cols) for cols in zip(*(p.args() for p in poses))))
 
 
 def every_branch(p, a, n, o, q5):
@@ -62,8 +90,70 @@ def random_poses(k: Constants, count: int, seed: int) -> Poses:
     return every_branch(*words, q5)
 
 
+def directed_poses(k: Constants) -> Poses:
+    """The small directed set, each pose in every branch, with and without n/o: the paper's pose
+    q = [0, -pi/2, 0, -pi/2, 0]; tool point on the base axis with vertical (q1 free) and horizontal
+    approach; nothing at all; straight and folded elbow; unreachable (too far, too close);
+    off-plane approaches; approach normal to the arm's plane and n, o with no in-plane component
+    (invalid); q5 defaults at the word limits; full-scale and most negative words."""
+    c = k.cfg
+    lo, hi, one = k.word_min, k.word_max, k.one_u
+    real, words = [], []    # (p, a, n, o, q5): cm / unit vectors / radians, and words
+
+    def joints(q):
+        p, n, o, a = reference.fk(k.arm, np.asarray(q, dtype=float))
+        real.append((p, a, n, o, 0.3))
+
+    def add(p, a, n=(0, 0, 0), o=(0, 0, 0), q5=0.0):
+        real.append((p, a, n, o, q5))
+
+    joints([0, -math.pi / 2, 0, -math.pi / 2, 0])
+    add((0, 0, 20), (0, 0, -1))
+    add((0, 0, 20), (0, 0, 1), (1, 0, 0), (0, 1, 0))
+    add((0, 0, 15), (1, 0, 0))
+    add((0, 0, 15), (0, -1, 0), (0, 0, 1), (1, 0, 0))
+    joints([0.3, -1.0, 0.0, 0.2, 0.1])
+    joints([-0.7, -0.5, math.pi, 0.4, -0.2])
+    joints([1.2, -1.3, 1e-4, 0.3, 0.5])
+    add((35, 0, 5), (1, 0, 0))
+    add((0.5, 0.2, 5), (0, 0, -1))
+    add((10, 10, 10), (0, 0, 1), (1, 0, 0), (0, 1, 0))
+    add((12, 5, 8), (0.6, -0.8, 0.0))
+    add((12, 0, 8), (0, 1, 0), (1, 0, 0), (0, 0, 1))
+    add((12, 0, 8), (0.3, 0.9, -0.3), (0.2, 0.1, 0.9), (0.9, -0.3, 0.1))
+    add((-7, -9, 3), (-0.5, -0.5, -0.7))
+    add((12, 0, 8), (1, 0, 0), (0, 1, 0), (0, 1, 0))
+    p1 = (1 << c.frac_length, 2 << c.frac_length, 3 << c.frac_length)
+    words += [((0, 0, 0),) * 4 + (0,), (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), hi),
+              (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), lo),
+              ((lo,) * 3,) * 4 + (lo,), ((hi,) * 3,) * 4 + (hi,),
+              ((lo, hi, lo), (hi, lo, hi), (lo, hi, 0), (hi, lo, 0), lo),
+              ((hi, lo, 0), (lo, 0, hi), (0, lo, lo), (lo, 0, hi), 1),
+              ((lo, 0, hi), (0, lo, 0), (hi, hi, 0), (0, 0, lo), -1),
+              ((0, lo, 0), (0, 0, lo), (lo, 0, 0), (0, lo, 0), 0),
+              ((lo, lo, 0), (1, -1, 0), (1, 0, 0), (0, 1, 0), 0),
+              ((1, 0, 0), (0, 0, 1), (0, 1, 0), (1, 0, 0), 0),
+              ((-1, -1, -1),) * 4 + (-1,)]
+    rng = np.random.default_rng(99)
+    for _ in range(6):
+        w = [int(rng.choice([lo, hi, 0, 1, -1, int(rng.integers(lo, hi, endpoint=True))])) for _ in range(13)]
+        words.append((w[0:3], w[3:6], w[6:9], w[9:12], w[12]))
+    cols = [np.array([r[i] for r in real], dtype=float) for i in range(4)]
+    p_w, a_w, n_w, o_w = quantize_pose(k, *cols)
+    q5 = quantize(np.array([r[4] for r in real]), c.frac_angle, c)[0]
+    wcols = [np.array([r[i] for r in words], dtype=np.int64) for i in range(5)]
+    return every_branch(np.concatenate([p_w, wcols[0]]), np.concatenate([a_w, wcols[1]]),
+                        np.concatenate([n_w, wcols[2]]), np.concatenate([o_w, wcols[3]]),
+                        np.concatenate([q5, wcols[4]]))
+
+
 def edge_poses(k: Constants) -> Poses:
-    """Directed edge set (each pose in every branch, with and without n/o)."""
+    """Directed edge set (each pose in every branch, with and without n/o), :func:`directed_poses`
+    first."""
+    return concat(directed_poses(k), _more_edges(k))
+
+
+def _more_edges(k: Constants) -> Poses:
     arm = k.arm
     a1, a4, d1, d5 = arm.a[0], arm.a[3], arm.d[0], arm.d[4]
     real = []  # (p, a, n, o) in cm / unit vectors

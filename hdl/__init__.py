@@ -1,13 +1,10 @@
 """Amaranth hardware of the ik5r fixed-point arithmetic, bit-exact to ``firmware_model/model.py``.
 
 Blocks (each a :class:`amaranth.lib.wiring.Component` with ``i``/``o`` valid/ready streams):
-:class:`Atan2`, :class:`Rotate`, :class:`Sqrt`, :class:`Acos`; Verilog and port maps:
+:class:`ik5r.hdl.cordic.Atan2`, :class:`ik5r.hdl.cordic.Rotate`, :class:`ik5r.hdl.sqrt.Sqrt`,
+:class:`ik5r.hdl.acos.Acos`; the IK core :class:`ik5r.hdl.ik_core.IKCore`; Verilog and port maps:
 :func:`ik5r.hdl.generate.generate`.
+
+This package imports nothing itself (no Amaranth), so that the simulator's Python loads the
+testbench ``ik5r.hdl.tb.stream_tb`` quickly: import the submodules.
 """
-
-from .common import ARCHS
-from .acos import Acos
-from .cordic import Atan2, Rotate
-from .sqrt import Sqrt
-
-__all__ = ["ARCHS", "Acos", "Atan2", "Rotate", "Sqrt"]

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from ik5r.firmware import codegen, csolver, model
-from ik5r.firmware.vectors import Poses, edge_poses, random_poses
+from ik5r.firmware.vectors import Poses, concat, edge_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 
 CONFIGS = ("q32", "q24", "q18")
@@ -244,7 +244,7 @@ def test_sanitizer_driver(name):
     rows = np.array([list(map(int, line.split())) for line in out[:len(random_poses_) + len(edges)]], dtype=np.int64)
     q = np.concatenate([random_expected[0], edge_expected[0]])
     st = np.concatenate([random_expected[1], edge_expected[1]])
-    both = Poses(*(np.concatenate([a, b]) for a, b in zip(random_poses_.args(), edges.args())))
+    both = concat(random_poses_, edges)
     assert_poses_equal(both, (rows[:, :5], rows[:, 5]), (q, st), f"{name} sanitizer driver")
     pos = len(random_poses_) + len(edges)
     for fn, inputs in vectors.items():
@@ -298,10 +298,6 @@ def _reference_solve(k, poses):
     return vector.solve_batch(k, *poses.args())
 
 
-def _subset(poses, idx):
-    return Poses(*(v[idx] for v in poses.args()))
-
-
 @pytest.mark.slow
 def test_slow_million_poses(name):
     k = K(name)
@@ -318,7 +314,7 @@ def test_slow_million_poses(name):
     bad = np.flatnonzero((got[0] != expected[0]).any(axis=1) | (got[1] != expected[1]))
     if bad.size:
         # Settle every disagreement against the scalar specification.
-        sub = _subset(poses, bad)
+        sub = poses[bad]
         spec = model.solve_batch(k, *sub.args())
         assert_poses_equal(sub, (got[0][bad], got[1][bad]), spec, f"{name} slow poses (C vs scalar spec)")
         pytest.fail(f"vectorised model disagrees with the scalar model on {bad.size} poses (C is right)")

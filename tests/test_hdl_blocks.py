@@ -19,12 +19,14 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from amaranth.sim import Simulator
 
 from ik5r.firmware import model
 from ik5r.fxconfig import constants, load_config
-from ik5r.hdl import Acos, Atan2, Rotate, Sqrt
+from ik5r.hdl.acos import Acos
+from ik5r.hdl.cordic import Atan2, Rotate
+from ik5r.hdl.sqrt import Sqrt
 from ik5r.hdl.generate import BLOCKS, generate, module_name
+from ik5r.hdl.tb.amaranth_stream import compare, run_stream
 
 CONFIGS = ("q18", "q32")
 ARCHS = ("pipelined", "iterative")
@@ -126,55 +128,7 @@ def acos_cases(k, rng, count):
     return inputs, expected
 
 
-# --- the stream driver ---------------------------------------------------------------------------
-
-def run_stream(dut, inputs, *, stall_seed=None, max_cycles=None):
-    """Send ``inputs`` (dicts of field values) through ``dut``; returns
-    ``(outputs, accept_cycles, output_cycles)``. With ``stall_seed``, random input gaps and
-    output back-pressure. Also checks the stream rule: a held output does not change."""
-    fields = list(dut.out_fields)
-    outputs, accepted, produced = [], [], []
-    if max_cycles is None:
-        max_cycles = (len(inputs) + 4) * dut.cycles_per_result * (4 if stall_seed is not None else 1) \
-            + 4 * dut.latency + 100
-
-    async def bench(ctx):
-        rng = random.Random(stall_seed)
-        index, cycle, held = 0, 0, None
-        while len(outputs) < len(inputs):
-            assert cycle < max_cycles, f"timeout: {len(outputs)} of {len(inputs)} results"
-            offer = index < len(inputs) and (stall_seed is None or rng.random() >= 0.3)
-            if offer:
-                ctx.set(dut.i.payload, inputs[index])
-            ctx.set(dut.i.valid, offer)
-            take = stall_seed is None or rng.random() >= 0.4
-            ctx.set(dut.o.ready, take)
-            _, _, i_ready, o_valid, payload = await ctx.tick().sample(
-                dut.i.ready, dut.o.valid, dut.o.payload)
-            values = {name: int(getattr(payload, name)) for name in fields} if o_valid else None
-            if held is not None:
-                assert o_valid and values == held, "output changed while held"
-            held = values if o_valid and not take else None
-            if offer and i_ready:
-                accepted.append(cycle)
-                index += 1
-            if o_valid and take:
-                outputs.append(values)
-                produced.append(cycle)
-            cycle += 1
-        # Nothing more comes out.
-        ctx.set(dut.i.valid, 0)
-        ctx.set(dut.o.ready, 1)
-        for _ in range(dut.latency + 2):
-            _, _, o_valid = await ctx.tick().sample(dut.o.valid)
-            assert not o_valid, "extra output"
-
-    sim = Simulator(dut)
-    sim.add_clock(1e-8)
-    sim.add_testbench(bench)
-    sim.run()
-    return outputs, accepted, produced
-
+# --- the stream checks ---------------------------------------------------------------------------
 
 def check_block(dut, inputs, expected, tag_width=0):
     rng = random.Random(7)
@@ -183,21 +137,13 @@ def check_block(dut, inputs, expected, tag_width=0):
         expected = [dict(exp, tag=item["tag"]) for exp, item in zip(expected, inputs)]
     # Full rate: exact latency and throughput.
     outputs, accepted, produced = run_stream(dut, inputs)
-    _compare(inputs, expected, outputs)
+    compare(inputs, expected, outputs)
     assert [p - a for a, p in zip(accepted, produced)] == [dut.latency] * len(inputs)
     assert all(b - a == dut.cycles_per_result for a, b in zip(accepted, accepted[1:]))
     # Random gaps and back-pressure (fewer items: the order and the handshakes are the point).
     subset = slice(0, 120 if dut.arch == "pipelined" else 40)
     outputs, _, _ = run_stream(dut, inputs[subset], stall_seed=11)
-    _compare(inputs[subset], expected[subset], outputs)
-
-
-def _compare(inputs, expected, outputs):
-    assert len(outputs) == len(expected)
-    bad = [(i, inp, exp, out) for i, (inp, exp, out) in enumerate(zip(inputs, expected, outputs))
-           if exp != out]
-    assert not bad, f"{len(bad)} mismatches, first: item {bad[0][0]} in {bad[0][1]} " \
-                    f"model {bad[0][2]} hdl {bad[0][3]}"
+    compare(inputs[subset], expected[subset], outputs)
 
 
 def _count(arch):
@@ -368,7 +314,7 @@ def test_many_vectors_pipelined(cfg):
             (Sqrt(constants=k, arch="pipelined"), sqrt_cases(k, rng, count, k.cfg.frac_length)),
             (Acos(constants=k, arch="pipelined"), acos_cases(k, rng, count))):
         outputs, _, _ = run_stream(dut, inputs)
-        _compare(inputs, expected, outputs)
+        compare(inputs, expected, outputs)
 
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")

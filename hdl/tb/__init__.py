@@ -2,7 +2,6 @@
 
 - :mod:`.portmap`  port map JSON -> ports, payload fields, packing / unpacking
 - :mod:`.blocks`   per-block reference models (bit-accurate), float references, edge sets
-- :mod:`.vecmodel` numpy versions of the model's block functions (checked against the scalar model)
 - :mod:`.wrapper`  generated Verilog wrapper: cocotb-driven stream ports + a fast bulk mode
 - :mod:`.stream_tb` the cocotb test module (Driver, Monitor, back-pressure, reset, scoreboard)
 - :mod:`.runner`   build and run through ``cocotb_tools.runner``

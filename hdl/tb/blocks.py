@@ -18,12 +18,10 @@ from typing import Callable
 import numpy as np
 
 from ik5r.firmware import model as M
+from ik5r.firmware import vector as V
+from ik5r.firmware import vectors
 from ik5r.fxconfig import Constants
 
-try:        # the project's vectorised model when present, else the testbench's own numpy version
-    from ik5r.firmware import vector as V
-except ImportError:     # pragma: no cover
-    from . import vecmodel as V
 from .portmap import PortMap
 
 Arrays = dict[str, np.ndarray]
@@ -192,7 +190,6 @@ def _sqrt_err(x, got, pm, k):
     ok = x["x"] >= 0                      # error statistics over the domain only
     ref = np.sqrt(np.where(ok, x["x"], 0) * 2.0**-fr) * 2.0**fr
     return np.abs(got["root"] - ref)[ok]
-    return np.abs(got["root"] - ref)
 
 
 # ---- acos ------------------------------------------------------------------------------------
@@ -229,9 +226,20 @@ def _acos_err(x, got, pm, k):
 
 # ---- ik (the IK core, hdl/ik_core.py) ----------------------------------------------------------
 
+IK_OUTPUTS = ("q1", "q2", "q3", "q4", "q5", "status")
+
+
+def ik_outputs(k, poses: vectors.Poses, solve_batch) -> Arrays:
+    """``solve_batch`` (``model.solve_batch``, the specification, or ``vector.solve_batch``) over
+    ``poses``: the IK core's output fields."""
+    q, status = solve_batch(k, *poses.args())
+    out = {f"q{j + 1}": np.asarray(q[:, j], dtype=np.int64) for j in range(5)}
+    out["status"] = np.asarray(status, dtype=np.int64)
+    return out
+
+
 def _ik_vec(x, pm, k):
-    from ik5r.hdl import ik_vectors
-    return ik_vectors.solve(k, x, V.solve_batch)
+    return ik_outputs(k, vectors.Poses.from_fields(x), V.solve_batch)
 
 
 def _ik_scalar(x, pm, k):
@@ -249,10 +257,9 @@ def _ik_scalar(x, pm, k):
 def _ik_random(rng, n, pm, k):
     """Reachable poses (FK of random joints, all branches, with and without roll); one in ten
     rows is random words instead (any input, saturation and invalid paths)."""
-    from ik5r.hdl import ik_vectors
-    out = ik_vectors.random_poses(k, n, rng)
+    out = vectors.random_poses(k, -(-n // 8), rng)[:n].fields()
     wild = rng.random(n) < 0.1
-    for name in ik_vectors.INPUTS:
+    for name in vectors.FIELDS:
         f = pm.i.fields[name]
         out[name] = np.where(wild, _words(rng, n, max(f.lo, k.word_min), min(f.hi, k.word_max), k),
                              out[name]).astype(np.int64)
@@ -260,8 +267,7 @@ def _ik_random(rng, n, pm, k):
 
 
 def _ik_edges(pm, k):
-    from ik5r.hdl import ik_vectors
-    return ik_vectors.directed_poses(k)
+    return vectors.directed_poses(k).fields()
 
 
 def _ik_err(x, got, pm, k):
@@ -308,11 +314,9 @@ BLOCKS: dict[str, BlockSpec] = {
                       {"angle": ("angle", "angle_a"), "sine": ("sine", "sine_u", "sin", "s"),
                        "saturated": ("saturated", "sat", "flags")},
                       _acos_vec, _acos_scalar, _acos_random, _acos_edges, _acos_err),
-    # The IK core: fields are the roles (see ik5r.hdl.ik_vectors.INPUTS / OUTPUTS).
-    "ik": BlockSpec("ik", {name: (name,) for name in (
-                        "px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
-                        "has_roll", "q5_default", "shoulder_back", "elbow_down")},
-                    {name: (name,) for name in ("q1", "q2", "q3", "q4", "q5", "status")},
+    # The IK core: fields are the roles (ik5r.firmware.vectors.FIELDS, IK_OUTPUTS).
+    "ik": BlockSpec("ik", {name: (name,) for name in vectors.FIELDS},
+                    {name: (name,) for name in IK_OUTPUTS},
                     _ik_vec, _ik_scalar, _ik_random, _ik_edges, _ik_err),
 }
 

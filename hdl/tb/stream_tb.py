@@ -34,20 +34,15 @@ import time
 from collections import deque
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import _importable  # noqa: E402
+import cocotb
+import numpy as np
+from cocotb.clock import Clock
+from cocotb.triggers import ClockCycles, FallingEdge, First, ReadOnly, RisingEdge, Timer
 
-_importable.ensure(light=True)
-
-import cocotb  # noqa: E402
-import numpy as np  # noqa: E402
-from cocotb.clock import Clock  # noqa: E402
-from cocotb.triggers import ClockCycles, FallingEdge, First, ReadOnly, RisingEdge, Timer  # noqa: E402
-
-from ik5r.fxconfig import constants, load_config  # noqa: E402
-from ik5r.hdl.tb import wrapper  # noqa: E402
-from ik5r.hdl.tb.blocks import get_block  # noqa: E402
-from ik5r.hdl.tb.portmap import load_portmap  # noqa: E402
+from ik5r.fxconfig import constants, load_config
+from ik5r.hdl.tb import wrapper
+from ik5r.hdl.tb.blocks import get_block
+from ik5r.hdl.tb.portmap import load_portmap
 
 CLOCK_NS = 10
 
@@ -60,8 +55,6 @@ class Job:
         self.doc = json.loads(Path(path).read_text())
         d = self.doc
         self.pm = load_portmap(d["portmap"])
-        if d["block"] == "dummy":
-            from ik5r.hdl.tb import dummy  # noqa: F401  (registers the dummy block)
         self.spec = get_block(d["block"])
         self.k = constants(load_config(d.get("config")))
         self.seed = int(d.get("seed", 1))

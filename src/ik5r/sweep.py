@@ -44,6 +44,8 @@ from .fxconfig import FixedConfig, parse_config
 from .synth import DEFAULT_CACHE, SynthOptions, arch_for, synthesize, tool_versions
 
 DEFAULT_WIDTHS = (16, 18, 20, 24, 28, 32)
+#: LFE5U-25F capacities (nextpnr's device utilisation): would a point fit the small ECP5?
+ECP5_25K = {"luts": 24288, "ffs": 24288, "dsps": 28, "brams": 56}
 DEFAULT_POSES = 100_000
 ANGLE_GUARD_BITS = 3
 
@@ -52,7 +54,7 @@ CSV_FIELDS = (
     "guard_bits", "angle_guard_bits", "poses", "position_err_max_cm", "position_err_rms_cm",
     "joint_err_max_rad", "joint_err_rms_rad", "joint_err_max_rad_conditioned",
     "approach_err_max_rad", "fixed_flagged", "luts", "lut4", "carry", "ffs", "dsps", "brams",
-    "lutram", "fits_device", "fmax_mhz", "latency_cycles", "cycles_per_result", "results_per_second", "device",
+    "lutram", "fits_device", "fits_ecp5_25k_est", "fmax_mhz", "latency_cycles", "cycles_per_result", "results_per_second", "device",
     "speed_grade", "pareto", "synth_seconds", "error_seconds",
 )
 
@@ -415,6 +417,9 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
                           "synth_seconds", "critical_path", "cache_dir", "error"):
                     if k in syn:
                         p["synth_error" if k == "error" else k] = syn[k]
+                if syn.get("target") == "ecp5" and syn.get("luts") is not None:
+                    # Estimate from the counts (the 85k P&R packing): LUT sites, FFs, DSPs, EBRs.
+                    p["fits_ecp5_25k_est"] = all(syn[k] <= cap for k, cap in ECP5_25K.items())
                 p["error_from_cache"] = bool(err.get("from_cache"))
                 p["synth_from_cache"] = bool(syn.get("from_cache"))
                 points.append(p)

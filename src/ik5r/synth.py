@@ -217,6 +217,20 @@ def _overflow(log_path: Path) -> str | None:
     return None
 
 
+def _log_utilisation(log_path: Path) -> dict | None:
+    """``{"utilization": {cell: {"used", "available"}}}`` from nextpnr's "Device utilisation"
+    lines (written before placement, so also there when the design does not fit)."""
+    import re
+
+    util = {}
+    if log_path.is_file():
+        for line in log_path.read_text(errors="replace").splitlines():
+            m = re.match(r"Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", line)
+            if m:
+                util[m.group(1)] = {"used": int(m.group(2)), "available": int(m.group(3))}
+    return {"utilization": util} if util else None
+
+
 def _cell_counts(stat: dict) -> dict:
     design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
     return {str(k): int(v) for k, v in design.get("num_cells_by_type", {}).items()}
@@ -304,7 +318,9 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
             # Re-derive the figures from the stored tool outputs (parsing may have improved).
             try:
                 stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
-                figures = _figures(opts.target, _cell_counts(json.loads((folder / "stat.json").read_text())), stored)
+                counts = _cell_counts(json.loads((folder / "stat.json").read_text()))
+                figures = _figures(opts.target, counts, stored or (
+                    _log_utilisation(folder / "nextpnr.log") if result.get("pnr_error") else None))
                 if result.get("pnr_error"):
                     figures["fits_device"] = False
                 result.update(figures)
@@ -341,10 +357,12 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
             if overflow is None:
                 raise
             pnr_error = overflow
+            report = None
             say(f"{module} {cfg.name}: does not fit {opts.target} {opts.device}: {overflow}")
         else:
             report = json.loads((folder / "report.json").read_text())
-    figures = _figures(opts.target, cells, report)
+    figures = _figures(opts.target, cells, report or (_log_utilisation(folder / "nextpnr.log")
+                                                      if pnr_error else None))
     if pnr_error:
         figures["fits_device"] = False
     fmax = None

@@ -74,12 +74,6 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from ik5r.fxconfig import load_config
 
-    hdl_tb = Path(__file__).resolve().parents[3] / "hdl" / "tb"
-    if str(hdl_tb) not in sys.path:
-        sys.path.insert(0, str(hdl_tb))
-    import _importable
-
-    _importable.ensure()
     from ik5r.hdl.tb.runner import default_simulator, run_block
 
     cfg = load_config(args.config)          # InputError (exit 2) on a bad config

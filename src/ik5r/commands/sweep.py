@@ -44,7 +44,8 @@ def register(subparsers) -> None:
     parser.add_argument("--blocks", type=_names, default=None, metavar="B,...",
                         help="blocks to synthesise (default: ik when ik5r.hdl provides it, else atan2)")
     parser.add_argument("--archs", type=_names, default=None, metavar="A,...",
-                        help="pipelined,iterative (default: pipelined,iterative)")
+                        help="pipelined,iterative|compact (default: compact for the IK core alone, "
+                             "whose pipelined P&R takes far longer; else pipelined,iterative)")
     parser.add_argument("-o", "--output", default="build/sweep", metavar="DIR",
                         help="output folder (default: build/sweep)")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
@@ -78,7 +79,7 @@ def run(args) -> int:
     for block in blocks:
         if block not in BLOCKS:
             raise InputError("--blocks", f"block {block!r} not available (have {', '.join(BLOCKS)})")
-    archs = args.archs or ["pipelined", "iterative"]
+    archs = args.archs or (["compact"] if blocks == ["ik"] else ["pipelined", "iterative"])
     for arch in archs:
         if arch not in ("pipelined", "iterative", "compact"):
             raise InputError("--archs", f"must be pipelined, iterative or compact, got {arch!r}")
