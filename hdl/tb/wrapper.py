@@ -60,21 +60,21 @@ module {TOP} (  /*verilator public_flat_rw_on*/  // cocotb's handles: this modul
     output wire [{po - 1}:0] {o.payload},
     input  wire bulk_start,
     input  wire [31:0] bulk_count,
-    output reg  bulk_done,
-    output reg  bulk_mode,
-    output reg  [63:0] bulk_cycles,
-    output reg  [31:0] bulk_in_count,
-    output reg  [31:0] bulk_out_count
+    output reg  bulk_done = 1'b0,
+    output reg  bulk_mode = 1'b0,
+    output reg  [63:0] bulk_cycles = 64'd0,
+    output reg  [31:0] bulk_in_count = 32'd0,
+    output reg  [31:0] bulk_out_count = 32'd0
 );
     localparam PATN = {1 << PATTERN_BITS};
     wire d_i_ready, d_o_valid;
     wire [{po - 1}:0] d_o_payload;
-    reg  have;
+    reg  have = 1'b0;   // initialised here: no X at the clock edge of time 0
     reg  [{pi - 1}:0] cur, nxt;
     reg  vpat [0:PATN-1];
     reg  rpat [0:PATN-1];
     reg  [{PATTERN_BITS - 1}:0] pc;
-    reg  [31:0] count;
+    reg  [31:0] count = 32'd0;
     integer fin, fout, r;
     reg  [8*{FILE_CHARS}-1:0] fn_in, fn_out, fn_vpat, fn_rpat;
     wire b_i_valid = have & vpat[pc];
