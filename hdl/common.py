@@ -25,7 +25,7 @@ overflow in the comments of each block.
 
 from __future__ import annotations
 
-from amaranth.hdl import Array, Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
+from amaranth.hdl import Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -141,7 +141,22 @@ def table_entry(table, index):
     index = Value.cast(index)
     # Padded with zeros to every value of the index, so the mux covers all cases.
     entries = list(table) + [0] * ((1 << len(index)) - len(table))
-    return Array(Const(entry) for entry in entries)[index]
+    # A balanced tree of 2-way muxes on the index bits, not ``Array(...)[index]``: an Array becomes
+    # a ``casez`` in an ``always @*`` block in the Verilog, which reads only the (initialised)
+    # step register. Under IEEE 1800 semantics (Icarus -g2012, as cocotb builds) a declaration
+    # initialiser is no event, so that block does not run before the step first changes and the
+    # entry of step 0 is X for the first item after time 0 (yosys' dump_module trigger does not
+    # help). A mux is a continuous assignment: defined from time 0 on every simulator. (A word
+    # select of a packed constant would be one too, but its ``>>`` trips Verilator's WIDTH lint.)
+    shapes = [Const(entry).shape() for entry in entries]
+    if any(s.signed for s in shapes):       # the union of the entries' shapes, as an Array's
+        shape = signed(max(s.width + (not s.signed) for s in shapes))
+    else:
+        shape = unsigned(max(s.width for s in shapes))
+    level = [Const(entry, shape) for entry in entries]
+    for bit in range(len(index)):
+        level = [Mux(index[bit], level[j + 1], level[j]) for j in range(0, len(level), 2)]
+    return level[0]
 
 
 def drop(state, *keys):

@@ -25,7 +25,7 @@ from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.acos import Acos
 from ik5r.hdl.cordic import Atan2, Rotate
 from ik5r.hdl.sqrt import Sqrt
-from ik5r.hdl.generate import BLOCKS, generate, module_name
+from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
 from ik5r.hdl.tb.amaranth_stream import compare, run_stream
 
 CONFIGS = ("q18", "q32")
@@ -259,7 +259,7 @@ def _verilator():
 @pytest.mark.parametrize("block", BLOCKS)
 def test_verilog_deterministic(block):
     k = _k("q18")
-    for arch in ARCHS:
+    for arch in archs_of(block):
         text_a, map_a = generate(block, arch, k, 3)
         text_b, map_b = generate(block, arch, k, 3)
         assert text_a == text_b
@@ -289,7 +289,7 @@ def test_verilator_lint(cfg, tmp_path):
     variants = [(block, {}) for block in BLOCKS]
     variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
     for block, options in variants:
-        for arch in ARCHS:
+        for arch in archs_of(block):
             text, pmap = generate(block, arch, k, 2 if arch == "pipelined" else 0, **options)
             source = tmp_path / f"{pmap['module']}.v"
             source.write_text(text)

@@ -16,10 +16,11 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-
 from ik5r.firmware import model as M
 from ik5r.firmware import vector as V
 from ik5r.firmware import vectors
+
+from ik5r import status as st
 from ik5r.fxconfig import Constants
 
 from .portmap import PortMap
@@ -270,9 +271,35 @@ def _ik_edges(pm, k):
     return vectors.directed_poses(k).fields()
 
 
+#: Status bits that make a row's joint error meaningless: no exact solution (unreachable, out of
+#: the joint limits), no solution (invalid), a clipped value (saturated), or q1 free (on the base
+#: axis with a vertical approach: any q1 solves the pose). SINGULAR_ELBOW stays: it is a valid
+#: solution, only worse conditioned (the error grows near it, as the quantisation report shows).
+_IK_ERR_EXCLUDE = st.UNREACHABLE | st.INVALID | st.SATURATED | st.SINGULAR_BASE | st.OUT_OF_LIMITS
+
+#: Input quanta of slack for "a unit vector" / "in the arm's plane" (quantising an exact unit
+#: vector moves its length by < 1 quantum and its dot products by < 1.5).
+_IK_ERR_QUANTA = 4
+
+
 def _ik_err(x, got, pm, k):
-    """Joint error (LSB, worst joint) against the float reference's same branch, over the poses
-    both solve without any status bit."""
+    """Joint error (LSB of the angle format, worst joint per pose) of the core against the float64
+    reference (:func:`ik5r.reference.ik`) on the same branch, over the rows where an error means
+    something, i.e. the reachable poses the core was built for:
+
+    * well-formed input: the approach is a unit vector and, with roll, n and o are unit vectors
+      orthogonal to each other and to it, all within the input quantisation (this drops the
+      random-word rows of the stimulus and the raw-word edge rows: zero, 1-LSB, full-scale and
+      most-negative vectors, whose direction is not defined to the angle format's precision);
+    * reachable: the approach lies in the arm's plane within the quantisation of the tool point
+      and the approach (the reference's residual; a pose whose approach the solver has to project
+      is a different pose), and the reference's branch has none of the unreachable, invalid,
+      saturated, q1-free or out-of-limits bits (:data:`_IK_ERR_EXCLUDE`);
+    * the core's status has none of those bits either.
+
+    Differences are wrapped to [-pi, pi) (+pi and -pi are the same joint angle). q5 counts only
+    with roll: without n/o both sides just pass ``q5_default`` through. Returns one value per
+    kept row (the others are left out, not zero)."""
     from ik5r.reference import ik
     c = k.cfg
     fl, fu, fa = c.frac_length, c.frac_unit, c.frac_angle
@@ -282,21 +309,40 @@ def _ik_err(x, got, pm, k):
     a = np.stack([x["ax"], x["ay"], x["az"]], axis=1) * 2.0**-fu
     nv = np.stack([x["nx"], x["ny"], x["nz"]], axis=1) * 2.0**-fu
     ov = np.stack([x["ox"], x["oy"], x["oz"]], axis=1) * 2.0**-fu
+    has_roll = x["has_roll"] != 0
+    tol = _IK_ERR_QUANTA * 2.0**-fu
+
+    def unit(v):
+        return np.abs(np.linalg.norm(v, axis=1) - 1.0) <= tol
+
+    def orthogonal(u, v):
+        return np.abs(np.sum(u * v, axis=1)) <= tol
+
+    frame = unit(a) & np.where(has_roll, unit(nv) & unit(ov) & orthogonal(nv, ov) & orthogonal(nv, a)
+                               & orthogonal(ov, a), True)
+    # The arm's plane contains the base axis and the tool point: its angle is known to about one
+    # position quantum over the distance from the axis, plus the approach's own quantisation.
+    rho = np.hypot(p[:, 0], p[:, 1])
+    plane_tol = _IK_ERR_QUANTA * (2.0**-fu + 2.0**-fl / np.maximum(rho, 2.0**-fl))
+    hw_ok = (np.asarray(got["status"]) & _IK_ERR_EXCLUDE) == 0
     branch = 2 * x["shoulder_back"] + x["elbow_down"]
     hw = np.stack([got[f"q{j + 1}"] for j in range(5)], axis=1) * 2.0**-fa
     for roll in (True, False):
-        rows = np.flatnonzero((x["has_roll"] != 0) == roll)
+        rows = np.flatnonzero(has_roll == roll)
+        rows = rows[frame[rows] & hw_ok[rows]]
         if not rows.size:
             continue
         near = np.zeros((rows.size, 5))
         near[:, 4] = x["q5_default"][rows] * 2.0**-fa
         res = ik(k.arm, p[rows], a[rows], nv[rows] if roll else None, ov[rows] if roll else None,
                  near=near, singular_sin_q3=c.singular_sin_q3)
+        pick = np.arange(rows.size)
         b = branch[rows]
-        q_ref = res.q[np.arange(rows.size), b]
-        ok = (res.status[np.arange(rows.size), b] == 0) & (got["status"][rows] == 0)
-        d = (hw[rows] - q_ref + np.pi) % (2 * np.pi) - np.pi
-        err[rows] = np.where(ok, np.abs(d).max(axis=1) * 2.0**fa, np.nan)
+        q_ref = res.q[pick, b]
+        ok = ((res.status[pick, b] & _IK_ERR_EXCLUDE) == 0) & (res.residual <= plane_tol[rows])
+        d = np.abs((hw[rows] - q_ref + np.pi) % (2 * np.pi) - np.pi)
+        joints = 5 if roll else 4
+        err[rows] = np.where(ok, d[:, :joints].max(axis=1) * 2.0**fa, np.nan)
     return err[~np.isnan(err)]
 
 

@@ -453,7 +453,8 @@ async def _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order
     await tb.run_until_idle(_limit(job, 1))
     latency = tb.sb.out_cycles[-1][0] - tb.sb.out_cycles[-1][2] if tb.sb.out_cycles else None
     # 2. cycles per result: a full-rate burst.
-    burst = min(n - 1, max(32, 3 * lat + 16))
+    # At most half the items, so the random phase (with its mid-traffic reset) keeps the rest.
+    burst = min((n - 1) // 2, max(32, 3 * lat + 16))
     tb.driver.queue.extend(order[1:1 + burst])
     await tb.run_until_idle(_limit(job, burst))
     outs = [c for c, _, _ in tb.sb.out_cycles[-burst:]] if len(tb.sb.out_cycles) > burst else []

@@ -6,7 +6,8 @@ Solvers on the same poses (FK of joint vectors uniform in the limits): the float
 four branches, FK round trip included), the vectorised bit-accurate model and the C solver (batched,
 one branch each), and for comparison roboticstoolbox-python's ``ik_LM`` and ikpy's
 ``inverse_kinematics`` (numerical, one solution per pose, timed on a few poses and extrapolated).
-Ratios compare CPU times (every solver here runs on one core). The C solver's instruction count per solve comes from ``valgrind --tool=callgrind`` (the basis for
+Ratios compare CPU times (every solver here runs on one core). The cocotb bulk runs of the pipelined atan2 block and IK core on Icarus and Verilator give
+the simulation speed (every output bit checked against the model). The C solver's instruction count per solve comes from ``valgrind --tool=callgrind`` (the basis for
 a soft CPU's time per pose), next to the hardware core's cycles per pose. Timings are wall clock and
 CPU time of this process (numpy and the C run on one core), best of ``--repeat``.
 Writes bench.json and bench.md (the table) into the output folder and prints the table.
@@ -118,6 +119,25 @@ def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
             "build": "host x86-64 gcc -O2 (test_driver.c)"}
 
 
+#: (block, simulator, vectors) of the simulation benchmarks: bulk runs, every output bit checked.
+SIM_RUNS = (("atan2", "verilator", 200_000), ("atan2", "icarus", 5_000),
+            ("ik", "verilator", 20_000), ("ik", "icarus", 300))
+
+
+def simulation_speeds(config: str) -> list[dict]:
+    """Vectors/s of the cocotb bulk runs (pipelined) of a block and of the IK core on both simulators."""
+    from ik5r.hdl.tb.runner import run_block
+
+    rows = []
+    for block, sim, vectors in SIM_RUNS:
+        r = run_block(block, "pipelined", config, sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
+        rows.append({"block": block, "simulator": sim, "vectors": r["vectors"], "mismatches": r["mismatches"],
+                     "vectors_per_second": r["bulk_vectors_per_second"], "build_seconds": r["build_seconds"],
+                     "latency_cycles": r["latency_cycles_portmap"],
+                     "cycles_per_result": r["cycles_per_result_portmap"]})
+    return rows
+
+
 def _driver_lines(args) -> list[str]:
     p_l, a_u, n_u, o_u, roll, back, down, q5 = args
     return [" ".join(["S", *map(str, p_l[i]), *map(str, a_u[i]), *map(str, n_u[i]), *map(str, o_u[i]),
@@ -154,6 +174,7 @@ def run(poses: int = 1_000_000, config: str | None = None, repeat: int = 3, lm_c
                                    "poses_per_s_cpu": 1 / info["s_per_pose"], "success": info["success"]}
     sample = tuple(arg[:callgrind_count] for arg in args)
     result["c_instructions"] = callgrind_instructions(k, _driver_lines(sample))
+    result["simulation"] = simulation_speeds(k.cfg.name)
     return result
 
 
@@ -167,10 +188,17 @@ def table(result: dict) -> str:
                  for key, base in (("x_rtb_ik_LM", "rtb"), ("x_ikpy", "ikpy"))]
         lines.append(f"| {name} | {cpu} | {wall} | {ratio[0]} | {ratio[1]} |")
     ci = result.get("c_instructions")
+    core = next((r for r in result["simulation"] if r["block"] == "ik"), None)
     if ci:
         lines.append("")
         lines.append(f"C solver: {ci['instructions_per_solve']:,.0f} instructions per solve "
-                     f"(callgrind, {ci['solves']:,} solves, {ci['build']})")
+                     f"(callgrind, {ci['solves']:,} solves, {ci['build']}); hardware IK core: "
+                     f"{core['cycles_per_result']} cycle(s) per pose, latency {core['latency_cycles']} cycles")
+    lines += ["", "| cocotb simulation (pipelined) | simulator | vectors | mismatches | vectors/s | build (s) |",
+              "| --- | --- | ---: | ---: | ---: | ---: |"]
+    for r in result["simulation"]:
+        lines.append(f"| {r['block']} | {r['simulator']} | {r['vectors']:,} | {r['mismatches']} | "
+                     f"{r['vectors_per_second']:,.0f} | {r['build_seconds']:.0f} |")
     return "\n".join(lines)
 
 

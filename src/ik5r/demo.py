@@ -19,8 +19,6 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 BLOCKS = ("atan2", "rotate", "sqrt", "acos")
 
 
@@ -49,7 +47,7 @@ def main(argv=None) -> int:
     parser.add_argument("-o", "--output", default="build")
     args = parser.parse_args(argv)
 
-    from ik5r.firmware.vectors import Poses, edge_poses, random_poses
+    from ik5r.firmware.vectors import concat, edge_poses, random_poses
     from ik5r.fxconfig import constants, load_config
     from ik5r.hdl.tb.runner import run_block
     from ik5r.report import bitaccuracy, build_report
@@ -74,8 +72,7 @@ def main(argv=None) -> int:
                               stream_vectors=min(args.block_vectors, 500), bulk_vectors=args.block_vectors,
                               seed=1))
     step("C solver vs scalar model vs vectorised model")
-    rand, edges = random_poses(k, max(args.poses // 8, 1), seed=1), edge_poses(k)
-    poses = Poses(*(np.concatenate([a, b]) for a, b in zip(rand.args(), edges.args())))
+    poses = concat(random_poses(k, max(args.poses // 8, 1), seed=1), edge_poses(k))
     software = bitaccuracy.software_agreement(k, poses)
     section = bitaccuracy.section(k, software, sims)
     step(f"quantisation report on {args.report_vectors:,} poses -> {out / 'report'}")
