@@ -6,7 +6,7 @@ STAMP := $(VENV)/.ik5r-installed
 CONFIG ?= q32
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: demo test test-slow bench verilog report synth sweep simulator clean
+.PHONY: demo test test-slow bench verilog report synth sweep results simulator clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -41,6 +41,15 @@ verilog: $(STAMP)
 
 report: $(STAMP)
 	$(VENV)/bin/ik5r report --config $(CONFIG) -o build/report
+
+synth: $(STAMP)
+	$(VENV)/bin/ik5r synth --block all --arch all --config $(CONFIG)
+
+sweep: $(STAMP)
+	$(VENV)/bin/ik5r sweep -o build/sweep
+
+results: $(STAMP)
+	$(PY) -m ik5r.results
 
 clean:
 	rm -rf build sim_build .pytest_cache results.xml
