@@ -41,7 +41,9 @@ from dataclasses import asdict
 from pathlib import Path
 
 from .fxconfig import FixedConfig, parse_config
-from .synth import DEFAULT_CACHE, SynthOptions, arch_for, synthesize, tool_versions
+from .hdl.generate import resolve_arch
+
+from .synth import DEFAULT_CACHE, SynthOptions, synthesize, tool_versions
 
 DEFAULT_WIDTHS = (16, 18, 20, 24, 28, 32)
 #: LFE5U-25F capacities (nextpnr's device utilisation): would a point fit the small ECP5?
@@ -347,7 +349,7 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
         else:
             pending.append(("error", cfg.name, path, (error_task, cfg, poses, seed)))
         for block in blocks:
-            for arch in dict.fromkeys(arch_for(block, a) for a in archs):
+            for arch in dict.fromkeys(resolve_arch(block, a) for a in archs):
                 key = _key(_config_key(cfg), block, arch, opts_key, hdl_hash, tools)
                 path = cache / f"synth_{block}_{arch}_{cfg.name}_{key}.json"
                 doc = _read_cache(path)
@@ -403,7 +405,7 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
     for cfg in configs:
         err = errors.get(cfg.name, {})
         for block in blocks:
-            for arch in dict.fromkeys(arch_for(block, a) for a in archs):
+            for arch in dict.fromkeys(resolve_arch(block, a) for a in archs):
                 syn = synths.get((cfg.name, block, arch), {})
                 p = {"name": cfg.name, "block": block, "arch": arch, "width": cfg.width,
                      "frac_length": cfg.frac_length, "frac_unit": cfg.frac_unit,

@@ -148,18 +148,6 @@ def tool_versions(target: str) -> dict:
 
 # --- the flow ------------------------------------------------------------------------------------
 
-def arch_for(block: str, arch: str) -> str:
-    """The architecture name a block takes: the IK core calls its one-pose-in-flight version
-    ``compact``, the arithmetic blocks ``iterative``; either name is accepted for either."""
-    if block == "ik":
-        return "compact" if arch == "iterative" else arch
-    return "iterative" if arch == "compact" else arch
-
-
-def archs_of(block: str) -> tuple[str, ...]:
-    return ("pipelined", "compact") if block == "ik" else ("pipelined", "iterative")
-
-
 def _hash(*parts) -> str:
     h = hashlib.sha256()
     for part in parts:
@@ -293,11 +281,11 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
 
     ``log(message)`` receives progress lines (default: silent).
     """
-    from .hdl.generate import generate
+    from .hdl.generate import generate, resolve_arch
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
-    arch = arch_for(block, arch)
+    arch = resolve_arch(block, arch)
     k = constants(cfg)
     t0 = time.perf_counter()
     text, pmap = generate(block, arch, k, opts.tag_width)

@@ -60,7 +60,8 @@ def _available_blocks() -> tuple[str, ...]:
 def run(args) -> int:
     from ik5r.errors import InputError
     from ik5r.fxconfig import load_config
-    from ik5r.synth import SynthOptions, arch_for, archs_of, format_table, synthesize
+    from ik5r.hdl.generate import archs_of, resolve_arch
+    from ik5r.synth import SynthOptions, format_table, synthesize
 
     available = _available_blocks()
     if args.block == "all":
@@ -82,7 +83,7 @@ def run(args) -> int:
     results = []
     failed = 0
     for block in blocks:
-        archs = archs_of(block) if args.arch == "all" else (arch_for(block, args.arch),)
+        archs = archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),)
         for arch in archs:
             start = time.perf_counter()
             try:
