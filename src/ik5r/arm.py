@@ -8,14 +8,13 @@ vertical, joints 2-4 parallel and horizontal, joint 5 along the tool. So ``alpha
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, read_toml
 
 N_JOINTS = 5
 _ALPHA_PATTERN_DEG = (-90.0, 0.0, 0.0, -90.0, 0.0)
@@ -105,15 +104,6 @@ def parse_arm(doc: dict, path: str | Path = "<arm>") -> Arm:
 def load_arm(path: str | Path | None = None) -> Arm:
     """Load an arm TOML; ``None`` gives the arm of record."""
     if path is None:
-        text = resources.files("ik5r").joinpath("data/seed_arm.toml").read_text()
-        path = "seed_arm.toml"
-    else:
-        try:
-            text = Path(path).read_text()
-        except OSError as exc:
-            raise InputError(path, exc.strerror or str(exc)) from exc
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"not valid TOML: {exc}") from exc
-    return parse_arm(doc, path)
+        return parse_arm(read_toml("seed_arm.toml", resources.files("ik5r").joinpath("data/seed_arm.toml").read_text()),
+                         "seed_arm.toml")
+    return parse_arm(read_toml(path), path)

@@ -9,3 +9,19 @@ class InputError(ValueError):
         where = self.path if line is None else f"{self.path}:{line}"
         what = message if field is None else f"field '{field}': {message}"
         super().__init__(f"{where}: {what}")
+
+
+def read_toml(path, text: str | None = None) -> dict:
+    """Parse a TOML file (or ``text`` standing for it); errors name the file."""
+    import tomllib
+    from pathlib import Path
+
+    if text is None:
+        try:
+            text = Path(path).read_text()
+        except OSError as exc:
+            raise InputError(path, exc.strerror or str(exc)) from exc
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"not valid TOML: {exc}") from exc

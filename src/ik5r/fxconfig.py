@@ -12,13 +12,12 @@ quantity with ``n`` fraction bits stands for ``v * 2**-n`` (Q m.n with m + n = w
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
 from .arm import Arm, load_arm
-from .errors import InputError
+from .errors import InputError, read_toml
 
 MAX_WIDTH = 32
 #: Fraction bits of the CORDIC gain-compensation factor 1/K (stored below 2**31).
@@ -111,15 +110,7 @@ def load_config(path: str | Path | None = None) -> FixedConfig:
     candidate = Path(path)
     if not candidate.suffix and not candidate.is_file():
         candidate = config_dir() / f"{path}.toml"
-    try:
-        text = candidate.read_text()
-    except OSError as exc:
-        raise InputError(candidate, exc.strerror or str(exc)) from exc
-    try:
-        doc = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(candidate, f"not valid TOML: {exc}") from exc
-    return parse_config(doc, candidate)
+    return parse_config(read_toml(candidate), candidate)
 
 
 @dataclass(frozen=True)
