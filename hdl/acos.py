@@ -58,10 +58,10 @@ class Acos(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp)
 
     @staticmethod
-    def _datapath(k: Constants) -> Datapath:
+    def _datapath(k: Constants, products: str = "parallel") -> Datapath:
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
-        dp = Datapath("acos")
+        dp = Datapath("acos", products=products)
         dp.declare(ac_x=signed(width))
 
         def clip(s):

