@@ -44,7 +44,7 @@ class Acos(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
         dp = in_fields = out_fields = None
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
@@ -55,7 +55,7 @@ class Acos(StreamBlock):
                           "sine": (word, c.frac_unit, "sqrt((1 - x)(1 + x)), unit format"),
                           "saturated": (unsigned(1), 0, "x was outside [-1, 1] and clipped")}
         super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp)
+                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
     def _datapath(k: Constants, products: str = "parallel") -> Datapath:

@@ -25,17 +25,24 @@ overflow in the comments of each block.
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Const, Module, Mux, Shape, Signal, Value, signed, unsigned
+from amaranth.hdl import (ClockSignal, Cat, Const, Instance, Module, Mux, Shape, Signal, Value,
+                          ValueCastable, signed, unsigned)
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ik5r.fxconfig import Constants
 
-__all__ = ["ARCHS", "PRODUCTS", "LIMB_BITS", "Datapath", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
+__all__ = ["ARCHS", "DSPS", "PRODUCTS", "LIMB_BITS", "Datapath", "SharedStage", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
            "leading_zeros", "add_products", "table_entry", "drop"]
 
 #: The two architectures every block is available in.
 ARCHS = ("pipelined", "iterative")
+
+#: How a pipelined datapath's partial products are built: ``*`` on registers (any FPGA; Yosys
+#: maps it to a DSP without its registers), or an ECP5 ``MULT18X18D`` whose input and output
+#: registers are the two pipeline registers around the product (same latency, same bits; the
+#: DSP's multiplier no longer sits between fabric flip-flops).
+DSPS = ("generic", "ecp5")
 
 #: How a datapath multiplies (:func:`add_products`): all partial products at once, or one
 #: 18 x 18 partial product per clock step into an accumulator (one DSP per multiplier).
@@ -174,6 +181,32 @@ def drop(state, *keys):
 
 # --- the staged datapath -------------------------------------------------------------------------
 
+class SharedStage:
+    """What an iterated stage made by :meth:`Datapath.add_shared_iter` is: ``fn(unit_state, i)``
+    of the functional unit ``unit`` (with register shapes ``shapes``) on the state keys (or
+    constants) of ``binding`` (unit key -> state key | int)."""
+
+    def __init__(self, unit, fn, binding, shapes):
+        self.unit, self.fn, self.binding, self.shapes = unit, fn, dict(binding), dict(shapes)
+
+    def prefixed(self, prefix: str) -> "SharedStage":
+        return SharedStage(self.unit, self.fn, {u: prefix + k if isinstance(k, str) else k
+                                                for u, k in self.binding.items()}, self.shapes)
+
+    def stage_fn(self):
+        """The stage as a plain ``fn(state, i) -> state`` (the unit's keys bound to the state's)."""
+        def run(state, i):
+            inner = {u: state[k] if isinstance(k, str) else k for u, k in self.binding.items()}
+            result = self.fn(inner, i)
+            out = dict(state)
+            for u, k in self.binding.items():
+                if isinstance(k, str):
+                    out[k] = result[u]
+            return out
+        run.shared = self
+        return run
+
+
 class Datapath:
     """An ordered list of stages over named values; see the module docstring.
 
@@ -187,12 +220,15 @@ class Datapath:
     others in the shape of their expression (never lossy).
     """
 
-    def __init__(self, name: str, *, products: str = "parallel"):
+    def __init__(self, name: str, *, products: str = "parallel", share_units: bool = False):
         if products not in PRODUCTS:
             raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
         self.name = name
         #: How :func:`add_products` builds a multiplier in this datapath (see there).
         self.products = products
+        #: Whether the iterative build gives all stages of one functional unit
+        #: (:meth:`add_shared_iter`) one register set and one copy of its logic.
+        self.share_units = share_units
         self.stages = []
         self.shapes = {}
 
@@ -207,6 +243,15 @@ class Datapath:
         if count < 1:
             raise ValueError(f"stage {name!r}: count must be at least 1, got {count}")
         self.stages.append((name, fn, count, True))
+
+    def add_shared_iter(self, name, unit: SharedStage, count: int):
+        """``add_iter`` of a functional unit's step (see :class:`SharedStage`). Pipelined, and
+        iterative without ``share_units``: the same as ``add_iter``. Iterative with
+        ``share_units``: every stage of the same ``unit.unit`` uses one set of the unit's
+        registers and one copy of ``unit.fn`` (one item in flight, so one user at a time); the
+        other keys are not copied (their registers hold until the item leaves). A shared stage
+        must be followed by a registered, non-iterated stage, which takes its results."""
+        self.add_iter(name, unit.stage_fn(), count)
 
     def add_wiring(self, fn):
         self.stages.append(("wiring", fn, 0, False))
@@ -223,17 +268,23 @@ class Datapath:
             regs[key] = Signal(shape, name=f"{prefix}_{key}", reset_less=True)
         return regs
 
-    def build(self, m: Module, arch: str, inputs: dict, i_valid, i_ready, o_valid, o_ready) -> dict:
-        """Elaborate into ``m``; returns the final state (registers) for the output payload."""
+    def build(self, m: Module, arch: str, inputs: dict, i_valid, i_ready, o_valid, o_ready,
+              dsp: str = "generic") -> dict:
+        """Elaborate into ``m``; returns the final state (registers) for the output payload.
+        ``dsp`` (one of :data:`DSPS`) applies to the pipelined architecture."""
+        if dsp not in DSPS:
+            raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
         if arch == "pipelined":
-            return self._build_pipelined(m, inputs, i_valid, i_ready, o_valid, o_ready)
+            return self._build_pipelined(m, inputs, i_valid, i_ready, o_valid, o_ready, dsp)
         if arch == "iterative":
             return self._build_iterative(m, inputs, i_valid, i_ready, o_valid, o_ready)
         raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
 
-    def _build_pipelined(self, m, inputs, i_valid, i_ready, o_valid, o_ready):
+    def _build_pipelined(self, m, inputs, i_valid, i_ready, o_valid, o_ready, dsp):
         enable = Signal(name=f"{self.name}_enable")
         state, valid = dict(inputs), i_valid
+        # What each register of the previous stage is loaded with (for the ECP5 DSP mapping).
+        loaded = {}
         for name, fn, count, iterated in self.stages:
             if count == 0:
                 state = fn(state)
@@ -243,9 +294,16 @@ class Datapath:
                 prefix = f"{name}{step}" if iterated else name
                 regs = self._registers(prefix, out)
                 stage_valid = Signal(name=f"{prefix}_valid")
+                plain = list(regs)
+                if dsp == "ecp5":
+                    for key in regs:
+                        if isinstance(out[key], _Product) and out[key].map_ecp5(
+                                m, f"{prefix}_{key}", regs[key], loaded, enable):
+                            plain.remove(key)
                 with m.If(enable):
-                    m.d.sync += [regs[key].eq(out[key]) for key in regs]
+                    m.d.sync += [regs[key].eq(out[key]) for key in plain]
                     m.d.sync += stage_valid.eq(valid)
+                loaded = {id(regs[key]): (regs[key], out[key]) for key in regs}
                 state, valid = regs, stage_valid
         m.d.comb += [
             enable.eq(o_ready | ~valid),
@@ -261,13 +319,35 @@ class Datapath:
         load = Signal(name=f"{self.name}_accept")
         m.d.comb += load.eq(i_valid & i_ready)
         occupied, leaves = [], []
+        units = {}
+        previous_shared = False
         for name, fn, count, iterated in self.stages:
             if count == 0:
                 state = fn(state)
                 continue
             stage_valid = Signal(name=f"{name}_valid")
             leave = Signal(name=f"{name}_leave")
-            if not iterated:
+            shared = getattr(fn, "shared", None) if iterated and self.share_units else None
+            if previous_shared and (iterated or count != 1):
+                raise ValueError(f"stage {name!r} follows a shared stage: must be a registered one")
+            previous_shared = shared is not None
+            if shared is not None:
+                unit = units.get(shared.unit)
+                if unit is None:
+                    unit = units[shared.unit] = _SharedUnit(shared, count)
+                if unit.count != count or unit.shapes != shared.shapes:
+                    raise ValueError(f"stage {name!r}: unit {shared.unit!r} used with other counts/shapes")
+                inputs = {u: state[k] if isinstance(k, str) else Const(k, shared.shapes[u])
+                          for u, k in shared.binding.items()}
+                unit.users.append((load, inputs, stage_valid, leave))
+                done = stage_valid & (unit.step == count)
+                with m.If(leave):
+                    m.d.sync += stage_valid.eq(0)
+                with m.If(load):
+                    m.d.sync += stage_valid.eq(1)
+                regs = dict(state)
+                regs.update({k: unit.regs[u] for u, k in shared.binding.items() if isinstance(k, str)})
+            elif not iterated:
                 out = fn(state)
                 regs = self._registers(name, out)
                 done = stage_valid
@@ -300,6 +380,8 @@ class Datapath:
             state = regs
             load = Signal(name=f"{name}_next")
             m.d.comb += load.eq(done)
+        for unit in units.values():
+            unit.elaborate(m)
         # The last stage leaves on an output transfer; the others as soon as they are done.
         for leave, done in leaves[:-1]:
             m.d.comb += leave.eq(done)
@@ -314,7 +396,93 @@ class Datapath:
         return state
 
 
+class _SharedUnit:
+    """The registers, step counter and logic of one shared functional unit (iterative build)."""
+
+    def __init__(self, shared: SharedStage, count: int):
+        self.fn, self.count, self.shapes = shared.fn, count, shared.shapes
+        self.regs = {u: Signal(shape, name=f"unit_{shared.unit}_{u}", reset_less=True)
+                     for u, shape in shared.shapes.items()}
+        self.step = Signal(range(count + 1), name=f"unit_{shared.unit}_step")
+        self.users = []       # (load, inputs, stage_valid, leave)
+
+    def elaborate(self, m):
+        source = dict(self.regs)
+        for load, inputs, _, _ in reversed(self.users):
+            source = {u: Mux(load, inputs[u], value) if u in inputs else value
+                      for u, value in source.items()}
+        out = self.fn(source, self.step)
+        loading = Cat(*(load for load, _, _, _ in self.users)).any()
+        active = Cat(*(valid for _, _, valid, _ in self.users)).any()
+        leaving = Cat(*(leave for _, _, _, leave in self.users)).any()
+        with m.If(leaving):
+            m.d.sync += self.step.eq(0)
+        with m.If(loading):
+            m.d.sync += [self.regs[u].eq(out[u]) for u in self.regs]
+            m.d.sync += self.step.eq(1)
+        with m.Elif(active & (self.step != self.count)):
+            m.d.sync += [self.regs[u].eq(out[u]) for u in self.regs]
+            m.d.sync += self.step.eq(self.step + 1)
+
+
 # --- partial-product multipliers -----------------------------------------------------------------
+
+class _Product(ValueCastable):
+    """One partial product ``(a[a_lo:a_hi] * b_part) << shift`` of registered operands; ``b_part``
+    is a non-negative constant below 2**LIMB_BITS or a ``(b, lo, hi, signed)`` slice. As a value it
+    is that expression; :meth:`map_ecp5` builds it as a ``MULT18X18D`` instead."""
+
+    def __init__(self, a, a_range, b_part, shift):
+        self.a, self.a_range, self.b_part, self.shift = a, a_range, b_part, shift
+        a_part = _slice(a, *a_range)
+        if isinstance(b_part, int):
+            b_value = Const(b_part, unsigned(max(b_part.bit_length(), 1)))
+        else:
+            b_value = _slice(b_part[0], *b_part[1:])
+        self._value = (a_part * b_value).shift_left(shift)
+
+    def as_value(self):
+        return self._value
+
+    def shape(self):
+        return self._value.shape()
+
+    def map_ecp5(self, m, name, target, loaded, enable) -> bool:
+        """Drive ``target`` from a ``MULT18X18D`` with input and output registers (clock enable
+        ``enable``), fed by what the previous stage's registers ``a`` (and ``b``) were loaded
+        with; False (nothing built) when an operand is not such a register."""
+        if id(self.a) not in loaded:
+            return False
+        a_reg, a_next = loaded[id(self.a)]
+        a_src = Signal(a_reg.shape(), name=f"{name}_a")
+        m.d.comb += a_src.eq(a_next)
+        if isinstance(self.b_part, int):
+            b18 = Const(self.b_part, signed(LIMB_BITS + 1))
+        else:
+            b, lo, hi, is_signed = self.b_part
+            if id(b) not in loaded:
+                return False
+            b_reg, b_next = loaded[id(b)]
+            b_src = Signal(b_reg.shape(), name=f"{name}_b")
+            m.d.comb += b_src.eq(b_next)
+            b18 = _limb18(b_src, lo, hi, is_signed)
+        a18 = _limb18(a_src, *self.a_range)
+        product = Signal(signed(2 * (LIMB_BITS + 1)), name=f"{name}_p")
+        registers = {f"p_REG_{reg}_{what}": value
+                     for reg in ("INPUTA", "INPUTB", "OUTPUT")
+                     for what, value in (("CLK", "CLK0"), ("CE", "CE0"), ("RST", "RST0"))}
+        m.submodules[f"{name}_dsp"] = Instance(
+            "MULT18X18D", **registers,
+            p_REG_INPUTC_CLK="NONE", p_REG_PIPELINE_CLK="NONE", p_GSR="DISABLED",
+            p_RESETMODE="SYNC", p_SOURCEB_MODE="B_SHIFT", p_MULT_BYPASS="DISABLED",
+            **{f"i_A{bit}": a18[bit] for bit in range(LIMB_BITS + 1)},
+            **{f"i_B{bit}": b18[bit] for bit in range(LIMB_BITS + 1)},
+            i_SIGNEDA=Const(1, 1), i_SIGNEDB=Const(1, 1), i_SOURCEA=Const(0, 1), i_SOURCEB=Const(0, 1),
+            i_CLK0=ClockSignal(), i_CE0=enable, i_RST0=Const(0, 1),
+            **{f"o_P{bit}": product[bit] for bit in range(2 * (LIMB_BITS + 1))})
+        m.d.comb += target.eq(product.shift_left(self.shift))
+        return True
+
 
 def _limbs(shape: Shape):
     """Bit ranges (lo, hi, signed) of LIMB_BITS-wide slices of an operand; top one keeps sign."""
@@ -396,17 +564,14 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
             b = out.pop(f"{prefix}{index}_b", None)
             if not terms:
                 out[out_key] = Const(0, 1)
-            for key, _, (a_lo, a_hi, a_signed), b_part in terms:
-                a_part = _slice(a, a_lo, a_hi, a_signed)
-                if isinstance(b_part, int):
-                    product = a_part * Const(b_part, unsigned(b_part.bit_length()))
-                else:
-                    _, b_lo, b_hi, b_signed = b_part
-                    product = a_part * _slice(b, b_lo, b_hi, b_signed)
-                out[key] = product
+            for key, shift, a_range, b_part in terms:
+                if not isinstance(b_part, int):
+                    b_part = (b,) + b_part[1:]
+                # A single product is the result: it keeps its weight; terms of a sum get theirs
+                # in the adder tree.
+                out[key] = _Product(a, a_range, b_part, shift if len(terms) == 1 else 0)
             if len(terms) == 1:
-                key, shift, _, _ = terms[0]
-                out[out_key] = out.pop(key).shift_left(shift)
+                out[out_key] = out.pop(terms[0][0])
         return out
 
     dp.add(f"{prefix}_op", operands)
@@ -429,7 +594,7 @@ def add_products(dp: Datapath, prefix: str, specs, *, parallel=None, drop_keys=(
                     base = min(shift for _, shift in group)
                     total = None
                     for key, shift in group:
-                        term = out.pop(key).shift_left(shift - base)
+                        term = Value.cast(out.pop(key)).shift_left(shift - base)
                         total = term if total is None else total + term
                     sums.append((f"{group[0][0]}s", base, total))
                 if len(sums) == 1:
@@ -525,13 +690,17 @@ def _add_products_sequential(dp, prefix, specs, parallel, drop_keys):
 
 # --- the stream block base class -----------------------------------------------------------------
 
-def check_common(constants, arch, tag_width):
+def check_common(constants, arch, tag_width, dsp="generic"):
     if not isinstance(constants, Constants):
         raise TypeError(f"constants must be an ik5r.fxconfig.Constants, got {constants!r}")
     if arch not in ARCHS:
         raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
     if isinstance(tag_width, bool) or not isinstance(tag_width, int) or tag_width < 0:
         raise ValueError(f"tag_width must be a non-negative integer, got {tag_width!r}")
+    if dsp not in DSPS:
+        raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
+    if dsp != "generic" and arch != "pipelined":
+        raise ValueError(f"dsp={dsp!r} applies to the pipelined architecture, not {arch!r}")
 
 
 class StreamBlock(wiring.Component):
@@ -543,11 +712,16 @@ class StreamBlock(wiring.Component):
     ``_outputs(state) -> {field: value}``.
     """
 
-    def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath):
-        check_common(constants, arch, tag_width)
+    def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath,
+                 dsp="generic"):
+        check_common(constants, arch, tag_width, dsp)
         self.constants = constants
         self.arch = arch
         self.tag_width = tag_width
+        #: Multiplier mapping of the pipelined architecture, one of :data:`DSPS`.
+        self.dsp = dsp
+        if dsp != "generic":
+            self.options = dict(getattr(self, "options", {}), dsp=dsp)
         if tag_width:
             in_fields = dict(in_fields, tag=(unsigned(tag_width), 0, "carried unchanged to o.tag"))
             out_fields = dict(out_fields, tag=(unsigned(tag_width), 0, "i.tag of the same item"))
@@ -578,7 +752,7 @@ class StreamBlock(wiring.Component):
         if self.tag_width:
             state["tag"] = self.i.payload.tag
         final = self._dp.build(m, self.arch, state, self.i.valid, self.i.ready,
-                               self.o.valid, self.o.ready)
+                               self.o.valid, self.o.ready, self.dsp)
         outputs = self._outputs(final)
         if self.tag_width:
             outputs["tag"] = final["tag"]

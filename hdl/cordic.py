@@ -6,12 +6,12 @@ Bit-exact hardware of ``model.cordic_atan2`` and ``model.cordic_rotate``
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Mux, signed, unsigned
+from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 
 from ik5r.fxconfig import INV_GAIN_FRAC, Constants
 
-from .common import (Datapath, StreamBlock, add_products, add_sub, asr, drop, leading_zeros,
-                     rshift_round, saturate, table_entry)
+from .common import (Datapath, SharedStage, StreamBlock, add_products, add_sub, asr, drop,
+                     leading_zeros, rshift_round, saturate, table_entry)
 
 __all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
 
@@ -25,6 +25,51 @@ def atan2_widths(k: Constants) -> dict:
         "cz": signed((k.half_pi_z + sum(k.atan_table)).bit_length() + 2),
         "norm": unsigned((c.width - 1).bit_length()),
     }
+
+
+def rotate_z_bound(k: Constants) -> int:
+    """Bound of the rotation angle accumulator: below 2**(W-1+ag) + half_pi_z at the start, then
+    moved by at most sum(atan_table)."""
+    c = k.cfg
+    return (1 << (c.width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
+
+
+def cordic_unit(k: Constants, *, rotate: bool) -> SharedStage:
+    """The circular CORDIC micro-rotation as a functional unit, shared in the compact IK core.
+
+    Keys ``cx``, ``cy``, ``cz`` and ``rotate``: vectoring (``rotate`` 0: turn towards y = 0, by
+    the sign of y; :func:`add_atan2`) or rotation (``rotate`` 1: drive z to 0, by the sign of z;
+    :class:`Rotate`). Its registers are wide enough for both (see their bounds). With ``rotate``
+    a constant the step is exactly the vectoring or the rotation one; as a value (the shared unit)
+    both in one: direction d = rotate ? z >= 0 : y < 0, then x -+ (y >> i), y +- (x >> i),
+    z -+ step, which is each of them for its value of ``rotate``.
+    """
+    c = k.cfg
+    xy = signed(c.width + c.guard_bits + 3)
+    z_width = max(atan2_widths(k)["cz"].width, rotate_z_bound(k).bit_length() + 1)
+    shapes = {"cx": xy, "cy": xy, "cz": signed(z_width), "rotate": unsigned(1)}
+
+    def micro_rotation(s, i):
+        xs, ys, z, mode = s["cx"], s["cy"], s["cz"], s["rotate"]
+        step = table_entry(k.atan_table, i)
+        if isinstance(mode, bool):
+            if mode:
+                neg = z[-1]       # z < 0: rotate clockwise
+                return dict(s,
+                            cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
+                            cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
+                            cz=add_sub(z, step, ~neg))         # z +- step
+            down = ys[-1]     # ys < 0: rotate the other way
+            return dict(s,
+                        cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
+                        cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
+                        cz=add_sub(z, step, down))             # z -+ step
+        down = Mux(mode, ~z[-1], ys[-1])
+        return dict(s, cx=add_sub(xs, asr(ys, i), down), cy=add_sub(ys, asr(xs, i), ~down),
+                    cz=add_sub(z, step, down))
+
+    return SharedStage("cordic", micro_rotation,
+                       {"cx": "cx", "cy": "cy", "cz": "cz", "rotate": rotate}, shapes)
 
 
 def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, zero: bool):
@@ -63,23 +108,21 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         v = xs[:width] | ones_abs[:width]
         return dict(s, norm=Mux(v[width - 1], 0, leading_zeros(v[:width - 1])))
 
-    def normalise_shift(s):
-        return dict(s, cx=(s["cx"] << s["norm"]).shift_left(guard),
-                    cy=(s["cy"] << s["norm"]).shift_left(guard))
+    # The shift by norm in two stages (by its multiple of 4, then by the rest): one barrel shifter
+    # of log2(W) mux levels would be the slowest path of the block.
+    def normalise_shift_coarse(s):
+        by = Cat(Const(0, 2), s["norm"][2:])
+        return dict(s, cx=(s["cx"] << by).shift_left(guard), cy=(s["cy"] << by).shift_left(guard))
 
-    def micro_rotation(s, i):
-        xs, ys, z = s["cx"], s["cy"], s["cz"]
-        step = table_entry(k.atan_table, i)
-        down = ys[-1]     # ys < 0: rotate the other way
-        return dict(s,
-                    cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
-                    cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
-                    cz=add_sub(z, step, down))             # z -+ step
+    def normalise_shift_fine(s):
+        by = s["norm"][:2]
+        return dict(s, cx=s["cx"] << by, cy=s["cy"] << by)
 
     dp.add("at_coarse", coarse)
     dp.add("at_lzc", normalise_count)
-    dp.add("at_norm", normalise_shift)
-    dp.add_iter("at_it", micro_rotation, c.iterations)
+    dp.add("at_norm", normalise_shift_coarse)
+    dp.add("at_norm_fine", normalise_shift_fine)
+    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False), c.iterations)
 
     def angle(s):
         # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
@@ -109,9 +152,14 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
                  parallel=product_side, drop_keys=("cx", "cy", "cz", "czero"))
     shift_const = INV_GAIN_FRAC - 1 if nearest else INV_GAIN_FRAC
 
-    def denormalise(s):
-        out = drop(s, "mag_p", "norm")
-        out["mag_t"] = s["mag_p"].shift_right(shift_const) >> s["norm"]
+    def denormalise_coarse(s):
+        out = drop(s, "mag_p")
+        out["mag_t"] = s["mag_p"].shift_right(shift_const) >> Cat(Const(0, 2), s["norm"][2:])
+        return out
+
+    def denormalise_fine(s):
+        out = drop(s, "norm")
+        out["mag_t"] = s["mag_t"] >> s["norm"][:2]
         return out
 
     def round_saturate(s):
@@ -127,7 +175,8 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         out["magnitude"] = Mux(s["mzero"], 0, Mux(over, k.word_max, value[:width]))
         return out
 
-    dp.add("at_denorm", denormalise)
+    dp.add("at_denorm", denormalise_coarse)
+    dp.add("at_denorm_fine", denormalise_fine)
     dp.add("at_round", round_saturate)
 
 
@@ -173,7 +222,7 @@ class Atan2(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 magnitude: bool = True):
+                 magnitude: bool = True, dsp: str = "generic"):
         if not isinstance(magnitude, bool):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
@@ -193,7 +242,7 @@ class Atan2(StreamBlock):
         self.magnitude = magnitude
         self.options = {"magnitude": magnitude}
         super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp)
+                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     def _inputs(self, payload):
         return {"y": payload.y, "x": payload.x}
@@ -237,7 +286,7 @@ class Rotate(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
             dp = self._datapath(k)
@@ -251,7 +300,7 @@ class Rotate(StreamBlock):
         else:
             dp = in_fields = out_fields = None
         super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp)
+                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
     def _datapath(k: Constants) -> Datapath:
@@ -264,7 +313,7 @@ class Rotate(StreamBlock):
         c = k.cfg
         width, guard, nearest = c.width, c.guard_bits, c.round_nearest
         dp = Datapath("rotate")
-        z_bound = (1 << (width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
+        z_bound = rotate_z_bound(k)
         dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),
                    cz=signed(z_bound.bit_length() + 1),
                    rx=signed(width + 1), ry=signed(width + 1))
@@ -297,15 +346,6 @@ class Rotate(StreamBlock):
             out["cy"] = rshift_round(s["gy"], shift, nearest)
             return out
 
-        def micro_rotation(s, i):
-            xs, ys, z = s["cx"], s["cy"], s["cz"]
-            step = table_entry(k.atan_table, i)
-            neg = z[-1]       # z < 0: rotate clockwise
-            return dict(s,
-                        cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
-                        cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
-                        cz=add_sub(z, step, ~neg))         # z +- step
-
         def unguard(s):
             out = drop(s, "cx", "cy", "cz")
             out["ox"] = rshift_round(s["cx"], guard, nearest)
@@ -320,7 +360,7 @@ class Rotate(StreamBlock):
             return out
 
         dp.add("ro_gain_round", gain_round)
-        dp.add_iter("ro_it", micro_rotation, c.iterations)
+        dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)
         return dp

@@ -70,6 +70,9 @@ def _namespaced(chain: Datapath, prefix: str) -> Datapath:
                 inner, outer = split(s)
                 outer.update({prefix + key: value for key, value in fn(inner, i).items()})
                 return outer
+            shared = getattr(fn, "shared", None)
+            if shared is not None:
+                run.shared = shared.prefixed(prefix)
         else:
             def run(s, fn=fn):
                 inner, outer = split(s)
@@ -140,6 +143,19 @@ def _guarded(fn, count):
         return {key: value if key not in s or value is s[key] else Mux(active, value, s[key])
                 for key, value in out.items()}
     return run
+
+
+def _append_chains(dp: Datapath, name: str, *chains: Datapath) -> None:
+    """Append ``chains`` to ``dp``: side by side (see the module docstring), or one after the
+    other in a datapath that shares its functional units (the compact core: the chains' CORDIC
+    steps then run on one unit)."""
+    if not dp.share_units:
+        _append_parallel(dp, name, *chains)
+        return
+    for chain in chains:
+        dp.declare(**chain.shapes)
+        dp.stages.extend((f"{name}_{stage}", fn, count, iterated)
+                         for stage, fn, count, iterated in chain.stages)
 
 
 def _append_parallel(dp: Datapath, name: str, *chains: Datapath) -> None:
@@ -326,11 +342,12 @@ def _opposite(angle, k: Constants):
     return Mux(angle > 0, angle - k.pi_a, angle + k.pi_a)
 
 
-def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) -> Datapath:
+def _core_datapath(k: Constants, builder: _Builder, tag: bool, compact: bool) -> Datapath:
     c = k.cfg
     width, fu, nearest = c.width, c.frac_unit, c.round_nearest
     word = signed(width)
-    dp = Datapath("ik", products=products)
+    products = "sequential" if compact else "parallel"
+    dp = Datapath("ik", products=products, share_units=compact)
 
     # ---- Stage 0: joint-1 vector (the point, or the approach on the base axis); d1 - pz.
     def select(s):
@@ -359,7 +376,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) ->
         return dict(drop(s, "root"), rho=value, sat=sat)
 
     rho.add("sat", rho_sat)
-    _append_parallel(dp, "p1", _atan2_chain(k, "T1__", zero=True), _namespaced(rho, "RH__"))
+    _append_chains(dp, "p1", _atan2_chain(k, "T1__", zero=True), _namespaced(rho, "RH__"))
 
     # ---- q1 (branch), r - a1; then (c1, s1) = rotate((1, 0), q1).
     builder.unstash(dp, "back")
@@ -374,7 +391,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) ->
 
     dp.add("joint1", joint1)
     builder.stash(dp, "q1", "xa")
-    _append_parallel(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0)))
+    _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0)))
 
     # ---- a_radial = a . (c1, s1); s5, c5 = n, o . (s1, -c1): six products, sums, rounding.
     builder.unstash(dp, "ax", "ay", "nx", "ny", "ox", "oy", "roll")
@@ -404,7 +421,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) ->
     dp.add("dot_sat", dot_saturate)
 
     # ---- pitch = atan2(a_radial, az) || roll = atan2(s5, c5).
-    _append_parallel(dp, "p3", _atan2_chain(k, "PT__", zero=True), _atan2_chain(k, "Q5__", zero=True))
+    _append_chains(dp, "p3", _atan2_chain(k, "PT__", zero=True), _atan2_chain(k, "Q5__", zero=True))
     builder.unstash(dp, "q5d")
 
     def pitch(s):
@@ -419,7 +436,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) ->
     builder.stash(dp, "phi", "q5")
 
     # ---- wrist centre: (xw, yw) = sat((r - a1, d1 - pz) - R(phi) (a4, d5)).
-    _append_parallel(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l)))
+    _append_chains(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l)))
     builder.unstash(dp, "xa", "dz")
     dp.add("wrist", lambda s: dict(drop(s, "xa", "dz", "R2__x", "R2__y", "R2__saturated"),
                                    xwr=s["xa"] - s["R2__x"], ywr=s["dz"] - s["R2__y"],
@@ -472,7 +489,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) ->
     acos_tail = Datapath("acos_tail")
     acos_tail.shapes = dict(acos.shapes)
     acos_tail.stages = list(acos.stages[first_atan:])
-    _append_parallel(dp, "e1", _atan2_chain(k, "GM__", zero=False), _namespaced(el, "EL__"))
+    _append_chains(dp, "e1", _atan2_chain(k, "GM__", zero=False), _namespaced(el, "EL__"))
 
     def after_sqrt(s):
         out = drop(s, "EL__sine", "GM__angle", "EL__unreach")
@@ -508,7 +525,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, products: str) ->
         return out
 
     bt.add("bt_round", beta_round)
-    _append_parallel(dp, "e2", _namespaced(acos_tail, "EL__"),
+    _append_chains(dp, "e2", _namespaced(acos_tail, "EL__"),
                      _concat("beta", bt, _atan2_chain(k, "BT__", zero=False)))
 
     # ---- q2, q3, q4 and the joint offsets.
@@ -587,7 +604,8 @@ class IKCore(StreamBlock):
       idle or in the cycle the previous result leaves.
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
+                 dsp: str = "generic"):
         if arch not in CORE_ARCHS:
             raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
         dp = in_fields = out_fields = None
@@ -614,13 +632,13 @@ class IKCore(StreamBlock):
             out_fields = {f"q{j}": (word, fa, f"joint {j} angle, rad, in [-pi, pi]")
                           for j in range(1, 6)}
             out_fields["status"] = (unsigned(STATUS_BITS), 0, "ik5r.status bits")
-            dp = _core_datapath(constants, self._builder, bool(tag_width),
-                                "parallel" if arch == "pipelined" else "sequential")
+            dp = _core_datapath(constants, self._builder, bool(tag_width), arch == "compact")
+        self.options = {}
         super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
-                         tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp)
+                         tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,
+                         dsp=dsp)
         self.arch = arch
         self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
-        self.options = {}
 
     def _inputs(self, p):
         return {"px": p.px, "py": p.py, "pz": p.pz, "ax": p.ax, "ay": p.ay, "az": p.az,
@@ -640,7 +658,7 @@ class IKCore(StreamBlock):
             state["tag"] = self.i.payload.tag
         dp_arch = "pipelined" if self.arch == "pipelined" else "iterative"
         final = self._dp.build(m, dp_arch, state, self.i.valid, self.i.ready,
-                               self.o.valid, self.o.ready)
+                               self.o.valid, self.o.ready, self.dsp)
         self._builder.elaborate(m, dp_arch, self.o.ready | ~self.o.valid)
         outputs = self._outputs(final)
         if self.tag_width:

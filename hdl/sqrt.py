@@ -119,7 +119,7 @@ class Sqrt(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 frac: int | None = None, radicand_bits: int | None = None):
+                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = "generic"):
         dp = in_fields = out_fields = None
         if frac is not None and radicand_bits is not None:
             raise ValueError("give frac or radicand_bits, not both")
@@ -151,7 +151,7 @@ class Sqrt(StreamBlock):
         self.frac = frac
         self.radicand_bits = radicand_bits
         super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp)
+                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     def _inputs(self, payload):
         if self.radicand_bits is not None:

@@ -3,7 +3,8 @@
 Each case: block x arch x config x simulator, a cocotb-driven stream run (random idles, random
 back-pressure with long stalls, a reset in the middle of traffic, latency / cycles-per-result
 measurement) and a bulk run, each of N random vectors + the block's edge set; every output field
-bit for bit, tags for order and loss.
+bit for bit, tags for order and loss. The blocks with multipliers are also run as the ECP5 variant
+(``dsp="ecp5"``: MULT18X18D instances with their registers, simulated with hdl/sim/MULT18X18D.v).
 
 The default run keeps to a few minutes on 2 cores: every case on Icarus, and on Verilator the
 pipelined q32 case of each block plus the iterative q18 one (each Verilator case is a C++ build);
@@ -26,11 +27,17 @@ ARCHS = ("pipelined", "iterative")
 CONFIGS = ("q18", "q32")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
-CASE_KEYS = ("block", "arch", "config", "sim")     # sim_pool (conftest.py)
+CASE_KEYS = ("block", "arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
+#: Blocks with multipliers: the ones whose ECP5 variant differs.
+DSP_BLOCKS = ("atan2", "acos", "rotate")
 
 
-def _in_default(block, arch, config, sim) -> bool:
-    if FULL or sim == "icarus":
+def _in_default(block, arch, config, sim, dsp="generic") -> bool:
+    if FULL:
+        return True
+    if dsp != "generic":
+        return sim == "icarus" and config == "q32"
+    if sim == "icarus":
         return True
     return (arch, config) in (("pipelined", "q32"), ("iterative", "q18"))
 
@@ -43,24 +50,28 @@ def _sizes(arch: str) -> tuple[int, int]:
 
 
 CASES = [
-    pytest.param(b, a, c, s, id=f"{b}-{a}-{c}-{s}",
+    pytest.param(b, a, c, "generic", s, id=f"{b}-{a}-{c}-{s}",
                  marks=() if _in_default(b, a, c, s) else (pytest.mark.slow,))
     for s in SIMS for b in BLOCKS for a in ARCHS for c in CONFIGS
+] + [
+    pytest.param(b, "pipelined", c, "ecp5", s, id=f"{b}-pipelined-dspecp5-{c}-{s}",
+                 marks=() if _in_default(b, "pipelined", c, s, "ecp5") else (pytest.mark.slow,))
+    for s in SIMS for b in DSP_BLOCKS for c in CONFIGS
 ]
 
 
-def run_case(block, arch, config, sim):
+def run_case(block, arch, config, dsp, sim):
     from ik5r.hdl.tb.runner import run_block
 
     stream, bulk = _sizes(arch)
     # O0: the C++ of a Verilator build compiles ~4x faster; these runs are short.
     return run_block(block, arch, config, sim, stream_vectors=stream, bulk_vectors=bulk, seed=2024,
-                     cflags="-O0")
+                     cflags="-O0", dsp=dsp)
 
 
-@pytest.mark.parametrize("block,arch,config,sim", CASES)
-def test_block_matches_model(sim_pool, block, arch, config, sim):
-    r = sim_pool((block, arch, config, sim))
+@pytest.mark.parametrize("block,arch,config,dsp,sim", CASES)
+def test_block_matches_model(sim_pool, block, arch, config, dsp, sim):
+    r = sim_pool((block, arch, config, dsp, sim))
     stream, bulk = _sizes(arch)
     assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
     assert r["tag_errors"] == 0 and r["stale_outputs"] == 0
@@ -72,3 +83,4 @@ def test_block_matches_model(sim_pool, block, arch, config, sim):
     assert r["vectors"] == s["vectors"] + b["vectors"]
     assert r["latency_cycles"] == r["latency_cycles_portmap"]
     assert r["cycles_per_result"] == r["cycles_per_result_portmap"]
+    assert r["dsp"] == dsp

@@ -29,9 +29,9 @@ ARCHS = ("pipelined", "iterative")      # "iterative" = the core's "compact" arc
 CONFIGS = ("q18", "q32")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
-CASE_KEYS = ("arch", "config", "sim")     # sim_pool (conftest.py)
-DEFAULT = {("pipelined", "q18", "icarus"), ("pipelined", "q32", "verilator"),
-           ("iterative", "q18", "verilator")}
+CASE_KEYS = ("arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
+DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("pipelined", "q32", "generic", "verilator"),
+           ("iterative", "q18", "generic", "verilator"), ("pipelined", "q32", "ecp5", "icarus")}
 
 
 def _sizes(arch: str, sim: str) -> tuple[int, int]:
@@ -42,23 +42,28 @@ def _sizes(arch: str, sim: str) -> tuple[int, int]:
 
 
 CASES = [
-    pytest.param(a, c, s, id=f"ik-{a}-{c}-{s}",
-                 marks=() if FULL or (a, c, s) in DEFAULT else (pytest.mark.slow,))
+    pytest.param(a, c, "generic", s, id=f"ik-{a}-{c}-{s}",
+                 marks=() if FULL or (a, c, "generic", s) in DEFAULT else (pytest.mark.slow,))
     for s in SIMS for a in ARCHS for c in CONFIGS
+] + [
+    # The ECP5 variant: MULT18X18D instances (hdl/sim/MULT18X18D.v) in the pipelined core.
+    pytest.param("pipelined", c, "ecp5", s, id=f"ik-pipelined-dspecp5-{c}-{s}",
+                 marks=() if FULL or ("pipelined", c, "ecp5", s) in DEFAULT else (pytest.mark.slow,))
+    for s in SIMS for c in CONFIGS
 ]
 
 
-def run_case(arch, config, sim):
+def run_case(arch, config, dsp, sim):
     from ik5r.hdl.tb.runner import run_block
 
     stream, bulk = _sizes(arch, sim)
     return run_block("ik", arch, config, sim, stream_vectors=stream, bulk_vectors=bulk, seed=2024,
-                     cflags="-O0")
+                     cflags="-O0", dsp=dsp)
 
 
-@pytest.mark.parametrize("arch,config,sim", CASES)
-def test_core_matches_model(sim_pool, arch, config, sim):
-    r = sim_pool((arch, config, sim))
+@pytest.mark.parametrize("arch,config,dsp,sim", CASES)
+def test_core_matches_model(sim_pool, arch, config, dsp, sim):
+    r = sim_pool((arch, config, dsp, sim))
     stream, bulk = _sizes(arch, sim)
     assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
     assert r["tag_errors"] == 0 and r["stale_outputs"] == 0

@@ -53,8 +53,13 @@ def default_simulator() -> str:
     return os.environ.get("SIM", "icarus") or "icarus"
 
 
-def build_dir_for(block: str, arch: str, config: str, sim: str) -> Path:
-    return ROOT / "build" / "sim" / f"{block}_{arch}_{config}_{sim}"
+def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "generic") -> Path:
+    variant = "" if dsp == "generic" else f"_dsp{dsp}"
+    return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_{sim}"
+
+
+#: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
+PRIMITIVE_MODELS = {"ecp5": [Path(__file__).resolve().parents[1] / "sim" / "MULT18X18D.v"]}
 
 
 def _write_if_changed(path: Path, text: str) -> None:
@@ -63,14 +68,16 @@ def _write_if_changed(path: Path, text: str) -> None:
 
 
 def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
-                     portmap: str | Path | None = None, verilog: str | Path | None = None) -> tuple[Path, Path]:
+                     portmap: str | Path | None = None, verilog: str | Path | None = None,
+                     dsp: str = "generic") -> tuple[Path, Path]:
     """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, or given files)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
         from ik5r.hdl.generate import generate
-        vtext, pmdoc = generate(block, arch, constants(load_config(config)), tag_width)
+        options = {} if dsp == "generic" else {"dsp": dsp}
+        vtext, pmdoc = generate(block, arch, constants(load_config(config)), tag_width, **options)
     vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
     _write_if_changed(vpath, vtext)
     _write_if_changed(jpath, json.dumps(pmdoc, indent=1, sort_keys=True))
@@ -169,9 +176,11 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
               waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
-              cflags: str = "-O1") -> dict:
+              cflags: str = "-O1", dsp: str = "generic") -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
-    test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below)."""
+    test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
+    ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` instances, simulated with
+    ``hdl/sim/MULT18X18D.v``."""
     from cocotb_tools.runner import get_runner
 
     from ik5r.hdl.generate import resolve_arch
@@ -182,15 +191,15 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
         raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")
     cfg_name = load_config(config).name
     waves = bool(int(os.environ.get("WAVES", "0") or 0)) if waves is None else waves
-    bdir = build_dir_for(block, arch, cfg_name, sim)
+    bdir = build_dir_for(block, arch, cfg_name, sim, dsp)
     bdir.mkdir(parents=True, exist_ok=True)
     t_gen = time.perf_counter()
-    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog)
+    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp)
     pm = load_portmap(jpath)
     wpath = bdir / "src" / "ik5r_tb_top.v"
     _write_if_changed(wpath, wrapper.generate_wrapper(pm))
     t_gen = time.perf_counter() - t_gen
-    build_seconds = _build(sim, [vpath, wpath], bdir, waves, verbose, cflags)
+    build_seconds = _build(sim, [vpath, wpath, *PRIMITIVE_MODELS.get(dsp, [])], bdir, waves, verbose, cflags)
 
     work = bdir / "run"
     work.mkdir(exist_ok=True)
@@ -243,7 +252,7 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
         merged["first_mismatch"] = {"kind": "testbench", "got": f"{failed} of {tests} cocotb tests failed; "
                                     f"log: {work / 'sim.log'}"}
     return {
-        "block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed,
+        "block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed, "dsp": dsp,
         **merged,
         "latency_cycles": stream.get("latency_cycles"),
         "cycles_per_result": stream.get("cycles_per_result"),

@@ -29,15 +29,15 @@ def synth_table(build: Path) -> list[str]:
     for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
         r = json.loads(path.read_text())
         if r.get("config") in SHIPPED:
-            latest[(r["block"], r["arch"], r["config"], r["target"], r["device"])] = r
+            latest[(r["block"], r["arch"], r.get("dsp", "generic"), r["config"], r["target"], r["device"])] = r
     rows = list(latest.values())
     if not rows:
         return ["No synthesis results yet: run `ik5r synth` (see above)."]
     rows.sort(key=lambda r: (r["config"], r["block"], r["arch"]))
-    lines = ["| block | arch | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
-             "cycles/result | results/s |", "| --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines = ["| block | arch | multipliers | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
+             "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
-        lines.append(f"| {r['block']} | {r['arch']} | {r['config']} | {r['target']}-{r['device']} "
+        lines.append(f"| {r['block']} | {r['arch']} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']} "
                      f"speed {r.get('speed_grade', '–')} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "

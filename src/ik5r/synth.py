@@ -89,6 +89,7 @@ class SynthOptions:
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
+    dsp: str | None = None          # multipliers (hdl.common.DSPS); None: ecp5 on ECP5, else generic
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
@@ -105,7 +106,10 @@ class SynthOptions:
             speed = None
         if self.placer not in ("heap", "sa", "static"):
             raise InputError("--placer", f"must be heap, sa or static, got {self.placer!r}")
-        return replace(self, device=device, package=package, speed=speed)
+        dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
+        if dsp not in ("generic", self.target):
+            raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
+        return replace(self, device=device, package=package, speed=speed, dsp=dsp)
 
 
 # --- tools ---------------------------------------------------------------------------------------
@@ -288,12 +292,15 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     arch = resolve_arch(block, arch)
     k = constants(cfg)
     t0 = time.perf_counter()
-    text, pmap = generate(block, arch, k, opts.tag_width)
+    # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
+    dsp = opts.dsp if arch == "pipelined" else "generic"
+    text, pmap = generate(block, arch, k, opts.tag_width, **({} if dsp == "generic" else {"dsp": dsp}))
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
     tools = tool_versions(opts.target)
-    # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told.
-    flags = {name: value for name, value in asdict(opts).items() if name != "threads"}
+    # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
+    # is in the Verilog text already.
+    flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
     key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
     # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
     # shipped q32) give the same Verilog and share one run.
@@ -317,6 +324,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
             except (OSError, ValueError):
                 pass
             result.setdefault("pnr_error", None)
+            result.setdefault("dsp", "generic")
             say(f"{module} {cfg.name}: cached ({folder})")
             return result
     folder.mkdir(parents=True, exist_ok=True)
@@ -370,7 +378,8 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         fmax = float(entry["achieved"]) if entry else None
     cpr = pmap["cycles_per_result"]
     result = {
-        "block": block, "arch": arch, "module": module, "config": cfg.name, "width": cfg.width,
+        "block": block, "arch": arch, "dsp": dsp, "module": module, "config": cfg.name,
+        "width": cfg.width,
         "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
         "speed_grade": opts.speed, "freq_target_mhz": opts.freq_mhz, "placer": opts.placer,

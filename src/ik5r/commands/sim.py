@@ -68,6 +68,10 @@ def register(subparsers) -> None:
     parser.add_argument("--waves", action="store_true", help="record FST waves (also WAVES=1)")
     parser.add_argument("--tag-width", type=int, default=8, metavar="N", help="tag field width (default: 8)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
+                        help="multipliers of the pipelined arch: generic '*' or ECP5 MULT18X18D "
+                             "instances with their registers (simulated with hdl/sim/MULT18X18D.v) "
+                             "(default: generic)")
     parser.set_defaults(run=run)
 
 
@@ -84,12 +88,12 @@ def run(args) -> int:
     result = run_block(args.block, args.arch, args.config or cfg.name, sim,
                        stream_vectors=stream_vectors, bulk_vectors=max(args.vectors, 1), seed=args.seed,
                        pattern=args.pattern, waves=waves, progress=not args.no_progress,
-                       tag_width=args.tag_width, chunk=max(50000, args.vectors // 10))
+                       tag_width=args.tag_width, chunk=max(50000, args.vectors // 10), dsp=args.dsp)
     wall = time.perf_counter() - t0
     bulk = result.get("bulk") or {}
     doc = {
         "block": result["block"], "arch": result["arch"], "config": result["config"],
-        "simulator": result["simulator"], "seed": args.seed,
+        "simulator": result["simulator"], "seed": args.seed, "dsp": args.dsp,
         "vectors": result["vectors"], "mismatches": result["mismatches"],
         "first_mismatch": result["first_mismatch"], "field_mismatches": result["field_mismatches"],
         "tag_errors": result["tag_errors"], "stale_outputs": result["stale_outputs"],

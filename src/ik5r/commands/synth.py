@@ -42,6 +42,10 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
+    parser.add_argument("--dsp", choices=("generic", "ecp5"), default=None,
+                        help="multipliers: ECP5 MULT18X18D instances with their input and output "
+                             "registers, or generic '*' mapped by Yosys (default: ecp5 on ECP5, "
+                             "generic on iCE40)")
     parser.add_argument("--cache", default="build/synth", metavar="DIR",
                         help="cache folder (default: build/synth)")
     parser.add_argument("--force", action="store_true", help="ignore cached results")
@@ -74,7 +78,7 @@ def run(args) -> int:
     cfg = load_config(args.config)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, seed=args.seed,
-                        threads=args.threads, pnr=not args.no_pnr).resolved()
+                        threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp).resolved()
 
     def log(message):
         if not args.quiet:

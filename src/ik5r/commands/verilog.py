@@ -39,6 +39,11 @@ def register(subparsers) -> None:
                              "step/cycle; IK core: compact); all: both (default: pipelined)")
     parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
                         help="width of the tag field carried through each block (default: 0)")
+    parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
+                        help="multipliers of the pipelined arch: generic '*' (any FPGA), or ECP5 "
+                             "MULT18X18D instances using their input and output registers (module "
+                             "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
+                             "(default: generic)")
     parser.set_defaults(run=run)
 
 
@@ -52,7 +57,8 @@ def run(args) -> int:
     out_dir.mkdir(parents=True, exist_ok=True)
     for block in blocks:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
-            text, pmap = generate(block, arch, k, args.tag_width)
+            text, pmap = generate(block, arch, k, args.tag_width,
+                                  **({} if args.dsp == "generic" else {"dsp": args.dsp}))
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)
             (out_dir / f"{module}.json").write_text(json.dumps(pmap, indent=2) + "\n")
