@@ -32,7 +32,8 @@ class Acos(StreamBlock):
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
     Timing: ``latency`` = 2 + multiplier stages (4 up to 34-bit factors) + (fu + 1) digits
-    + 2 (rounding to nearest; 0 when truncating) + 3 + iterations + 1 (q32: 75 cycles; q18: 47). Throughput: ``"pipelined"`` one result per cycle;
+    + 2 (rounding to nearest; 0 when truncating) + 4 + iterations + 1 (q32: 76 cycles; q18: 48).
+    Throughput: ``"pipelined"`` one result per cycle;
     ``"iterative"`` one square-root digit or micro-rotation per cycle, one result every
     ``latency`` cycles.
 
@@ -40,6 +41,8 @@ class Acos(StreamBlock):
     ----------
     constants : Constants
     arch : ``"pipelined"`` or ``"iterative"``
+    dsp : ``"generic"`` or ``"ecp5"``
+        Multipliers of the pipelined arch (see :data:`~ik5r.hdl.common.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """

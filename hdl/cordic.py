@@ -201,11 +201,12 @@ class Atan2(StreamBlock):
     * ``o.payload.zero``: 1 bit, set iff ``x == y == 0`` (then angle = magnitude = 0).
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
-    Timing: ``latency`` cycles from the input transfer to the output valid, 3 + iterations + 1
-    without the magnitude, 3 + iterations + 6 with it (at 32 bits: 36 / 41; at 18 bits: 22 /
-    27): coarse rotation, priority encoder, normalising shift, micro-rotations, then the
-    angle rounding in parallel with the 1/K multiplier (operand register, DSP partial products,
-    two adder levels), the de-normalising shift and the magnitude rounding/saturation. Throughput (``cycles_per_result``): ``"pipelined"`` one result per cycle, the whole
+    Timing: ``latency`` cycles from the input transfer to the output valid, 4 + iterations + 1
+    without the magnitude, 4 + iterations + 7 with it (at 32 bits: 37 / 43; at 18 bits: 23 /
+    29): coarse rotation, priority encoder, normalising shift (two stages), micro-rotations,
+    then the angle rounding in parallel with the 1/K multiplier (operand register, DSP partial
+    products, two adder levels), the de-normalising shift (two stages) and the magnitude
+    rounding/saturation. Throughput (``cycles_per_result``): ``"pipelined"`` one result per cycle, the whole
     pipeline stalling while ``o`` is held; ``"iterative"`` one micro-rotation per cycle and one
     item in flight, a new item accepted when idle or as the previous result leaves: one result
     every ``latency`` cycles.
@@ -282,6 +283,9 @@ class Rotate(StreamBlock):
     ----------
     constants : Constants
     arch : ``"pipelined"`` or ``"iterative"``
+    dsp : ``"generic"`` or ``"ecp5"``
+        Pipelined arch: the partial products as ``*`` or as ECP5 ``MULT18X18D`` instances using
+        their input and output registers (see :data:`~ik5r.hdl.common.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """

@@ -592,16 +592,21 @@ class IKCore(StreamBlock):
       default without roll); ``status`` ``unsigned(5)``, the bits of :mod:`ik5r.status`
       (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
 
-    Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure):
-    q32 (32 iterations) 257, q18 (18 iterations) 173 with the current blocks (see ``latency``).
+    Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
+    see ``latency`` (pipelined: q32 259, q18 175; compact: q32 411, q18 271 cycles).
 
     * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order; one global
       clock enable ``o.ready | ~o.valid`` stalls the whole pipeline (``i.ready`` low) while the
-      output is held. One add/sub level (or one 17 x 17 partial product) per stage.
-    * ``"compact"``: the same datapath elaborated iteratively (``Datapath`` "iterative"): one pose
-      in flight, each iterated stage (micro-rotations, square-root digits) one register set
-      stepped once per clock, so ``cycles_per_result`` = ``latency``; a new pose is accepted when
-      idle or in the cycle the previous result leaves.
+      output is held. One add/sub level (or one 17 x 17 partial product) per stage. ``dsp="ecp5"``
+      builds the partial products as ``MULT18X18D`` instances with their input and output
+      registers (same latency, same bits).
+    * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
+      (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
+      previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
+      other on ONE shared micro-rotation unit (:func:`~ik5r.hdl.cordic.cordic_unit`, one step per
+      clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
+      (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
+      rounding, saturation) keep their own registers, each used for one clock per pose.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,

@@ -11,12 +11,14 @@ back-pressure too.
 
 from __future__ import annotations
 
+import re
 
 import pytest
 
 from ik5r.firmware import model
 from ik5r.firmware.vectors import FIELDS, concat, directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
+from ik5r.hdl.generate import generate
 from ik5r.hdl.ik_core import IKCore
 from ik5r.hdl.tb.amaranth_stream import compare, run_stream
 from ik5r.hdl.tb.blocks import IK_OUTPUTS, ik_outputs
@@ -118,3 +120,24 @@ def test_constructor_validation():
         IKCore(constants=k.cfg, arch="pipelined")
     with pytest.raises(ValueError):
         IKCore(constants=k, arch="pipelined", tag_width=-1)
+    with pytest.raises(ValueError):
+        IKCore(constants=k, arch="pipelined", dsp="xilinx")
+    with pytest.raises(ValueError):         # the DSP mapping is a pipelined option
+        IKCore(constants=k, arch="compact", dsp="ecp5")
+
+
+@pytest.mark.parametrize("cfg", CONFIGS)
+def test_compact_shares_its_units(cfg):
+    """The compact core's structure: every CORDIC step on one shared unit (one step counter and
+    one register set for all eight), the two square roots digit-serial, each multiplier stepped
+    over its partial products; the pipelined core unrolls them all."""
+    k = _k(cfg)
+    compact, _ = generate("ik", "compact", k)
+    steps = set(re.findall(r"^\s*reg [^;]*?(\w+_step)\b", compact, re.M))
+    assert [s for s in steps if "cordic" in s or "_it" in s] == ["unit_cordic_step"]
+    assert len([s for s in steps if s.endswith("_digit_step")]) == 2
+    assert len([s for s in steps if s.endswith("_acc_step")]) == 6      # 6 product groups
+    assert steps == {s for s in steps if s.endswith(("_acc_step", "_digit_step", "unit_cordic_step"))}
+    assert len(re.findall(r"^\s*reg [^;]* unit_cordic_cx\b", compact, re.M)) == 1
+    pipelined, _ = generate("ik", "pipelined", k)
+    assert "unit_cordic" not in pipelined and not re.search(r"\w+_step\b", pipelined)
