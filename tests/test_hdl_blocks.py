@@ -288,13 +288,16 @@ def test_verilator_lint(cfg, tmp_path):
     k = _k(cfg)
     variants = [(block, {}) for block in BLOCKS]
     variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
+    # The ECP5 variants, with the model of the primitive they instantiate (linted with them).
+    variants += [(block, {"dsp": "ecp5"}) for block in ("atan2", "rotate", "acos", "ik")]
     for block, options in variants:
-        for arch in archs_of(block):
+        for arch in archs_of(block) if "dsp" not in options else ("pipelined",):
             text, pmap = generate(block, arch, k, 2 if arch == "pipelined" else 0, **options)
             source = tmp_path / f"{pmap['module']}.v"
             source.write_text(text)
+            models = [str(HDL_DIR / "sim" / "MULT18X18D.v")] if "dsp" in options else []
             result = subprocess.run(
-                [verilator, "--lint-only", "-Wall", str(HDL_DIR / "verilator.vlt"), str(source),
+                [verilator, "--lint-only", "-Wall", str(HDL_DIR / "verilator.vlt"), *models, str(source),
                  "--top-module", pmap["module"]],
                 capture_output=True, text=True, env=env)
             assert result.returncode == 0 and "%Warning" not in result.stderr, \

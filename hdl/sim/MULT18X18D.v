@@ -27,16 +27,29 @@ module MULT18X18D #(
         if ((REG_INPUTA_CLK != "NONE" && !IN_A) || (REG_INPUTB_CLK != "NONE" && !IN_B)
                 || (REG_OUTPUT_CLK != "NONE" && !OUT_P) || REG_INPUTC_CLK != "NONE"
                 || REG_PIPELINE_CLK != "NONE" || REG_INPUTA_CE != "CE0" || REG_INPUTB_CE != "CE0"
-                || REG_OUTPUT_CE != "CE0" || RESETMODE != "SYNC" || MULT_BYPASS != "DISABLED") begin
+                || REG_OUTPUT_CE != "CE0" || REG_INPUTA_RST != "RST0" || REG_INPUTB_RST != "RST0"
+                || REG_OUTPUT_RST != "RST0" || RESETMODE != "SYNC" || MULT_BYPASS != "DISABLED"
+                || SOURCEB_MODE != "B_SHIFT" || GSR != "DISABLED") begin
             $display("MULT18X18D model: unsupported configuration");
+            $finish;
+        end
+    end
+    // The shift-register (cascade) inputs are not modelled: SOURCEA / SOURCEB must stay 0.
+    always @(posedge CLK0) begin
+        if (SOURCEA || SOURCEB) begin
+            $display("MULT18X18D model: SOURCEA / SOURCEB (cascade input) not supported");
             $finish;
         end
     end
 
     wire [17:0] a = {A17, A16, A15, A14, A13, A12, A11, A10, A9, A8, A7, A6, A5, A4, A3, A2, A1, A0};
     wire [17:0] b = {B17, B16, B15, B14, B13, B12, B11, B10, B9, B8, B7, B6, B5, B4, B3, B2, B1, B0};
+    // Power-up value 0, as the device's registers with GSR disabled.
+    /* verilator lint_off PROCASSINIT */
     reg [17:0] a_reg = 18'd0, b_reg = 18'd0;
     reg sa_reg = 1'b0, sb_reg = 1'b0;
+    reg [35:0] p_reg = 36'd0;
+    /* verilator lint_on PROCASSINIT */
     always @(posedge CLK0) begin
         if (RST0) begin
             a_reg <= 18'd0; b_reg <= 18'd0; sa_reg <= 1'b0; sb_reg <= 1'b0;
@@ -51,7 +64,6 @@ module MULT18X18D #(
     wire signed [35:0] a_ext = {{18{sa & a_in[17]}}, a_in};
     wire signed [35:0] b_ext = {{18{sb & b_in[17]}}, b_in};
     wire [35:0] product = a_ext * b_ext;
-    reg [35:0] p_reg = 36'd0;
     always @(posedge CLK0) begin
         if (RST0) p_reg <= 36'd0;
         else if (CE0) p_reg <= product;
