@@ -21,6 +21,17 @@ elaborated in one of two architectures:
 Both architectures evaluate literally the same expressions on the same widths, so they agree
 bit for bit; the widths are derived from :class:`~ik5r.fxconfig.Constants` with proofs of no
 overflow in the comments of each block.
+
+Three options make a datapath smaller or faster without changing a bit of its results:
+
+* ``Datapath(products="sequential")``: each multiplier of :func:`add_products` is one 18 x 18
+  DSP stepped over its partial products into an accumulator, instead of one DSP per partial
+  product and an adder tree (the compact IK core).
+* ``Datapath(share_units=True)``: in the iterative architecture, every stage of one functional
+  unit (:meth:`Datapath.add_shared_iter`, e.g. the CORDIC micro-rotation) runs on one set of
+  registers and one copy of the logic (the compact IK core: eight CORDICs, one unit).
+* ``build(..., dsp="ecp5")``: in the pipelined architecture, each partial product is an ECP5
+  ``MULT18X18D`` whose input and output registers are the two pipeline registers around it.
 """
 
 from __future__ import annotations
