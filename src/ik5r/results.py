@@ -24,12 +24,32 @@ def _num(value, fmt="{:,.0f}") -> str:
     return "–" if value is None else fmt.format(value)
 
 
+def _current_verilog(r: dict, cache: dict) -> str:
+    """The Verilog this checkout generates for the design point of a synth result."""
+    from ik5r.fxconfig import constants, load_config
+    from ik5r.hdl.generate import generate
+
+    dsp = r.get("dsp", "generic")
+    key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0))
+    if key not in cache:
+        options = {} if dsp == "generic" else {"dsp": dsp}
+        cache[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
+                              r.get("tag_width", 0), **options)[0]
+    return cache[key]
+
+
 def synth_table(build: Path) -> list[str]:
-    latest = {}   # the newest result of each design point (the cache keeps older HDL versions too)
-    for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
+    # The newest result of each design point whose Verilog is what this checkout generates (the
+    # cache keeps the runs of older HDL versions too: they are left out).
+    latest, texts = {}, {}
+    for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime, reverse=True):
         r = json.loads(path.read_text())
-        if r.get("config") in SHIPPED:
-            latest[(r["block"], r["arch"], r.get("dsp", "generic"), r["config"], r["target"], r["device"])] = r
+        point = (r["block"], r["arch"], r.get("dsp", "generic"), r["config"], r["target"], r["device"])
+        if r.get("config") not in SHIPPED or point in latest:
+            continue
+        design = path.parent / "design.v"
+        if design.exists() and design.read_text() == _current_verilog(r, texts):
+            latest[point] = r
     rows = list(latest.values())
     if not rows:
         return ["No synthesis results yet: run `ik5r synth` (see above)."]

@@ -378,7 +378,8 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         fmax = float(entry["achieved"]) if entry else None
     cpr = pmap["cycles_per_result"]
     result = {
-        "block": block, "arch": arch, "dsp": dsp, "module": module, "config": cfg.name,
+        "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
+        "config": cfg.name,
         "width": cfg.width,
         "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
