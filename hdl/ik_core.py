@@ -293,13 +293,6 @@ class _Builder:
         groups = {}
         for link in self.links:
             groups.setdefault((link[2], link[3]), []).append(link)
-        ring = [g for g in groups if g[1] - g[0] > _REGISTER_DELAY_MAX]
-        max_depth = max((1 << (b - a - 1).bit_length() for a, b in ring), default=0)
-        pointer = None
-        if max_depth:
-            pointer = Signal(range(max_depth), name="stash_ptr")
-            with m.If(enable):
-                m.d.sync += pointer.eq(pointer + 1)
         for (origin, where), links in sorted(groups.items()):
             distance = where - origin
             word = Cat(*(link[1] for link in links))
@@ -317,9 +310,17 @@ class _Builder:
                 m.submodules[f"stash_{origin}_{where}"] = mem
                 wp = mem.write_port()
                 rp = mem.read_port(transparent_for=())
+                # Write and read addresses are counters of their own next to each RAM, stepped
+                # with the pipeline (the read one distance - 1 behind): one address counter
+                # shared by all the RAMs, and a subtractor per RAM, made the slowest path.
+                write_ptr = Signal(unsigned(bits), name=f"stash_{origin}_{where}_wptr")
+                read_ptr = Signal(unsigned(bits), name=f"stash_{origin}_{where}_rptr",
+                                  init=-(distance - 1) % depth)
+                with m.If(enable):
+                    m.d.sync += [write_ptr.eq(write_ptr + 1), read_ptr.eq(read_ptr + 1)]
                 m.d.comb += [
-                    wp.addr.eq(pointer[:bits]), wp.data.eq(word), wp.en.eq(enable),
-                    rp.addr.eq((pointer - (distance - 1))[:bits]), rp.en.eq(enable),
+                    wp.addr.eq(write_ptr), wp.data.eq(word), wp.en.eq(enable),
+                    rp.addr.eq(read_ptr), rp.en.eq(enable),
                 ]
                 out = rp.data
             lsb = 0
