@@ -17,7 +17,8 @@ machinery make that composition cheap, all local to this file (the blocks are us
 * **Stash.** A value needed many stages after it is computed is not carried through every
   pipeline register: :meth:`_Builder.stash` takes it out of the state and :meth:`_Builder.unstash`
   brings it back. ``pipelined``: a delay line driven by the pipeline's global enable (a register
-  chain for short distances, else a RAM ring buffer, one per (from, to) stage pair);
+  chain for short distances, else a RAM ring buffer with write and read counters of its own,
+  one per (from, to) stage pair);
   ``compact`` (one pose in flight): the stage register itself, which holds its value until the
   next pose reaches it.
 """
