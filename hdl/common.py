@@ -8,9 +8,12 @@ elaborated in one of two architectures:
 
 ``"pipelined"``
     Every stage (and every repetition of an iterated stage) gets its own register set: one item
-    enters per clock, results leave in order after :attr:`Datapath.latency` cycles. The whole
-    pipeline has one clock enable, ``o.ready | ~o.valid``: when the output is held, everything
-    holds and ``i.ready`` is low, so no item is lost or duplicated.
+    enters per clock, results leave in order. The pipeline never stalls (no clock enable: one
+    enable net to every flip-flop was the slowest path of the IK core); its results go into an
+    output FIFO (block RAM), and ``o`` is the FIFO's read side. Flow control by credits: a counter
+    of the FIFO's free slots, taken by an input transfer and given back by an output transfer,
+    keeps items in flight plus items in the FIFO within its depth, so the FIFO never overflows
+    while ``o`` is held, and the depth covers the latency, so at full rate no bubble appears.
 
 ``"iterative"``
     One item in flight. An iterated stage (CORDIC micro-rotation, square-root digit) is one
@@ -39,6 +42,7 @@ from __future__ import annotations
 from amaranth.hdl import (ClockSignal, Cat, Const, Instance, Module, Mux, Shape, Signal, Value,
                           ValueCastable, signed, unsigned)
 from amaranth.lib import data, stream, wiring
+from amaranth.lib.fifo import SyncFIFOBuffered
 from amaranth.lib.wiring import In, Out
 
 from ik5r.fxconfig import Constants
@@ -62,6 +66,10 @@ PRODUCTS = ("parallel", "sequential")
 #: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
 #: fits one ECP5 MULT18X18D.
 LIMB_BITS = 17
+
+#: Cycles from a write into the pipelined architecture's output FIFO (``SyncFIFOBuffered``) to
+#: the item on its read side: the RAM write, then the RAM read into the output register.
+OUTPUT_FIFO_LATENCY = 2
 
 
 # --- pure expression helpers ---------------------------------------------------------------------
@@ -269,8 +277,25 @@ class Datapath:
 
     @property
     def latency(self) -> int:
-        """Cycles from an input transfer to the result being valid on the output."""
+        """Register stages of the datapath: cycles from an input transfer to the result in the
+        last stage's registers."""
         return sum(count for _, _, count, _ in self.stages)
+
+    def stream_latency(self, arch: str) -> int:
+        """Cycles from an input transfer to its result on ``o`` when ``o`` is not held: the
+        stages, and in the pipelined architecture the output FIFO."""
+        return self.latency + (OUTPUT_FIFO_LATENCY if arch == "pipelined" else 0)
+
+    def capacity(self, arch: str) -> int:
+        """Items the built block holds at most (accepted, not yet taken from ``o``); while ``o``
+        is held it accepts this many, then ``i.ready`` stays low. Pipelined: the depth of the
+        output FIFO, one more than a power of two at least the stream latency (the credit that
+        lets an item in is registered, so one slot more than the items a full-rate stream keeps
+        in flight; ``SyncFIFOBuffered`` holds one item in its output register and the rest in a
+        RAM, whose pointers then wrap for free). Iterative: one."""
+        if arch != "pipelined":
+            return 1
+        return (1 << (self.stream_latency(arch) - 1).bit_length()) + 1
 
     def _registers(self, prefix, values):
         regs = {}
@@ -279,21 +304,40 @@ class Datapath:
             regs[key] = Signal(shape, name=f"{prefix}_{key}", reset_less=True)
         return regs
 
-    def build(self, m: Module, arch: str, inputs: dict, i_valid, i_ready, o_valid, o_ready,
-              dsp: str = "generic") -> dict:
-        """Elaborate into ``m``; returns the final state (registers) for the output payload.
-        ``dsp`` (one of :data:`DSPS`) applies to the pipelined architecture."""
+    def build(self, m: Module, arch: str, inputs: dict, payload_of, i, o, dsp: str = "generic") -> None:
+        """Elaborate into ``m`` between the streams ``i`` (its payload already turned into the
+        state ``inputs``) and ``o``, whose payload fields ``payload_of(final_state) -> {field:
+        value}`` gives. ``dsp`` (one of :data:`DSPS`) applies to the pipelined architecture."""
         if dsp not in DSPS:
             raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
         if arch == "pipelined":
-            return self._build_pipelined(m, inputs, i_valid, i_ready, o_valid, o_ready, dsp)
-        if arch == "iterative":
-            return self._build_iterative(m, inputs, i_valid, i_ready, o_valid, o_ready)
-        raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+            self._build_pipelined(m, inputs, payload_of, i, o, dsp)
+        elif arch == "iterative":
+            self._build_iterative(m, inputs, payload_of, i, o)
+        else:
+            raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
 
-    def _build_pipelined(self, m, inputs, i_valid, i_ready, o_valid, o_ready, dsp):
-        enable = Signal(name=f"{self.name}_enable")
-        state, valid = dict(inputs), i_valid
+    def _build_pipelined(self, m, inputs, payload_of, i, o, dsp):
+        # The credits: free slots of the output FIFO not yet promised to an item in flight.
+        depth = self.capacity("pipelined")
+        credits = Signal(range(depth + 1), init=depth, name=f"{self.name}_credits")
+        # ``credits != 0``, kept in a register of its own: ``i.ready`` is a flip-flop output.
+        has_credit = Signal(init=1, name=f"{self.name}_has_credit")
+        fifo = m.submodules[f"{self.name}_output_fifo"] = SyncFIFOBuffered(
+            width=o.payload.shape().size, depth=depth)
+        taken_in = Signal(name=f"{self.name}_taken_in")
+        taken_out = Signal(name=f"{self.name}_taken_out")
+        m.d.comb += [
+            i.ready.eq(has_credit),
+            taken_in.eq(i.valid & has_credit),
+            taken_out.eq(fifo.r_rdy & o.ready),
+        ]
+        with m.If(taken_in & ~taken_out):
+            m.d.sync += [credits.eq(credits - 1), has_credit.eq(credits != 1)]
+        with m.Elif(taken_out & ~taken_in):
+            m.d.sync += [credits.eq(credits + 1), has_credit.eq(1)]
+
+        state, valid = dict(inputs), taken_in
         # What each register of the previous stage is loaded with (for the ECP5 DSP mapping).
         loaded = {}
         for name, fn, count, iterated in self.stages:
@@ -309,23 +353,28 @@ class Datapath:
                 if dsp == "ecp5":
                     for key in regs:
                         if isinstance(out[key], _Product) and out[key].map_ecp5(
-                                m, f"{prefix}_{key}", regs[key], loaded, enable):
+                                m, f"{prefix}_{key}", regs[key], loaded):
                             plain.remove(key)
-                with m.If(enable):
-                    m.d.sync += [regs[key].eq(out[key]) for key in plain]
-                    m.d.sync += stage_valid.eq(valid)
+                m.d.sync += [regs[key].eq(out[key]) for key in plain]
+                m.d.sync += stage_valid.eq(valid)
                 loaded = {id(regs[key]): (regs[key], out[key]) for key in regs}
                 state, valid = regs, stage_valid
-        m.d.comb += [
-            enable.eq(o_ready | ~valid),
-            i_ready.eq(enable),
-            o_valid.eq(valid),
-        ]
-        return state
 
-    def _build_iterative(self, m, inputs, i_valid, i_ready, o_valid, o_ready):
+        payload = Signal(o.payload.shape(), name=f"{self.name}_result")
+        for field, value in payload_of(state).items():
+            m.d.comb += getattr(payload, field).eq(value)
+        m.d.comb += [
+            fifo.w_data.eq(payload),
+            fifo.w_en.eq(valid),
+            o.valid.eq(fifo.r_rdy),
+            o.payload.eq(fifo.r_data),
+            fifo.r_en.eq(o.ready),
+        ]
+
+    def _build_iterative(self, m, inputs, payload_of, i, o):
         # One item in flight: the stage holding it moves it on as soon as it is done, except the
         # last, which waits for o.ready.
+        i_valid, i_ready, o_valid, o_ready = i.valid, i.ready, o.valid, o.ready
         state = dict(inputs)
         load = Signal(name=f"{self.name}_accept")
         m.d.comb += load.eq(i_valid & i_ready)
@@ -404,7 +453,8 @@ class Datapath:
             busy.eq(Cat(*occupied).any()),
             i_ready.eq(~busy | (last_done & o_ready)),
         ]
-        return state
+        for field, value in payload_of(state).items():
+            m.d.comb += getattr(o.payload, field).eq(value)
 
 
 class _SharedUnit:
@@ -458,10 +508,10 @@ class _Product(ValueCastable):
     def shape(self):
         return self._value.shape()
 
-    def map_ecp5(self, m, name, target, loaded, enable) -> bool:
-        """Drive ``target`` from a ``MULT18X18D`` with input and output registers (clock enable
-        ``enable``), fed by what the previous stage's registers ``a`` (and ``b``) were loaded
-        with; False (nothing built) when an operand is not such a register."""
+    def map_ecp5(self, m, name, target, loaded) -> bool:
+        """Drive ``target`` from a ``MULT18X18D`` with input and output registers (always
+        enabled, as the pipeline), fed by what the previous stage's registers ``a`` (and ``b``)
+        were loaded with; False (nothing built) when an operand is not such a register."""
         if id(self.a) not in loaded:
             return False
         a_reg, a_next = loaded[id(self.a)]
@@ -489,7 +539,7 @@ class _Product(ValueCastable):
             **{f"i_A{bit}": a18[bit] for bit in range(LIMB_BITS + 1)},
             **{f"i_B{bit}": b18[bit] for bit in range(LIMB_BITS + 1)},
             i_SIGNEDA=Const(1, 1), i_SIGNEDB=Const(1, 1), i_SOURCEA=Const(0, 1), i_SOURCEB=Const(0, 1),
-            i_CLK0=ClockSignal(), i_CE0=enable, i_RST0=Const(0, 1),
+            i_CLK0=ClockSignal(), i_CE0=Const(1, 1), i_RST0=Const(0, 1),
             **{f"o_P{bit}": product[bit] for bit in range(2 * (LIMB_BITS + 1))})
         m.d.comb += target.eq(product.shift_left(self.shift))
         return True
@@ -717,6 +767,12 @@ def check_common(constants, arch, tag_width, dsp="generic"):
 class StreamBlock(wiring.Component):
     """Base of the arithmetic blocks: ``i``/``o`` streams of struct payloads around a Datapath.
 
+    Flow control. ``"pipelined"``: the pipeline never stalls; results queue in an output FIFO
+    (block RAM) of ``capacity`` entries, read through ``o``. ``i.ready`` is low only while
+    ``capacity`` items are inside (in flight or queued): when ``o`` is held, the block takes
+    ``capacity`` more items, then waits; when ``o`` is taken every cycle it takes one item per
+    clock, never lowering ``i.ready``. ``"iterative"``: one item inside (``capacity`` = 1).
+
     Subclasses set ``self._dp`` (the datapath), ``in_fields``/``out_fields`` (dicts name ->
     ``(shape, frac, description)``; frac is the number of fraction bits or ``None`` when the
     field is format-agnostic) and implement ``_inputs(payload) -> state`` and
@@ -739,11 +795,15 @@ class StreamBlock(wiring.Component):
         self.in_fields = in_fields
         self.out_fields = out_fields
         self._dp = datapath
+        #: The architecture the datapath is built in (a subclass may name its own differently).
+        self._datapath_arch = arch
         #: Cycles from an input transfer (cycle c) to its result on the output (cycle c + latency)
         #: when the output is not held.
-        self.latency = datapath.latency
+        self.latency = datapath.stream_latency(arch)
         #: Clock cycles per result at full rate (1 pipelined; latency iterative).
         self.cycles_per_result = 1 if arch == "pipelined" else datapath.latency
+        #: Items the block holds at most: while ``o`` is held it accepts this many.
+        self.capacity = datapath.capacity(arch)
         super().__init__({
             "i": In(stream.Signature(data.StructLayout(
                 {name: shape for name, (shape, _, _) in in_fields.items()}))),
@@ -757,16 +817,17 @@ class StreamBlock(wiring.Component):
     def _outputs(self, state) -> dict:
         raise NotImplementedError
 
+    def _payload(self, final) -> dict:
+        """The output payload fields of the datapath's final state (tag included)."""
+        outputs = self._outputs(final)
+        if self.tag_width:
+            outputs["tag"] = final["tag"]
+        return outputs
+
     def elaborate(self, platform):
         m = Module()
         state = self._inputs(self.i.payload)
         if self.tag_width:
             state["tag"] = self.i.payload.tag
-        final = self._dp.build(m, self.arch, state, self.i.valid, self.i.ready,
-                               self.o.valid, self.o.ready, self.dsp)
-        outputs = self._outputs(final)
-        if self.tag_width:
-            outputs["tag"] = final["tag"]
-        for name in self.out_fields:
-            m.d.comb += getattr(self.o.payload, name).eq(outputs[name])
+        self._dp.build(m, self._datapath_arch, state, self._payload, self.i, self.o, self.dsp)
         return m

@@ -201,15 +201,18 @@ class Atan2(StreamBlock):
     * ``o.payload.zero``: 1 bit, set iff ``x == y == 0`` (then angle = magnitude = 0).
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
-    Timing: ``latency`` cycles from the input transfer to the output valid, 4 + iterations + 1
-    without the magnitude, 4 + iterations + 7 with it (at 32 bits: 37 / 43; at 18 bits: 23 /
-    29): coarse rotation, priority encoder, normalising shift (two stages), micro-rotations,
-    then the angle rounding in parallel with the 1/K multiplier (operand register, DSP partial
-    products, two adder levels), the de-normalising shift (two stages) and the magnitude
-    rounding/saturation. Throughput (``cycles_per_result``): ``"pipelined"`` one result per cycle, the whole
-    pipeline stalling while ``o`` is held; ``"iterative"`` one micro-rotation per cycle and one
-    item in flight, a new item accepted when idle or as the previous result leaves: one result
-    every ``latency`` cycles.
+    Timing: ``latency`` cycles from the input transfer to the output valid: 4 + iterations + 1
+    stages without the magnitude, 4 + iterations + 7 with it (coarse rotation, priority encoder,
+    normalising shift (two stages), micro-rotations, then the angle rounding in parallel with the
+    1/K multiplier (operand register, DSP partial products, two adder levels), the
+    de-normalising shift (two stages) and the magnitude rounding/saturation), plus 2 for the
+    output FIFO of the pipelined architecture. Pipelined at 32 bits: 39 / 45 cycles; at 18 bits:
+    25 / 31 (iterative: 2 fewer). Throughput (``cycles_per_result``): ``"pipelined"`` one result
+    per cycle; the pipeline never stalls, its results queue in an output FIFO while ``o`` is
+    held, and ``i.ready`` drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside
+    (see :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and
+    one item in flight, a new item accepted when idle or as the previous result leaves: one
+    result every ``latency`` cycles.
 
     Parameters
     ----------
@@ -274,10 +277,14 @@ class Rotate(StreamBlock):
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
     Timing: ``latency`` = 7 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words)
-    + iterations (at 32 bits: 41; at 18 bits: 27): angle compare, quadrant rotation, 1/K
-    multiplier (operand register, DSP partial products, adder levels), gain rounding,
-    micro-rotations, guard rounding, saturation. Throughput: ``"pipelined"`` one result per cycle;
-    ``"iterative"`` one result every ``latency`` cycles (one micro-rotation per cycle).
+    + iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
+    partial products, adder levels), gain rounding, micro-rotations, guard rounding,
+    saturation), plus 2 for the output FIFO of the pipelined architecture: pipelined at 32 bits
+    43 cycles, at 18 bits 29 (iterative: 2 fewer). Throughput: ``"pipelined"`` one result per
+    cycle, never stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready``
+    drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
+    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles
+    (one micro-rotation per cycle).
 
     Parameters
     ----------

@@ -16,7 +16,7 @@ machinery make that composition cheap, all local to this file (the blocks are us
   stage shorter than its partners is frozen by a step guard, so both architectures work.
 * **Stash.** A value needed many stages after it is computed is not carried through every
   pipeline register: :meth:`_Builder.stash` takes it out of the state and :meth:`_Builder.unstash`
-  brings it back. ``pipelined``: a delay line driven by the pipeline's global enable (a register
+  brings it back. ``pipelined``: a delay line stepping every clock, as the pipeline (a register
   chain for short distances, else a RAM ring buffer with write and read counters of its own,
   one per (from, to) stage pair);
   ``compact`` (one pose in flight): the stage register itself, which holds its value until the
@@ -282,7 +282,7 @@ class _Builder:
             return out
         dp.add_wiring(fn)
 
-    def elaborate(self, m: Module, arch: str, enable):
+    def elaborate(self, m: Module, arch: str):
         """Drive the unstashed signals (after ``Datapath.build``)."""
         if self.stashed:
             raise ValueError(f"stashed but never used: {sorted(self.stashed)}")
@@ -300,8 +300,7 @@ class _Builder:
             if distance <= _REGISTER_DELAY_MAX:
                 for step in range(distance):
                     reg = Signal(len(word), name=f"stash_{origin}_{where}_d{step}", reset_less=True)
-                    with m.If(enable):
-                        m.d.sync += reg.eq(word)
+                    m.d.sync += reg.eq(word)
                     word = reg
                 out = word
             else:
@@ -312,18 +311,21 @@ class _Builder:
                 wp = mem.write_port()
                 rp = mem.read_port(transparent_for=())
                 # Write and read addresses are counters of their own next to each RAM, stepped
-                # with the pipeline (the read one distance - 1 behind): one address counter
-                # shared by all the RAMs, and a subtractor per RAM, made the slowest path.
+                # every clock (the read one distance - 2 behind, then a register): one address
+                # counter shared by all the RAMs, and a subtractor per RAM, made the slowest path.
                 write_ptr = Signal(unsigned(bits), name=f"stash_{origin}_{where}_wptr")
                 read_ptr = Signal(unsigned(bits), name=f"stash_{origin}_{where}_rptr",
-                                  init=-(distance - 1) % depth)
-                with m.If(enable):
-                    m.d.sync += [write_ptr.eq(write_ptr + 1), read_ptr.eq(read_ptr + 1)]
+                                  init=-(distance - 2) % depth)
+                m.d.sync += [write_ptr.eq(write_ptr + 1), read_ptr.eq(read_ptr + 1)]
                 m.d.comb += [
-                    wp.addr.eq(write_ptr), wp.data.eq(word), wp.en.eq(enable),
-                    rp.addr.eq(read_ptr), rp.en.eq(enable),
+                    wp.addr.eq(write_ptr), wp.data.eq(word), wp.en.eq(1),
+                    rp.addr.eq(read_ptr),
                 ]
-                out = rp.data
+                # The read data is registered before its user (an adder, often): an ECP5 block
+                # RAM's clock-to-output without its output register is over 4 ns, near half of
+                # a 100 MHz cycle.
+                out = Signal(len(word), name=f"stash_{origin}_{where}_q", reset_less=True)
+                m.d.sync += out.eq(rp.data)
             lsb = 0
             for _, value, _, _, dst in links:
                 part = out[lsb:lsb + len(value)]
@@ -595,13 +597,15 @@ class IKCore(StreamBlock):
       (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
 
     Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
-    see ``latency`` (pipelined: q32 259, q18 175; compact: q32 411, q18 271 cycles).
+    see ``latency`` (pipelined: q32 261, q18 177, of which 2 in the output FIFO; compact: q32 411,
+    q18 271 cycles).
 
-    * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order; one global
-      clock enable ``o.ready | ~o.valid`` stalls the whole pipeline (``i.ready`` low) while the
-      output is held. One add/sub level (or one 17 x 17 partial product) per stage. ``dsp="ecp5"``
-      builds the partial products as ``MULT18X18D`` instances with their input and output
-      registers (same latency, same bits).
+    * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
+      pipeline never stalls (no clock enable): results queue in an output FIFO (block RAM) while
+      ``o`` is held, and ``i.ready`` drops only when ``capacity`` poses (q32 513, q18 257) are
+      inside, in flight or queued (see :class:`~ik5r.hdl.common.StreamBlock`). One add/sub level
+      (or one 17 x 17 partial product) per stage. ``dsp="ecp5"`` builds the partial products as
+      ``MULT18X18D`` instances with their input and output registers (same latency, same bits).
     * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
       (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
       previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
@@ -658,19 +662,7 @@ class IKCore(StreamBlock):
         return out
 
     def elaborate(self, platform):
-        m = Module()
         self._builder.reset()
-        state = self._inputs(self.i.payload)
-        if self.tag_width:
-            state["tag"] = self.i.payload.tag
-        dp_arch = "pipelined" if self.arch == "pipelined" else "iterative"
-        final = self._dp.build(m, dp_arch, state, self.i.valid, self.i.ready,
-                               self.o.valid, self.o.ready, self.dsp)
-        self._builder.elaborate(m, dp_arch, self.o.ready | ~self.o.valid)
-        outputs = self._outputs(final)
-        if self.tag_width:
-            outputs["tag"] = final["tag"]
-        for name in self.out_fields:
-            field = getattr(self.o.payload, name)
-            m.d.comb += field.eq(outputs[name])
+        m = super().elaborate(platform)
+        self._builder.elaborate(m, self._datapath_arch)
         return m

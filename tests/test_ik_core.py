@@ -4,9 +4,10 @@ Amaranth's simulator; every output bit (q1..q5, status, tag) of random reachable
 branches, with and without n, o) and a directed set (the paper's pose, tool point on the base axis
 with vertical and horizontal approach, straight and folded elbow, unreachable, off-plane and
 degenerate approaches, full-scale and most negative words), for both architectures on q18 and
-q32. The pipelined core runs at full rate (exact latency, one pose per clock) and then with random
-input gaps and output back-pressure (order, no loss, output held stable); the compact core with
-back-pressure too.
+q32. The pipelined core runs at full rate (exact latency, one pose per clock), then with random
+input gaps and output back-pressure (order, no loss, output held stable), then with the output held
+until it is full (exactly its capacity taken, nothing lost, full rate again once released); the
+compact core with back-pressure too.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ik5r.firmware.vectors import FIELDS, concat, directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.generate import generate
 from ik5r.hdl.ik_core import IKCore
-from ik5r.hdl.tb.amaranth_stream import compare, run_stream
+from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
 from ik5r.hdl.tb.blocks import IK_OUTPUTS, ik_outputs
 
 CONFIGS = ("q18", "q32")
@@ -77,6 +78,9 @@ def test_pipelined(cfg):
     sub = slice(0, 150)
     outputs, _, _ = run_stream(dut, items[sub], stall_seed=5, long_stall=True)
     compare(items[sub], expected[sub], outputs)
+    # The output held until the core is full, then released (the poses again, as many as needed).
+    repeats = -(-(dut.capacity + 40) // len(items))
+    check_output_held(dut, (items * repeats)[:dut.capacity + 40], (expected * repeats)[:dut.capacity + 40])
 
 
 @pytest.mark.parametrize("cfg", CONFIGS)

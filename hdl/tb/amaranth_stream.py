@@ -10,17 +10,18 @@ import random
 from amaranth.sim import Simulator
 
 
-def run_stream(dut, inputs, *, stall_seed=None, long_stall=False, max_cycles=None):
+def run_stream(dut, inputs, *, stall_seed=None, long_stall=False, hold_output=0, max_cycles=None):
     """Send ``inputs`` (dicts of field values) through ``dut``; returns
     ``(outputs, accept_cycles, output_cycles)``. With ``stall_seed``, random input gaps and
     output back-pressure (and with ``long_stall`` one stall of 3 * latency cycles half way).
+    ``hold_output``: ``o.ready`` low in the first that many cycles.
     Also checks the stream rule (a held output does not change) and that nothing more comes out
     within ``latency`` cycles of the last result."""
     fields = list(dut.out_fields)
     outputs, accepted, produced = [], [], []
     if max_cycles is None:
         max_cycles = (len(inputs) + 4) * dut.cycles_per_result * (4 if stall_seed is not None else 1) \
-            + (7 if long_stall else 4) * dut.latency + 100
+            + (7 if long_stall else 4) * dut.latency + hold_output + 100
 
     async def bench(ctx):
         rng = random.Random(stall_seed)
@@ -35,7 +36,7 @@ def run_stream(dut, inputs, *, stall_seed=None, long_stall=False, max_cycles=Non
             ctx.set(dut.i.valid, offer)
             if len(outputs) == stall_at and stall_left == 0:
                 stall_left, stall_at = 3 * dut.latency, -1
-            take = stall_left == 0 and (stall_seed is None or rng.random() >= 0.4)
+            take = stall_left == 0 and cycle >= hold_output and (stall_seed is None or rng.random() >= 0.4)
             stall_left = max(0, stall_left - 1)
             ctx.set(dut.o.ready, take)
             _, _, i_ready, o_valid, payload = await ctx.tick().sample(
@@ -72,3 +73,22 @@ def compare(inputs, expected, outputs):
            if exp != out]
     assert not bad, f"{len(bad)} of {len(inputs)} mismatch, first: item {bad[0][0]} in {bad[0][1]} " \
                     f"model {bad[0][2]} hdl {bad[0][3]}"
+
+
+def check_output_held(dut, inputs, expected):
+    """The input offered every cycle, the output held for 2 x capacity + latency cycles (long
+    after the block is full), then taken every cycle. Exactly ``capacity`` items are accepted, back to back from cycle 0 (``i.ready`` drops
+    only when the credits are used up), and none is lost, duplicated or reordered (pipelined: the
+    output FIFO, ``capacity`` deep, never overflows). Pipelined, from the release on: one result
+    per clock with no bubble, and the input accepted every cycle again from the next one (the
+    credit given back is registered)."""
+    assert len(inputs) > dut.capacity
+    hold = 2 * dut.capacity + dut.latency
+    outputs, accepted, produced = run_stream(dut, inputs, hold_output=hold)
+    compare(inputs, expected, outputs)
+    assert accepted[:dut.capacity] == list(range(dut.capacity))
+    assert accepted[dut.capacity] >= hold
+    assert produced[0] == hold
+    if dut.arch == "pipelined":
+        assert accepted[dut.capacity:] == list(range(hold + 1, hold + 1 + len(inputs) - dut.capacity))
+        assert produced == list(range(hold, hold + len(inputs)))
