@@ -37,9 +37,7 @@ class Acos(StreamBlock):
     fewer). Throughput: ``"pipelined"`` one result per cycle, never stalling: results queue in the
     output FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items (129 in
     q32, 65 in q18) are inside (see :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one
-    square-root digit or micro-rotation per cycle, one result every ``latency`` cycles. The
-    pipelined micro-rotations add or subtract by carry select (more LUTs, for the clock rate; see
-    :func:`~ik5r.hdl.cordic.cordic_unit`).
+    square-root digit or micro-rotation per cycle, one result every ``latency`` cycles.
 
     Parameters
     ----------
@@ -55,7 +53,7 @@ class Acos(StreamBlock):
         dp = in_fields = out_fields = None
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self._datapath(k, carry_select=arch == "pipelined")
+            dp = self._datapath(k)
             word = signed(c.width)
             in_fields = {"x": (word, c.frac_unit, "cosine, unit format")}
             out_fields = {"angle": (word, c.frac_angle, "acos(x), radians, in [0, pi]"),
@@ -65,11 +63,10 @@ class Acos(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants, products: str = "parallel",
-                  carry_select: bool = False) -> Datapath:
+    def _datapath(k: Constants, products: str = "parallel") -> Datapath:
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
-        dp = Datapath("acos", products=products, carry_select=carry_select)
+        dp = Datapath("acos", products=products)
         dp.declare(ac_x=signed(width))
 
         def clip(s):

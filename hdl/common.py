@@ -102,19 +102,6 @@ def add_sub(a, b, subtract):
     return total[1:width + 1].as_signed()
 
 
-def add_sub_select(a, b, subtract):
-    """``a - b`` if ``subtract`` else ``a + b`` by carry select: both adders, then a mux.
-
-    :func:`add_sub` puts ``subtract`` in front of its carry chain (the XOR of ``b``); here it only
-    selects, so a late or widely fanned-out ``subtract`` waits beside the chains, not before them.
-    About twice the logic of :func:`add_sub`; the same value (a ``signed`` wide enough for any
-    ``a +- b``).
-    """
-    a, b, subtract = Value.cast(a), Value.cast(b), Value.cast(subtract)
-    width = max(len(a) + (not a.shape().signed), len(b) + (not b.shape().signed)) + 1
-    return Mux(subtract, (a - b).as_signed(), (a + b).as_signed())[:width].as_signed()
-
-
 def rshift_round(value, shift: int, nearest: bool):
     """``value * 2**-shift`` by a constant shift, rounded half up (nearest) or floored.
 
@@ -252,8 +239,7 @@ class Datapath:
     others in the shape of their expression (never lossy).
     """
 
-    def __init__(self, name: str, *, products: str = "parallel", share_units: bool = False,
-                 carry_select: bool = False):
+    def __init__(self, name: str, *, products: str = "parallel", share_units: bool = False):
         if products not in PRODUCTS:
             raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
         self.name = name
@@ -262,9 +248,6 @@ class Datapath:
         #: Whether the iterative build gives all stages of one functional unit
         #: (:meth:`add_shared_iter`) one register set and one copy of its logic.
         self.share_units = share_units
-        #: Whether the CORDIC micro-rotations of this datapath add or subtract by carry select
-        #: (:func:`add_sub_select`: faster, about 1.8 times the LUTs) rather than with one adder.
-        self.carry_select = carry_select
         self.stages = []
         self.shapes = {}
 

@@ -10,8 +10,8 @@ from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 
 from ik5r.fxconfig import INV_GAIN_FRAC, Constants
 
-from .common import (Datapath, SharedStage, StreamBlock, add_products, add_sub, add_sub_select, asr,
-                     drop, leading_zeros, rshift_round, saturate, table_entry)
+from .common import (Datapath, SharedStage, StreamBlock, add_products, add_sub, asr, drop,
+                     leading_zeros, rshift_round, saturate, table_entry)
 
 __all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
 
@@ -34,7 +34,7 @@ def rotate_z_bound(k: Constants) -> int:
     return (1 << (c.width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
 
 
-def cordic_unit(k: Constants, *, rotate: bool, carry_select: bool = False) -> SharedStage:
+def cordic_unit(k: Constants, *, rotate: bool) -> SharedStage:
     """The circular CORDIC micro-rotation as a functional unit, shared in the compact IK core.
 
     Keys ``cx``, ``cy``, ``cz`` and ``rotate``: vectoring (``rotate`` 0: turn towards y = 0, by
@@ -43,18 +43,11 @@ def cordic_unit(k: Constants, *, rotate: bool, carry_select: bool = False) -> Sh
     a constant the step is exactly the vectoring or the rotation one; as a value (the shared unit)
     both in one: direction d = rotate ? z >= 0 : y < 0, then x -+ (y >> i), y +- (x >> i),
     z -+ step, which is each of them for its value of ``rotate``.
-
-    ``carry_select``: each add/sub is two adders and a mux (:func:`~ik5r.hdl.common.add_sub_select`)
-    instead of one adder (:func:`~ik5r.hdl.common.add_sub`): the direction, which drives all
-    three, then reaches the muxes while the carry chains run, instead of the chains' inputs
-    before them (the slowest path of the pipelined blocks), for about 1.8 times the LUTs.
     """
     c = k.cfg
     xy = signed(c.width + c.guard_bits + 3)
     z_width = max(atan2_widths(k)["cz"].width, rotate_z_bound(k).bit_length() + 1)
     shapes = {"cx": xy, "cy": xy, "cz": signed(z_width), "rotate": unsigned(1)}
-
-    add_or_sub = add_sub_select if carry_select else add_sub
 
     def micro_rotation(s, i):
         xs, ys, z, mode = s["cx"], s["cy"], s["cz"], s["rotate"]
@@ -63,17 +56,17 @@ def cordic_unit(k: Constants, *, rotate: bool, carry_select: bool = False) -> Sh
             if mode:
                 neg = z[-1]       # z < 0: rotate clockwise
                 return dict(s,
-                            cx=add_or_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
-                            cy=add_or_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
-                            cz=add_or_sub(z, step, ~neg))         # z +- step
+                            cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
+                            cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
+                            cz=add_sub(z, step, ~neg))         # z +- step
             down = ys[-1]     # ys < 0: rotate the other way
             return dict(s,
-                        cx=add_or_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
-                        cy=add_or_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
-                        cz=add_or_sub(z, step, down))             # z -+ step
+                        cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
+                        cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
+                        cz=add_sub(z, step, down))             # z -+ step
         down = Mux(mode, ~z[-1], ys[-1])
-        return dict(s, cx=add_or_sub(xs, asr(ys, i), down), cy=add_or_sub(ys, asr(xs, i), ~down),
-                    cz=add_or_sub(z, step, down))
+        return dict(s, cx=add_sub(xs, asr(ys, i), down), cy=add_sub(ys, asr(xs, i), ~down),
+                    cz=add_sub(z, step, down))
 
     return SharedStage("cordic", micro_rotation,
                        {"cx": "cx", "cy": "cy", "cz": "cz", "rotate": rotate}, shapes)
@@ -152,8 +145,7 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     dp.add("at_lzc", byte_counts)
     dp.add("at_norm", normalise_shift_bytes)
     dp.add("at_norm_fine", normalise_shift_fine)
-    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False, carry_select=dp.carry_select),
-                       c.iterations)
+    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False), c.iterations)
 
     def angle(s):
         # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
@@ -243,9 +235,7 @@ class Atan2(StreamBlock):
     held, and ``i.ready`` drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside
     (see :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and
     one item in flight, a new item accepted when idle or as the previous result leaves: one
-    result every ``latency`` cycles. The pipelined micro-rotations add or subtract by carry
-    select (``cordic_unit(carry_select=True)``): about 1.8 times the LUTs of the single-adder
-    form (iterative arch, IK core) for the clock rate.
+    result every ``latency`` cycles.
 
     Parameters
     ----------
@@ -264,7 +254,7 @@ class Atan2(StreamBlock):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
             c = constants.cfg
-            dp = Datapath("atan2", carry_select=arch == "pipelined")
+            dp = Datapath("atan2")
             add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
             word = signed(c.width)
             in_fields = {"y": (word, None, "ordinate, same format as x"),
@@ -317,8 +307,7 @@ class Rotate(StreamBlock):
     cycle, never stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready``
     drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
     :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles
-    (one micro-rotation per cycle). The pipelined micro-rotations add or subtract by carry select
-    (about 1.8 times the LUTs, for the clock rate; see :func:`cordic_unit`).
+    (one micro-rotation per cycle).
 
     Parameters
     ----------
@@ -334,7 +323,7 @@ class Rotate(StreamBlock):
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self._datapath(k, carry_select=arch == "pipelined")
+            dp = self._datapath(k)
             word = signed(c.width)
             in_fields = {"x": (word, None, "abscissa, same format as y"),
                          "y": (word, None, "ordinate, same format as x"),
@@ -348,7 +337,7 @@ class Rotate(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants, carry_select: bool = False) -> Datapath:
+    def _datapath(k: Constants) -> Datapath:
         """Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
         times 1/K < 0.61 with g guard bits, |xs|, |ys| < 0.61 * 2**(W-1+g) + 1; the
         micro-rotations multiply the length by K_n (< 1.65) plus one LSB per step, so
@@ -357,7 +346,7 @@ class Rotate(StreamBlock):
         """
         c = k.cfg
         width, guard, nearest = c.width, c.guard_bits, c.round_nearest
-        dp = Datapath("rotate", carry_select=carry_select)
+        dp = Datapath("rotate")
         z_bound = rotate_z_bound(k)
         dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),
                    cz=signed(z_bound.bit_length() + 1),
@@ -405,8 +394,7 @@ class Rotate(StreamBlock):
             return out
 
         dp.add("ro_gain_round", gain_round)
-        dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True, carry_select=dp.carry_select),
-                           c.iterations)
+        dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)
         return dp

@@ -325,21 +325,6 @@ def test_many_vectors_pipelined(cfg):
 
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
-def test_carry_select_only_in_pipelined_blocks():
-    """The pipelined blocks' micro-rotations use carry select (for Fmax); the iterative blocks
-    and the IK core, whose area counts more, use the single adder."""
-    from ik5r.hdl.ik_core import IKCore
-
-    k = _k("q18")
-    for cls in (Atan2, Rotate, Acos):
-        assert cls(constants=k, arch="pipelined")._dp.carry_select is True, cls.__name__
-        assert cls(constants=k, arch="iterative")._dp.carry_select is False, cls.__name__
-    for arch in ("pipelined", "compact"):
-        assert IKCore(constants=k, arch=arch)._dp.carry_select is False, arch
-    gc.collect()
-
-
-@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 def test_documented_latencies():
     """The latencies the class docstrings state (the port maps carry the same numbers)."""
     expected = {"q18": (31, 25, 29, 18, 50), "q32": (45, 39, 43, 32, 78)}
