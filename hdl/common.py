@@ -67,9 +67,10 @@ PRODUCTS = ("parallel", "sequential")
 #: fits one ECP5 MULT18X18D.
 LIMB_BITS = 17
 
-#: Cycles from a write into the pipelined architecture's output FIFO (``SyncFIFOBuffered``) to
-#: the item on its read side: the RAM write, then the RAM read into the output register.
-OUTPUT_FIFO_LATENCY = 2
+#: Cycles from the last stage of the pipelined architecture to the item on ``o``: the register
+#: in front of the output FIFO, then the FIFO's (``SyncFIFOBuffered``) RAM write and its RAM
+#: read into the output register.
+OUTPUT_FIFO_LATENCY = 3
 
 
 # --- pure expression helpers ---------------------------------------------------------------------
@@ -363,9 +364,15 @@ class Datapath:
         payload = Signal(o.payload.shape(), name=f"{self.name}_result")
         for field, value in payload_of(state).items():
             m.d.comb += getattr(payload, field).eq(value)
+        # A register in front of the FIFO, placed next to it: the FIFO's RAMs sit in block RAM
+        # rows far from the end of a large pipeline, and the FIFO's level counter, which reads
+        # the write enable, got a long route there and back (the IK core's slowest path).
+        fifo_data = Signal.like(payload, name=f"{self.name}_fifo_data", reset_less=True)
+        fifo_write = Signal(name=f"{self.name}_fifo_write")
+        m.d.sync += [fifo_data.eq(payload), fifo_write.eq(valid)]
         m.d.comb += [
-            fifo.w_data.eq(payload),
-            fifo.w_en.eq(valid),
+            fifo.w_data.eq(fifo_data),
+            fifo.w_en.eq(fifo_write),
             o.valid.eq(fifo.r_rdy),
             o.payload.eq(fifo.r_data),
             fifo.r_en.eq(o.ready),

@@ -225,17 +225,18 @@ class Atan2(StreamBlock):
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
     Timing: ``latency`` cycles from the input transfer to the output valid: 4 + iterations + 1
-    stages without the magnitude, 4 + iterations + 7 with it (coarse rotation, leading-zero
-    count per byte, normalising shift by whole bytes, then by the rest, micro-rotations, then the angle rounding in parallel with the
-    1/K multiplier (operand register, DSP partial products, two adder levels), the
-    de-normalising shift (two stages) and the magnitude rounding/saturation), plus 2 for the
-    output FIFO of the pipelined architecture. Pipelined at 32 bits: 39 / 45 cycles; at 18 bits:
-    25 / 31 (iterative: 2 fewer). Throughput (``cycles_per_result``): ``"pipelined"`` one result
-    per cycle; the pipeline never stalls, its results queue in an output FIFO while ``o`` is
-    held, and ``i.ready`` drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside
-    (see :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and
-    one item in flight, a new item accepted when idle or as the previous result leaves: one
-    result every ``latency`` cycles.
+    stages without the magnitude, 4 + iterations + 7 with it (coarse rotation, leading-zero count
+    per byte, normalising shift by whole bytes, then by the rest, micro-rotations, then the angle
+    rounding in parallel with the 1/K multiplier (operand register, DSP partial products, two adder
+    levels), the de-normalising shift (two stages) and the magnitude rounding/saturation), plus 3
+    for the output FIFO of the pipelined architecture and the register in front of it. Pipelined at
+    32 bits: 40 / 46 cycles; at 18 bits: 26 / 32 (iterative: 3 fewer). Throughput
+    (``cycles_per_result``): ``"pipelined"`` one result per cycle; the pipeline never stalls, its
+    results queue in an output FIFO while ``o`` is held, and ``i.ready`` drops only when
+    ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
+    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and one
+    item in flight, a new item accepted when idle or as the previous result leaves: one result every
+    ``latency`` cycles.
 
     Parameters
     ----------
@@ -299,15 +300,15 @@ class Rotate(StreamBlock):
     * ``o.payload.saturated``: 1 bit, set iff x or y was clipped to the word range.
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
-    Timing: ``latency`` = 7 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words)
-    + iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
-    partial products, adder levels), gain rounding, micro-rotations, guard rounding,
-    saturation), plus 2 for the output FIFO of the pipelined architecture: pipelined at 32 bits
-    43 cycles, at 18 bits 29 (iterative: 2 fewer). Throughput: ``"pipelined"`` one result per
-    cycle, never stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready``
-    drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
-    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles
-    (one micro-rotation per cycle).
+    Timing: ``latency`` = 7 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words) +
+    iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
+    partial products, adder levels), gain rounding, micro-rotations, guard rounding, saturation),
+    plus 3 for the output FIFO of the pipelined architecture and the register in front of it:
+    pipelined at 32 bits 44 cycles, at 18 bits 30 (iterative: 3 fewer). Throughput: ``"pipelined"``
+    one result per cycle, never stalling: results queue in the output FIFO while ``o`` is held, and
+    ``i.ready`` drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
+    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles (one
+    micro-rotation per cycle).
 
     Parameters
     ----------

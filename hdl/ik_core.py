@@ -597,8 +597,8 @@ class IKCore(StreamBlock):
       (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
 
     Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
-    see ``latency`` (pipelined: q32 261, q18 177, of which 2 in the output FIFO; compact: q32 411,
-    q18 271 cycles).
+    see ``latency`` (pipelined: q32 262, q18 178, of which 3 in the output FIFO and the register
+    in front of it; compact: q32 411, q18 271 cycles).
 
     * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
       pipeline never stalls (no clock enable): results queue in an output FIFO (block RAM) while
