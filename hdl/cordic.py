@@ -72,6 +72,42 @@ def cordic_unit(k: Constants, *, rotate: bool) -> SharedStage:
                        {"cx": "cx", "cy": "cy", "cz": "cz", "rotate": rotate}, shapes)
 
 
+def skewed_rotation(k: Constants):
+    """The rotation micro-rotations as ``iterations + 1`` stages ``fn(state, i)`` with the angle
+    one step ahead of the vector: stage i takes z through micro-rotation i (while i <
+    iterations) and (x, y) through micro-rotation i - 1 (from stage 1), by the sign of z_(i-1)
+    that stage i - 1 copied into ``cneg`` (for y) and ``cpos`` (for x).
+
+    The same arithmetic as ``cordic_unit(k, rotate=True)``, one stage later. Why: there, one
+    flip-flop (the sign of z) steers three adders (x, y and z, ~110 LUTs), and its route was the
+    pipelined Rotate's slowest path. Here the sign of z steers the z adder only; x and y read
+    copies registered a stage later, one each (``cpos`` is the complement, so the two copies
+    have different inputs and synthesis cannot merge them back into one).
+    """
+    count = k.cfg.iterations
+
+    def step(s, i):
+        xs, ys, z = s["cx"], s["cy"], s["cz"]
+        out = dict(s, cneg=z[-1], cpos=~z[-1])
+        if isinstance(i, int):
+            if i < count:
+                out["cz"] = add_sub(z, table_entry(k.atan_table, i), ~z[-1])  # z -+ step
+            else:
+                out = drop(out, "cz", "cneg", "cpos")
+            if i > 0:
+                out["cx"] = add_sub(xs, asr(ys, i - 1), s["cpos"])  # xs -+ (ys >> i-1)
+                out["cy"] = add_sub(ys, asr(xs, i - 1), s["cneg"])  # ys +- (xs >> i-1)
+            return out
+        # Iterative (one step per clock): past the table the angle step is 0.
+        out["cz"] = add_sub(z, table_entry(k.atan_table, i), ~z[-1])
+        shift = (i - 1)[:len(i)]
+        out["cx"] = Mux(i == 0, xs, add_sub(xs, asr(ys, shift), s["cpos"]))
+        out["cy"] = Mux(i == 0, ys, add_sub(ys, asr(xs, shift), s["cneg"]))
+        return out
+
+    return step, count + 1
+
+
 def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, zero: bool):
     """Append the stages of ``model.cordic_atan2(state[y], state[x])`` to ``dp``.
 
@@ -300,13 +336,14 @@ class Rotate(StreamBlock):
     * ``o.payload.saturated``: 1 bit, set iff x or y was clipped to the word range.
     * ``tag`` (only if ``tag_width``): ``unsigned(tag_width)``, carried unchanged.
 
-    Timing: ``latency`` = 7 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words) +
+    Timing: ``latency`` = 8 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words) +
     iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
-    partial products, adder levels), gain rounding, micro-rotations, guard rounding, saturation),
-    plus 3 for the output FIFO of the pipelined architecture and the register in front of it:
-    pipelined at 32 bits 44 cycles, at 18 bits 30 (iterative: 3 fewer). Throughput: ``"pipelined"``
-    one result per cycle, never stalling: results queue in the output FIFO while ``o`` is held, and
-    ``i.ready`` drops only when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
+    partial products, adder levels), gain rounding, iterations + 1 skewed micro-rotation stages
+    (see :func:`skewed_rotation`), guard rounding, saturation), plus 3 for the output FIFO of the
+    pipelined architecture and the register in front of it: pipelined at 32 bits 45 cycles, at 18
+    bits 31 (iterative: 3 fewer). Throughput: ``"pipelined"`` one result per cycle, never
+    stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready`` drops only
+    when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
     :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles (one
     micro-rotation per cycle).
 
@@ -338,8 +375,12 @@ class Rotate(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants) -> Datapath:
-        """Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
+    def _datapath(k: Constants, *, shared_unit: bool = False) -> Datapath:
+        """The rotation datapath; ``shared_unit``: the micro-rotations on
+        ``cordic_unit(k, rotate=True)`` (shareable with vectoring, :class:`~ik5r.hdl.ik_core.IKCore`
+        compact), else :func:`skewed_rotation` (one stage more, a shorter critical path).
+
+        Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
         times 1/K < 0.61 with g guard bits, |xs|, |ys| < 0.61 * 2**(W-1+g) + 1; the
         micro-rotations multiply the length by K_n (< 1.65) plus one LSB per step, so
         |xs|, |ys| < sqrt(2) * 2**(W-1+g) * 1.01: signed(W+g+3) has two spare bits. The angle
@@ -382,7 +423,7 @@ class Rotate(StreamBlock):
             return out
 
         def unguard(s):
-            out = drop(s, "cx", "cy", "cz")
+            out = drop(s, "cx", "cy", "cz", "cneg", "cpos")
             out["ox"] = rshift_round(s["cx"], guard, nearest)
             out["oy"] = rshift_round(s["cy"], guard, nearest)
             return out
@@ -395,7 +436,10 @@ class Rotate(StreamBlock):
             return out
 
         dp.add("ro_gain_round", gain_round)
-        dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
+        if shared_unit:
+            dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
+        else:
+            dp.add_iter("ro_it", *skewed_rotation(k))
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)
         return dp

@@ -200,13 +200,15 @@ def _atan2_chain(k: Constants, prefix: str, *, zero: bool) -> Datapath:
     return _namespaced(chain, prefix)
 
 
-def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int]) -> Datapath:
+def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
+                        shared_unit: bool) -> Datapath:
     """``model.cordic_rotate(*vector, state[prefix+angle])`` of a constant vector -> prefix+x, y,
     saturated. The quadrant step and the 1/K gain of a constant vector are constants: one stage
     (compare + subtract) replaces the Rotate block's quadrant, coarse and multiplier stages; the
-    micro-rotations, rounding and clipping are the Rotate block's own stages."""
+    micro-rotations, rounding and clipping are the Rotate block's own stages (``shared_unit``: see
+    :meth:`Rotate._datapath`)."""
     c = k.cfg
-    rot = Rotate._datapath(k)
+    rot = Rotate._datapath(k, shared_unit=shared_unit)
     names = [name for name, _, _, _ in rot.stages]
     if "ro_it" not in names:
         raise RuntimeError("Rotate datapath has no 'ro_it' stage")
@@ -395,7 +397,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, compact: bool) ->
 
     dp.add("joint1", joint1)
     builder.stash(dp, "q1", "xa")
-    _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0)))
+    _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0), shared_unit=compact))
 
     # ---- a_radial = a . (c1, s1); s5, c5 = n, o . (s1, -c1): six products, sums, rounding.
     builder.unstash(dp, "ax", "ay", "nx", "ny", "ox", "oy", "roll")
@@ -440,7 +442,7 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, compact: bool) ->
     builder.stash(dp, "phi", "q5")
 
     # ---- wrist centre: (xw, yw) = sat((r - a1, d1 - pz) - R(phi) (a4, d5)).
-    _append_chains(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l)))
+    _append_chains(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l), shared_unit=compact))
     builder.unstash(dp, "xa", "dz")
     dp.add("wrist", lambda s: dict(drop(s, "xa", "dz", "R2__x", "R2__y", "R2__saturated"),
                                    xwr=s["xa"] - s["R2__x"], ywr=s["dz"] - s["R2__y"],
@@ -597,7 +599,7 @@ class IKCore(StreamBlock):
       (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
 
     Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
-    see ``latency`` (pipelined: q32 262, q18 178, of which 3 in the output FIFO and the register
+    see ``latency`` (pipelined: q32 264, q18 180, of which 3 in the output FIFO and the register
     in front of it; compact: q32 411, q18 271 cycles).
 
     * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
