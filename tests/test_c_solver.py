@@ -20,7 +20,7 @@ from ik5r.firmware import codegen, csolver, model
 from ik5r.firmware.vectors import Poses, concat, edge_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 
-CONFIGS = ("q32", "q24", "q18")
+CONFIGS = ("q32", "q24", "q18", "q32w")
 N_POSES = 3000
 N_FUNC = 20000
 N_SLOW = 1_000_000

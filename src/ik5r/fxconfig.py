@@ -162,6 +162,11 @@ def _q(value: float, frac: int) -> int:
     return round(value * 2**frac)
 
 
+class WideInt(int):
+    """An integer constant that is a product of two words (a squared length), so wider than 64
+    bits in the internal format: the C header carries it as two 64-bit halves of a 128-bit value."""
+
+
 @dataclass(frozen=True)
 class Constants:
     """Every integer constant of the fixed-point IK, derived from a config and an arm."""
@@ -196,8 +201,8 @@ class Constants:
         set_(self, "d5_l", _q(a.d[4], fl))
         set_(self, "offset_a", tuple(_q(o, fa) for o in a.theta_offset))
         # Law of cosines in Q(2*frac_length): c3 = (D^2 - a2^2 - a3^2) / (2 a2 a3).
-        set_(self, "links_sq_l2", _q(a.a[1] ** 2 + a.a[2] ** 2, 2 * fl))
-        set_(self, "twice_a2a3_l2", _q(2 * a.a[1] * a.a[2], 2 * fl))
+        set_(self, "links_sq_l2", WideInt(_q(a.a[1] ** 2 + a.a[2] ** 2, 2 * fl)))
+        set_(self, "twice_a2a3_l2", WideInt(_q(2 * a.a[1] * a.a[2], 2 * fl)))
         mant_bits = self.const_mant_bits
         c3_factor = 2.0 ** (fu - 2 * fl) / (2 * a.a[1] * a.a[2])
         set_(self, "c3_from_l2", const_mul(c3_factor, self.twice_a2a3_l2.bit_length(), mant_bits))
