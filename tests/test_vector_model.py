@@ -22,7 +22,7 @@ from ik5r.firmware.vectors import Poses, edge_poses, random_poses
 from ik5r.fxconfig import Constants, constants, load_config
 from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
-CONFIGS = ("q18", "q24", "q32")
+CONFIGS = ("q18", "q24", "q32", "q32w")
 ARM = load_arm()
 
 
