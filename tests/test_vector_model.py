@@ -276,7 +276,7 @@ def _compare_poses(k, poses: Poses) -> np.ndarray:
     return st_s
 
 
-@pytest.mark.parametrize("name", CONFIGS + ("q32-truncate",))
+@pytest.mark.parametrize("name", CONFIGS + ("q32-truncate", "q32w-truncate"))
 def test_random_poses(name):
     k = _constants(name)
     status = _compare_poses(k, random_poses(k, 1250, seed=201))

@@ -6,7 +6,10 @@ iteration counts, rounding and every derived integer constant from :class:`Const
 cannot drift apart.
 
 Formats: every word is a signed two's-complement integer of ``width`` bits; a value ``v`` of a
-quantity with ``n`` fraction bits stands for ``v * 2**-n`` (Q m.n with m + n = width).
+quantity with ``n`` fraction bits stands for ``v * 2**-n`` (Q m.n with m + n = width). With
+``ik.internal_guard_bits`` = G > 0 the IK runs on the internal format :meth:`FixedConfig.internal`
+(G more bits of width, of every fraction and of CORDIC iterations), whose constants are
+``Constants.internal``.
 """
 
 from __future__ import annotations
@@ -38,6 +41,7 @@ class FixedConfig:
     angle_guard_bits: int
     rounding: str
     singular_sin_q3: float
+    # Extra fraction bits of every quantity inside the IK (0: the IK runs on the words themselves).
     internal_guard_bits: int = 0
     source: str = "<config>"
 
