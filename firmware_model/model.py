@@ -8,13 +8,19 @@ exactly like the C's arithmetic right shift (see docs/algorithm.md, "C semantics
 Names follow the C: ``_l`` length Q(frac.length), ``_u`` unit-vector Q(frac.unit),
 ``_a`` angle Q(frac.angle) radians, ``_z`` CORDIC angle Q(frac.angle + angle_guard_bits),
 ``_l2`` squared length Q(2 * frac.length).
+
+Every function takes the constants ``k`` of the format it works on. The building blocks called on
+their own work on the config's words; :func:`ik_solve` runs on the internal format
+``k.internal`` (``ik.internal_guard_bits`` more fraction bits in every quantity, the word width
+and the CORDIC iterations widened alike; ``k`` itself when that is 0): it shifts its input words
+up, and rounds the joint angles back to words, saturated.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ik5r.fxconfig import INV_GAIN_FRAC, Constants
+from ik5r.fxconfig import Constants
 from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
 
@@ -89,7 +95,7 @@ def cordic_atan2(y: int, x: int, k: Constants) -> tuple[int, int, bool]:
     angle_a = rshift_round(z, c.angle_guard_bits, c.round_nearest)
     # Magnitude: drop the guard bits, undo the gain K, then undo the normalisation.
     magnitude = rshift_round(
-        (xs >> c.guard_bits) * k.inv_gain, INV_GAIN_FRAC + norm, c.round_nearest)
+        (xs >> c.guard_bits) * k.inv_gain, k.inv_gain_frac + norm, c.round_nearest)
     magnitude, _ = saturate(magnitude, k)
     return angle_a, magnitude, False
 
@@ -105,7 +111,7 @@ def cordic_rotate(x: int, y: int, angle_a: int, k: Constants) -> tuple[int, int,
         x, y, z = -y, x, z - k.half_pi_z
     elif z < -k.half_pi_z:
         x, y, z = y, -x, z + k.half_pi_z
-    shift = INV_GAIN_FRAC - c.guard_bits
+    shift = k.inv_gain_frac - c.guard_bits
     xs = rshift_round(x * k.inv_gain, shift, c.round_nearest)
     ys = rshift_round(y * k.inv_gain, shift, c.round_nearest)
     for i, step_z in enumerate(k.atan_table):
@@ -140,21 +146,28 @@ def sqrt_word(x: int, frac: int, k: Constants) -> int:
     return isqrt(x << frac, bits, c.round_nearest)
 
 
+def acos_of_complements(one_minus_u: int, one_plus_u: int, k: Constants) -> tuple[int, int]:
+    """acos(x) as atan2(sqrt((1 - x)(1 + x)), x), given 1 - x and 1 + x (unit format, each in
+    [0, 2]). Returns (angle_a, sine_u = sin(angle))."""
+    c = k.cfg
+    # The product of two numbers in [0, 2] with 2*frac_unit fraction bits: below 2**(2*frac_unit + 2).
+    product_u2 = one_minus_u * one_plus_u
+    sine_u = isqrt(product_u2, 2 * c.frac_unit + 4, c.round_nearest)
+    angle_a, _, _ = cordic_atan2(sine_u, k.one_u - one_minus_u, k)
+    return angle_a, sine_u
+
+
 def cordic_acos(x_u: int, k: Constants) -> tuple[int, int, int]:
     """acos of a unit-format word as atan2(sqrt((1 - x)(1 + x)), x).
 
     Input outside [-1, 1] is clipped and flagged. Returns (angle_a, sine_u = sin(angle), flags).
     """
-    c = k.cfg
     flags = 0
     if x_u > k.one_u:
         x_u, flags = k.one_u, SATURATED
     elif x_u < -k.one_u:
         x_u, flags = -k.one_u, SATURATED
-    # (1 - x)(1 + x) is in [0, 1] with 2*frac_unit fraction bits: below 2**(2*frac_unit + 1).
-    product_u2 = (k.one_u - x_u) * (k.one_u + x_u)
-    sine_u = isqrt(product_u2, 2 * c.frac_unit + 2, c.round_nearest)
-    angle_a, _, _ = cordic_atan2(sine_u, x_u, k)
+    angle_a, sine_u = acos_of_complements(k.one_u - x_u, k.one_u + x_u, k)
     return angle_a, sine_u, flags
 
 
@@ -174,85 +187,104 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
 
     Branch: shoulder_back puts the tool point behind joint 1 (q1 + pi); elbow_down takes
     q3 = -acos(c3) instead of +acos(c3). q5_default_a is used when n, o are absent.
+    Every quantity below is in the internal format of ``ki = k.internal``.
     """
     c = k.cfg
+    ki = k.internal
+    guard = c.internal_guard_bits
     nearest = c.round_nearest
     status = 0
-    px, py, pz = pose.p_l
-    ax, ay, az = pose.a_u
+    # Input words to internal words: exact (guard more fraction bits, the same real range).
+    px, py, pz = (v << guard for v in pose.p_l)
+    ax, ay, az = (v << guard for v in pose.a_u)
 
     # Joint 1: the arm's plane contains the tool point, or the approach if the point is on the axis.
-    # px^2 + py^2 reaches 2**63 (px = py = word_min), one past int64: the C sums it in uint64.
-    rho_l = isqrt(px * px + py * py, 64, nearest)
-    rho_l, sat = saturate(rho_l, k)
+    # px^2 + py^2 reaches 2**(2 width - 1) (px = py = word_min): the C sums it in 128 bits.
+    rho_l = isqrt(px * px + py * py, 2 * ki.cfg.width, nearest)
+    rho_l, sat = saturate(rho_l, ki)
     status |= sat
     if rho_l != 0:
-        theta1_a, _, _ = cordic_atan2(py, px, k)
+        theta1_a, _, _ = cordic_atan2(py, px, ki)
     else:
-        theta1_a, _, vertical = cordic_atan2(ay, ax, k)
+        theta1_a, _, vertical = cordic_atan2(ay, ax, ki)
         if vertical:
             status |= SINGULAR_BASE
     if shoulder_back:
-        q1_a = opposite(theta1_a, k)
+        q1_a = opposite(theta1_a, ki)
         r_l = -rho_l
     else:
         q1_a = theta1_a
         r_l = rho_l
-    c1_u, s1_u, sat = cordic_rotate(k.one_u, 0, q1_a, k)
+    c1_u, s1_u, sat = cordic_rotate(ki.one_u, 0, q1_a, ki)
     status |= sat
 
     # Tool pitch phi = q2 + q3 + q4 from the approach projected onto the arm's plane.
-    a_radial_u, sat = saturate(rshift_round(ax * c1_u + ay * s1_u, c.frac_unit, nearest), k)
+    fu = ki.cfg.frac_unit
+    a_radial_u, sat = saturate(rshift_round(ax * c1_u + ay * s1_u, fu, nearest), ki)
     status |= sat
-    pitch_a, _, no_direction = cordic_atan2(a_radial_u, az, k)
+    pitch_a, _, no_direction = cordic_atan2(a_radial_u, az, ki)
     if no_direction:
         status |= INVALID
-    phi_a = opposite(pitch_a, k)
+    phi_a = opposite(pitch_a, ki)
 
     # Wrist centre (joint 4 axis) in the arm's plane: subtract R(phi) (a4, d5).
-    off_x_l, off_y_l, sat = cordic_rotate(k.a4_l, k.d5_l, phi_a, k)
+    off_x_l, off_y_l, sat = cordic_rotate(ki.a4_l, ki.d5_l, phi_a, ki)
     status |= sat
-    xw_l, sat = saturate(r_l - k.a1_l - off_x_l, k)
+    xw_l, sat = saturate(r_l - ki.a1_l - off_x_l, ki)
     status |= sat
-    yw_l, sat = saturate(k.d1_l - pz - off_y_l, k)
+    yw_l, sat = saturate(ki.d1_l - pz - off_y_l, ki)
     status |= sat
 
     # Elbow: law of cosines, clipped to the reachable annulus.
-    # xw^2 + yw^2 reaches 2**63 (xw = yw = word_min), one past int64: subtract first.
-    # xw^2 - links_sq is in (-2**56, 2**62], so num_l2 < 2**63 - links_sq fits int64.
-    num_l2 = (xw_l * xw_l - k.links_sq_l2) + yw_l * yw_l
-    if num_l2 > k.twice_a2a3_l2:
-        num_l2, status = k.twice_a2a3_l2, status | UNREACHABLE
-    elif num_l2 < -k.twice_a2a3_l2:
-        num_l2, status = -k.twice_a2a3_l2, status | UNREACHABLE
-    c3_u = max(-k.one_u, min(k.one_u, mul_const(num_l2, k.c3_from_l2, nearest)))
-    elbow_a, s3_u, _ = cordic_acos(c3_u, k)
-    if s3_u <= k.singular_s3_u:
+    # xw^2 + yw^2 reaches 2**(2 width - 1) (xw = yw = word_min): the C subtracts first, in 128 bits.
+    num_l2 = (xw_l * xw_l - ki.links_sq_l2) + yw_l * yw_l
+    if num_l2 > ki.twice_a2a3_l2:
+        num_l2, status = ki.twice_a2a3_l2, status | UNREACHABLE
+    elif num_l2 < -ki.twice_a2a3_l2:
+        num_l2, status = -ki.twice_a2a3_l2, status | UNREACHABLE
+    if guard == 0:
+        c3_u = max(-ki.one_u, min(ki.one_u, mul_const(num_l2, ki.c3_from_l2, nearest)))
+        elbow_a, s3_u, _ = cordic_acos(c3_u, ki)
+    else:
+        # 1 - c3 = (2 a2 a3 - num) / (2 a2 a3) and 1 + c3 = (2 a2 a3 + num) / (2 a2 a3) straight
+        # from the law of cosines: near the straight (folded) elbow 1 - c3 (1 + c3) is small and
+        # keeps its relative precision, which 1 - c3 formed from a rounded c3 would not.
+        two_u = 2 * ki.one_u
+        one_minus_c3_u = min(two_u, mul_const(ki.twice_a2a3_l2 - num_l2, ki.c3_complement_from_l2, nearest))
+        one_plus_c3_u = min(two_u, mul_const(ki.twice_a2a3_l2 + num_l2, ki.c3_complement_from_l2, nearest))
+        c3_u = ki.one_u - one_minus_c3_u
+        elbow_a, s3_u = acos_of_complements(one_minus_c3_u, one_plus_c3_u, ki)
+    if s3_u <= ki.singular_s3_u:
         status |= SINGULAR_ELBOW
     q3_a = -elbow_a if elbow_down else elbow_a
 
     # Shoulder: q2 = atan2(yw, xw) -+ atan2(a3 sin|q3|, a2 + a3 cos q3).
-    gamma_a, _, _ = cordic_atan2(yw_l, xw_l, k)
-    beta_a, _, _ = cordic_atan2(mul_const(s3_u, k.a3_from_u, nearest),
-                                k.a2_l + mul_const(c3_u, k.a3_from_u, nearest), k)
-    q2_a = wrap_angle(gamma_a + beta_a if elbow_down else gamma_a - beta_a, k)
-    q4_a = wrap_angle(wrap_angle(phi_a - q2_a, k) - q3_a, k)
+    gamma_a, _, _ = cordic_atan2(yw_l, xw_l, ki)
+    beta_a, _, _ = cordic_atan2(mul_const(s3_u, ki.a3_from_u, nearest),
+                                ki.a2_l + mul_const(c3_u, ki.a3_from_u, nearest), ki)
+    q2_a = wrap_angle(gamma_a + beta_a if elbow_down else gamma_a - beta_a, ki)
+    q4_a = wrap_angle(wrap_angle(phi_a - q2_a, ki) - q3_a, ki)
 
     # Joint 5: tool roll from n and o, else the caller's value.
     if pose.n_u is not None and pose.o_u is not None:
-        nx, ny, _ = pose.n_u
-        ox, oy, _ = pose.o_u
-        s5_u, sat_s = saturate(rshift_round(nx * s1_u - ny * c1_u, c.frac_unit, nearest), k)
-        c5_u, sat_c = saturate(rshift_round(ox * s1_u - oy * c1_u, c.frac_unit, nearest), k)
+        nx, ny, _ = (v << guard for v in pose.n_u)
+        ox, oy, _ = (v << guard for v in pose.o_u)
+        s5_u, sat_s = saturate(rshift_round(nx * s1_u - ny * c1_u, fu, nearest), ki)
+        c5_u, sat_c = saturate(rshift_round(ox * s1_u - oy * c1_u, fu, nearest), ki)
         status |= sat_s | sat_c
-        q5_a, _, no_roll = cordic_atan2(s5_u, c5_u, k)
+        q5_a, _, no_roll = cordic_atan2(s5_u, c5_u, ki)
         if no_roll:
             status |= INVALID
     else:
-        q5_a = q5_default_a
+        q5_a = q5_default_a << guard
 
-    joints = tuple(wrap_angle(q - off, k) for q, off in zip((q1_a, q2_a, q3_a, q4_a, q5_a), k.offset_a))
-    return joints, status
+    # Joint angles back to words (rounded, saturated: the last overflow check).
+    joints = []
+    for q, off in zip((q1_a, q2_a, q3_a, q4_a, q5_a), ki.offset_a):
+        joint_a, sat = saturate(rshift_round(wrap_angle(q - off, ki), guard, nearest), k)
+        joints.append(joint_a)
+        status |= sat
+    return tuple(joints), status
 
 
 def solve_batch(k: Constants, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a):

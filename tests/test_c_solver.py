@@ -20,7 +20,7 @@ from ik5r.firmware import codegen, csolver, model
 from ik5r.firmware.vectors import Poses, concat, edge_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 
-CONFIGS = ("q32", "q24", "q18")
+CONFIGS = ("q32", "q24", "q18", "q32w")
 N_POSES = 3000
 N_FUNC = 20000
 N_SLOW = 1_000_000
@@ -178,8 +178,17 @@ def test_header_generated_deterministic(name, tmp_path):
     for value in k.atan_table:
         assert f"INT64_C({value})" in text
     for field in ("width", "frac_length", "frac_unit", "frac_angle", "iterations", "guard_bits",
-                  "angle_guard_bits"):
+                  "angle_guard_bits", "internal_guard_bits"):
         assert f"#define IK5R_{field.upper()} {getattr(k.cfg, field)}\n" in text
+    # The internal format of the IK (the word format when internal_guard_bits is 0).
+    inner = k.internal.cfg
+    assert f"#define IK5R_IK_WIDTH {k.cfg.width + k.cfg.internal_guard_bits}\n" in text
+    assert f"#define IK5R_IK_ITERATIONS {inner.iterations}\n" in text
+    for value in k.internal.atan_table:
+        assert f"INT64_C({value})" in text
+    twice = int(k.internal.twice_a2a3_l2)
+    assert f"#define IK5R_IK_TWICE_A2A3_L2_HI UINT64_C({twice >> 64})\n" in text
+    assert f"#define IK5R_IK_TWICE_A2A3_L2_LO UINT64_C({twice & (2**64 - 1)})\n" in text
     assert f"#define IK5R_ROUND_NEAREST {int(k.cfg.round_nearest)}\n" in text
     assert f"#define IK5R_C3_FROM_L2_MANT INT64_C({k.c3_from_l2.mant})" in text
     assert "#define IK5R_STATUS_SINGULAR_BASE 0x04u" in text

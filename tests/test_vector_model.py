@@ -22,7 +22,7 @@ from ik5r.firmware.vectors import Poses, edge_poses, random_poses
 from ik5r.fxconfig import Constants, constants, load_config
 from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
-CONFIGS = ("q18", "q24", "q32")
+CONFIGS = ("q18", "q24", "q32", "q32w")
 ARM = load_arm()
 
 
@@ -276,7 +276,7 @@ def _compare_poses(k, poses: Poses) -> np.ndarray:
     return st_s
 
 
-@pytest.mark.parametrize("name", CONFIGS + ("q32-truncate",))
+@pytest.mark.parametrize("name", CONFIGS + ("q32-truncate", "q32w-truncate"))
 def test_random_poses(name):
     k = _constants(name)
     status = _compare_poses(k, random_poses(k, 1250, seed=201))

@@ -6,13 +6,16 @@ iteration counts, rounding and every derived integer constant from :class:`Const
 cannot drift apart.
 
 Formats: every word is a signed two's-complement integer of ``width`` bits; a value ``v`` of a
-quantity with ``n`` fraction bits stands for ``v * 2**-n`` (Q m.n with m + n = width).
+quantity with ``n`` fraction bits stands for ``v * 2**-n`` (Q m.n with m + n = width). With
+``ik.internal_guard_bits`` = G > 0 the IK runs on the internal format :meth:`FixedConfig.internal`
+(G more bits of width, of every fraction and of CORDIC iterations), whose constants are
+``Constants.internal``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 
@@ -38,6 +41,8 @@ class FixedConfig:
     angle_guard_bits: int
     rounding: str
     singular_sin_q3: float
+    # Extra fraction bits of every quantity inside the IK (0: the IK runs on the words themselves).
+    internal_guard_bits: int = 0
     source: str = "<config>"
 
     @property
@@ -51,7 +56,19 @@ class FixedConfig:
             f"iterations = {self.iterations}\nguard_bits = {self.guard_bits}\n"
             f"angle_guard_bits = {self.angle_guard_bits}\n\n[ik]\n"
             f'rounding = "{self.rounding}"\nsingular_sin_q3 = {self.singular_sin_q3!r}\n'
+            f"internal_guard_bits = {self.internal_guard_bits}\n"
         )
+
+    def internal(self) -> FixedConfig:
+        """The format the IK runs on: ``internal_guard_bits`` more fraction bits in every quantity
+        (and as many more bits of word width and CORDIC iterations). Itself when that is 0."""
+        g = self.internal_guard_bits
+        if g == 0:
+            return self
+        return replace(self, name=f"{self.name}-internal", width=self.width + g,
+                       frac_length=self.frac_length + g, frac_unit=self.frac_unit + g,
+                       frac_angle=self.frac_angle + g, iterations=self.iterations + g,
+                       internal_guard_bits=0)
 
 
 _SCHEMA = {
@@ -64,7 +81,10 @@ _SCHEMA = {
     ("cordic", "guard_bits"): (int, 0, 8),
     ("cordic", "angle_guard_bits"): (int, 1, 8),
     ("ik", "singular_sin_q3"): (float, 0.0, 0.5),
+    ("ik", "internal_guard_bits"): (int, 0, 8),
 }
+#: Optional fields and their defaults (a config without them behaves as before they existed).
+_OPTIONAL = {("ik", "internal_guard_bits"): 0}
 
 
 def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
@@ -75,6 +95,9 @@ def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
         node = doc
         for key in keys:
             if not isinstance(node, dict) or key not in node:
+                if keys in _OPTIONAL:
+                    node = _OPTIONAL[keys]
+                    break
                 raise InputError(path, "missing", field=name)
             node = node[key]
         if isinstance(node, bool) or not isinstance(node, (int, float)) or (kind is int and not isinstance(node, int)):
@@ -94,7 +117,8 @@ def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
         frac_length=values["frac.length"], frac_unit=values["frac.unit"], frac_angle=values["frac.angle"],
         iterations=values["cordic.iterations"], guard_bits=values["cordic.guard_bits"],
         angle_guard_bits=values["cordic.angle_guard_bits"], rounding=rounding,
-        singular_sin_q3=float(values["ik.singular_sin_q3"]), source=str(path),
+        singular_sin_q3=float(values["ik.singular_sin_q3"]),
+        internal_guard_bits=values["ik.internal_guard_bits"], source=str(path),
     )
 
 
@@ -125,12 +149,14 @@ class ConstMul:
     post: int
 
 
-def const_mul(factor: float, x_max_bits: int) -> ConstMul:
-    pre = max(0, x_max_bits - 31)
+def const_mul(factor: float, x_max_bits: int, mant_bits: int = CONST_MANT_BITS) -> ConstMul:
+    """c = factor for operands below 2**x_max_bits: the pre-shifted operand and the mantissa are
+    both below 2**mant_bits (31 for the word configs, so the product fits int64)."""
+    pre = max(0, x_max_bits - mant_bits)
     scaled = abs(factor) * 2.0**pre
-    post = CONST_MANT_BITS - 1 - math.floor(math.log2(scaled))
+    post = mant_bits - 1 - math.floor(math.log2(scaled))
     mant = round(scaled * 2.0**post)
-    if mant >= 2**CONST_MANT_BITS:
+    if mant >= 2**mant_bits:
         post -= 1
         mant = round(scaled * 2.0**post)
     return ConstMul(pre, int(math.copysign(mant, factor)), post)
@@ -140,6 +166,11 @@ def _q(value: float, frac: int) -> int:
     return round(value * 2**frac)
 
 
+class WideInt(int):
+    """An integer constant that is a product of two words (a squared length), so wider than 64
+    bits in the internal format: the C header carries it as two 64-bit halves of a 128-bit value."""
+
+
 @dataclass(frozen=True)
 class Constants:
     """Every integer constant of the fixed-point IK, derived from a config and an arm."""
@@ -147,7 +178,7 @@ class Constants:
     cfg: FixedConfig
     arm: Arm
     atan_table: tuple[int, ...] = field(init=False)   # atan(2^-i), Q(frac_angle + angle_guard_bits)
-    inv_gain: int = field(init=False)                 # 1/K_N, Q(INV_GAIN_FRAC)
+    inv_gain: int = field(init=False)                 # 1/K_N, Q(inv_gain_frac)
 
     def __post_init__(self):
         c, a = self.cfg, self.arm
@@ -155,7 +186,11 @@ class Constants:
         zf = c.frac_angle + c.angle_guard_bits
         set_(self, "atan_table", tuple(_q(math.atan(2.0**-i), zf) for i in range(c.iterations)))
         gain = math.prod(math.sqrt(1 + 2.0 ** (-2 * i)) for i in range(c.iterations))
-        set_(self, "inv_gain", _q(1 / gain, INV_GAIN_FRAC))
+        # 1/K and the constant multipliers carry at least a word's precision: 31 bits for every
+        # word config (products fit int64), width - 1 for the wider internal format.
+        set_(self, "inv_gain_frac", max(INV_GAIN_FRAC, c.width - 1))
+        set_(self, "const_mant_bits", max(CONST_MANT_BITS, c.width - 1))
+        set_(self, "inv_gain", _q(1 / gain, self.inv_gain_frac))
         fl, fu, fa, w = c.frac_length, c.frac_unit, c.frac_angle, c.width
         set_(self, "z_frac", zf)
         set_(self, "half_pi_z", _q(math.pi / 2, zf))
@@ -170,15 +205,23 @@ class Constants:
         set_(self, "d5_l", _q(a.d[4], fl))
         set_(self, "offset_a", tuple(_q(o, fa) for o in a.theta_offset))
         # Law of cosines in Q(2*frac_length): c3 = (D^2 - a2^2 - a3^2) / (2 a2 a3).
-        set_(self, "links_sq_l2", _q(a.a[1] ** 2 + a.a[2] ** 2, 2 * fl))
-        set_(self, "twice_a2a3_l2", _q(2 * a.a[1] * a.a[2], 2 * fl))
-        set_(self, "c3_from_l2", const_mul(2.0 ** (fu - 2 * fl) / (2 * a.a[1] * a.a[2]),
-                                           self.twice_a2a3_l2.bit_length()))
-        set_(self, "a3_from_u", const_mul(a.a[2] * 2.0 ** (fl - fu), fu + 1))
+        set_(self, "links_sq_l2", WideInt(_q(a.a[1] ** 2 + a.a[2] ** 2, 2 * fl)))
+        set_(self, "twice_a2a3_l2", WideInt(_q(2 * a.a[1] * a.a[2], 2 * fl)))
+        mant_bits = self.const_mant_bits
+        c3_factor = 2.0 ** (fu - 2 * fl) / (2 * a.a[1] * a.a[2])
+        set_(self, "c3_from_l2", const_mul(c3_factor, self.twice_a2a3_l2.bit_length(), mant_bits))
+        # 1 -+ c3 = (2 a2 a3 -+ num) / (2 a2 a3), operands in [0, 4 a2 a3]: the same factor, its
+        # rounding relative to the (small, near the straight or folded elbow) complement.
+        set_(self, "c3_complement_from_l2",
+             const_mul(c3_factor, (2 * self.twice_a2a3_l2).bit_length(), mant_bits))
+        set_(self, "a3_from_u", const_mul(a.a[2] * 2.0 ** (fl - fu), fu + 1, mant_bits))
         set_(self, "singular_s3_u", _q(c.singular_sin_q3, fu))
         for name in ("a1_l", "a2_l", "a4_l", "d1_l", "d5_l", "pi_a", "one_u"):
             if not self.word_min <= getattr(self, name) <= self.word_max:
                 raise InputError(c.source, f"{name} = {getattr(self, name)} does not fit {w} bits")
+        # The constants of the format the IK runs on (cfg.internal()); these very ones when the
+        # config has no internal guard bits.
+        set_(self, "internal", self if c.internal_guard_bits == 0 else Constants(c.internal(), a))
 
 
 def constants(cfg: FixedConfig | None = None, arm: Arm | None = None) -> Constants:
