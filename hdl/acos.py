@@ -63,7 +63,9 @@ class Acos(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants, products: str = "parallel") -> Datapath:
+    def _datapath(k: Constants, products: str = "parallel", radicand_bits: int | None = None) -> Datapath:
+        """``radicand_bits``: the square root's (default 2 frac_unit + 2: (1 - x)(1 + x) <= 1;
+        the IK core's internal format takes factors up to 2 each, so 2 frac_unit + 4)."""
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
         dp = Datapath("acos", products=products)
@@ -87,7 +89,7 @@ class Acos(StreamBlock):
         add_products(dp, "ac_sq", [(lambda s: s["ac_a"], factor,
                                     (lambda s: s["ac_b"], factor), "sq_rad")],
                      drop_keys=("ac_a", "ac_b"))
-        add_isqrt(dp, bits=2 * fu + 2, nearest=c.round_nearest, root="sine")
+        add_isqrt(dp, bits=radicand_bits or 2 * fu + 2, nearest=c.round_nearest, root="sine")
         # sine <= 2**fu < 2**(W-1): the same value as a signed word (wiring only).
         dp.add_wiring(lambda s: dict(s, sine=fit(s["sine"], width).as_signed(),
                                      at_y=fit(s["sine"], width).as_signed()))

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 
-from ik5r.fxconfig import INV_GAIN_FRAC, Constants
+from ik5r.fxconfig import Constants
 
 from .common import (Datapath, SharedStage, StreamBlock, add_products, add_sub, asr, drop,
                      leading_zeros, rshift_round, saturate, table_entry)
@@ -198,8 +198,8 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         dp.add("at_angle", post)
         return
 
-    # magnitude = sat(rshift_round((xs >> g) * inv_gain, INV_GAIN_FRAC + norm)).
-    # Rounded: floor((p / 2**(s-1) + 1) / 2) = ((p >> (s-1)) + 1) >> 1, s - 1 = 30 + norm >= 0.
+    # magnitude = sat(rshift_round((xs >> g) * inv_gain, inv_gain_frac + norm)).
+    # Rounded: floor((p / 2**(s-1) + 1) / 2) = ((p >> (s-1)) + 1) >> 1, s - 1 = inv_gain_frac - 1 + norm >= 0.
     def product_side(s):
         out = angle(s)
         out.update({key: fn(s) for key, fn in keep_zero.items()})
@@ -209,7 +209,7 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     add_products(dp, "at_mag", [(lambda s: asr(s["cx"], guard)[:width + 1],
                                  unsigned(width + 1), k.inv_gain, "mag_p")],
                  parallel=product_side, drop_keys=("cx", "cy", "cz", "czero"))
-    shift_const = INV_GAIN_FRAC - 1 if nearest else INV_GAIN_FRAC
+    shift_const = k.inv_gain_frac - 1 if nearest else k.inv_gain_frac
 
     def denormalise_coarse(s):
         out = drop(s, "mag_p")
@@ -414,7 +414,7 @@ class Rotate(StreamBlock):
         add_products(dp, "ro_gain", [(lambda s: s["rx"], operand, k.inv_gain, "gx"),
                                      (lambda s: s["ry"], operand, k.inv_gain, "gy")],
                      drop_keys=("rx", "ry"))
-        shift = INV_GAIN_FRAC - guard
+        shift = k.inv_gain_frac - guard
 
         def gain_round(s):
             out = drop(s, "gx", "gy")

@@ -30,7 +30,7 @@ from amaranth.lib.memory import Memory
 
 from ik5r import status as S
 from ik5r.firmware import model
-from ik5r.fxconfig import INV_GAIN_FRAC, Constants
+from ik5r.fxconfig import Constants
 
 from .acos import Acos
 from .common import Datapath, StreamBlock, add_products, drop, rshift_round, saturate
@@ -214,7 +214,7 @@ def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
         raise RuntimeError("Rotate datapath has no 'ro_it' stage")
     tail = rot.stages[names.index("ro_it"):]
     x0, y0 = vector
-    shift = INV_GAIN_FRAC - c.guard_bits
+    shift = k.inv_gain_frac - c.guard_bits
 
     def gained(x, y):
         return (model.rshift_round(x * k.inv_gain, shift, c.round_nearest),
@@ -348,7 +348,53 @@ def _opposite(angle, k: Constants):
     return Mux(angle > 0, angle - k.pi_a, angle + k.pi_a)
 
 
-def _core_datapath(k: Constants, builder: _Builder, tag: bool, compact: bool) -> Datapath:
+def _add_c3(el: Datapath, k: Constants, limit: int) -> None:
+    """c3 = clip(mul_const(num, c3_from_l2)) -> ``ac_x`` (the Acos datapath's clipped input)."""
+    nearest, one = k.cfg.round_nearest, k.one_u
+    mc = k.c3_from_l2
+    if mc.mant < 0:
+        raise ValueError("c3_from_l2: negative constant not supported")
+    el.add("c3_pre", lambda s: dict(drop(s, "numc"), c3v=rshift_round(s["numc"], mc.pre, nearest)))
+    add_products(el, "c3m", [(lambda s: s["c3v"], _const_mul_operand(k, mc, limit), mc.mant, "c3p")],
+                 drop_keys=("c3v",))
+    el.add("c3_post", lambda s: dict(drop(s, "c3p"), c3r=rshift_round(s["c3p"], mc.post, nearest)))
+    el.add("c3_clip", lambda s: dict(drop(s, "c3r"), ac_x=Mux(s["c3r"] > one, one,
+                                                              Mux(s["c3r"] < -one, -one, s["c3r"]))))
+
+
+def _add_c3_complements(el: Datapath, k: Constants, limit: int) -> None:
+    """1 - c3 and 1 + c3 straight from the law of cosines (the internal format's way, see
+    ``model.ik_solve``): mul_const(2 a2 a3 -+ num, c3_complement_from_l2), each clipped to 2 ->
+    ``ac_a``, ``ac_b`` (the Acos datapath's factors) and c3 = 1 - (1 - c3) -> ``ac_x``."""
+    nearest, one, fu = k.cfg.round_nearest, k.one_u, k.cfg.frac_unit
+    two = 2 * one
+    mc = k.c3_complement_from_l2
+    if mc.mant < 0:
+        raise ValueError("c3_complement_from_l2: negative constant not supported")
+    el.add("c3_pre", lambda s: dict(drop(s, "numc"),
+                                    cmv=rshift_round(limit - s["numc"], mc.pre, nearest),
+                                    cpv=rshift_round(limit + s["numc"], mc.pre, nearest)))
+    operand = _const_mul_operand(k, mc, 2 * limit)
+    add_products(el, "c3m", [(lambda s: s["cmv"], operand, mc.mant, "cmp"),
+                             (lambda s: s["cpv"], operand, mc.mant, "cpp")], drop_keys=("cmv", "cpv"))
+    el.add("c3_post", lambda s: dict(drop(s, "cmp", "cpp"),
+                                     cmr=rshift_round(s["cmp"], mc.post, nearest),
+                                     cpr=rshift_round(s["cpp"], mc.post, nearest)))
+
+    def clip(s):
+        over = s["cmr"] > two
+        minus, plus = Mux(over, two, s["cmr"]), Mux(s["cpr"] > two, two, s["cpr"])
+        return dict(drop(s, "cmr", "cpr"), ac_a=minus[:fu + 2], ac_b=plus[:fu + 2],
+                    ac_x=Mux(over, one - two, one - s["cmr"]))
+
+    el.add("c3_clip", clip)
+
+
+def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool) -> Datapath:
+    """The IK on the internal format ``k = words.internal`` (the words themselves unless the config
+    has ``ik.internal_guard_bits``); the inputs arrive shifted up (:meth:`IKCore._inputs`) and the
+    joints leave rounded back to words."""
+    k = words.internal
     c = k.cfg
     width, fu, nearest = c.width, c.frac_unit, c.round_nearest
     word = signed(width)
@@ -475,23 +521,19 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, compact: bool) ->
                     numc=Mux(over, limit, Mux(under, -limit, num)))
 
     el.add("reach", reach)
-    mc = k.c3_from_l2
-    if mc.mant < 0:
-        raise ValueError("c3_from_l2: negative constant not supported")
-    el.add("c3_pre", lambda s: dict(drop(s, "numc"), c3v=rshift_round(s["numc"], mc.pre, nearest)))
-    add_products(el, "c3m", [(lambda s: s["c3v"], _const_mul_operand(k, mc, limit), mc.mant, "c3p")],
-                 drop_keys=("c3v",))
-    el.add("c3_post", lambda s: dict(drop(s, "c3p"), c3r=rshift_round(s["c3p"], mc.post, nearest)))
     one = k.one_u
-    el.add("c3_clip", lambda s: dict(drop(s, "c3r"), ac_x=Mux(s["c3r"] > one, one,
-                                                              Mux(s["c3r"] < -one, -one, s["c3r"]))))
-    acos = Acos._datapath(k, products)
+    if words.cfg.internal_guard_bits == 0:
+        _add_c3(el, k, limit)
+        acos = Acos._datapath(k, products)
+        first_acos = [name for name, _, _, _ in acos.stages].index("ac_factors")
+    else:
+        _add_c3_complements(el, k, limit)
+        acos = Acos._datapath(k, products, radicand_bits=2 * fu + 4)
+        first_acos = [name for name, _, _, _ in acos.stages].index("ac_sq_op")
     names = [name for name, _, _, _ in acos.stages]
     first_atan = next(i for i, name in enumerate(names) if name.startswith("at_"))
-    if names[0] != "ac_clip":
-        raise RuntimeError("Acos datapath does not start with 'ac_clip'")
     el.shapes.update(acos.shapes)
-    el.stages.extend(acos.stages[1:first_atan])
+    el.stages.extend(acos.stages[first_acos:first_atan])
     acos_tail = Datapath("acos_tail")
     acos_tail.shapes = dict(acos.shapes)
     acos_tail.stages = list(acos.stages[first_atan:])
@@ -567,6 +609,21 @@ def _core_datapath(k: Constants, builder: _Builder, tag: bool, compact: bool) ->
     else:
         # wrap(q4 - 0) == q4: q4 is already wrapped.
         dp.add("q4_wrap2", lambda s: dict(drop(s, "t"), j4=_wrap(s["t"], k)))
+    guard = words.cfg.internal_guard_bits
+    if guard:
+        joints = [f"j{j}" for j in range(1, 6)]
+        dp.add("joints_round", lambda s: dict(s, **{key: rshift_round(s[key], guard, nearest)
+                                                    for key in joints}))
+
+        def joints_saturate(s):
+            out, clipped = dict(s), []
+            for key in joints:
+                out[key], sat = saturate(s[key], words.cfg.width)
+                clipped.append(sat)
+            out["st"] = s["st"] | _flag(Cat(*clipped).any(), S.SATURATED)
+            return out
+
+        dp.add("joints_sat", joints_saturate)
     return dp
 
 
@@ -654,9 +711,12 @@ class IKCore(StreamBlock):
         self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
 
     def _inputs(self, p):
-        return {"px": p.px, "py": p.py, "pz": p.pz, "ax": p.ax, "ay": p.ay, "az": p.az,
-                "nx": p.nx, "ny": p.ny, "ox": p.ox, "oy": p.oy, "roll": p.has_roll,
-                "q5d": p.q5_default, "back": p.shoulder_back, "down": p.elbow_down}
+        # Words to the internal format: exact, ``internal_guard_bits`` more fraction bits.
+        guard = self.constants.cfg.internal_guard_bits
+        words = {key: getattr(p, field).shift_left(guard) for key, field in (
+            ("px", "px"), ("py", "py"), ("pz", "pz"), ("ax", "ax"), ("ay", "ay"), ("az", "az"),
+            ("nx", "nx"), ("ny", "ny"), ("ox", "ox"), ("oy", "oy"), ("q5d", "q5_default"))}
+        return dict(words, roll=p.has_roll, back=p.shoulder_back, down=p.elbow_down)
 
     def _outputs(self, state):
         out = {f"q{j}": state[f"j{j}"] for j in range(1, 6)}
