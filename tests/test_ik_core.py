@@ -25,6 +25,8 @@ from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
 from ik5r.hdl.tb.blocks import IK_OUTPUTS, ik_outputs
 
 CONFIGS = ("q18", "q32")
+#: q32w: q32's words on a 38-bit internal format (``ik.internal_guard_bits`` = 6).
+PIPELINED_CONFIGS = CONFIGS + ("q32w",)
 TAG_WIDTH = 6
 
 
@@ -61,7 +63,7 @@ def with_tags(items, expected):
 
 # --- tests ---------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("cfg", CONFIGS)
+@pytest.mark.parametrize("cfg", PIPELINED_CONFIGS)
 def test_pipelined(cfg):
     k = _k(cfg)
     poses = poses_for(k, 200, seed=1)
@@ -101,6 +103,18 @@ def test_compact(cfg):
     compare(items[:12], expected[:12], outputs)
 
 
+def test_compact_internal_format():
+    """The compact core on q32w's internal format: every eighth directed pose and a few random
+    ones (the pipelined test runs them all through the same expressions)."""
+    k = _k("q32w")
+    poses = concat(directed_poses(k)[::8], random_poses(k, 1, seed=4))
+    items = inputs_of(poses, TAG_WIDTH)
+    expected = with_tags(items, expected_of(k, poses))
+    dut = IKCore(constants=k, arch="compact", tag_width=TAG_WIDTH)
+    outputs, _, _ = run_stream(dut, items, stall_seed=7)
+    compare(items, expected, outputs)
+
+
 @pytest.mark.filterwarnings("ignore:.*created but never used")
 def test_no_tag_and_latency():
     k = _k("q18")
@@ -111,8 +125,10 @@ def test_no_tag_and_latency():
     compare(inputs_of(poses), expected_of(k, poses), outputs)
     big = IKCore(constants=_k("q32"), arch="pipelined")
     big._MustUse__used = True       # only its latency is wanted
+    wide = IKCore(constants=_k("q32w"), arch="pipelined")
+    wide._MustUse__used = True
     # Fixed by the blocks' stage counts: more CORDIC iterations, more stages.
-    assert 150 < dut.latency < big.latency < 300
+    assert 150 < dut.latency < big.latency < wide.latency < 350
 
 
 @pytest.mark.filterwarnings("ignore:.*created but never used")
