@@ -412,7 +412,7 @@ static void acos_of_complements(int64_t one_minus_u, int64_t one_plus_u, const f
                                 int64_t *angle_a, int64_t *sine_u)
 {
     int64_t unused;
-    /* The product of two numbers in [0, 2] with 2*frac_unit fraction bits: below 2^(2*frac_unit + 2). */
+    /* The product of two numbers in [0, 2] with 2*frac_unit fraction bits: at most 2^(2*frac_unit + 2). */
     *sine_u = (int64_t)isqrt(wide_mul(one_minus_u, one_plus_u), 2 * f->frac_unit + 4, IK5R_ROUND_NEAREST);
     (void)cordic_atan2(*sine_u, f->one_u - one_minus_u, f, angle_a, &unused);
 }
