@@ -121,10 +121,13 @@ static int wide_less(wide_t a, wide_t b)
 }
 
 /* The exact product a * b: magnitudes multiplied in 32-bit limbs (four 32x32->64 products,
- * mul + mulxuu on Nios II), then the sign. */
+ * mul + mulxuu on Nios II), then the sign. Two int32_t-range operands (every product of the
+ * word configs) take one 32x32->64 multiply instead. */
 static wide_t wide_mul(int64_t a, int64_t b)
 {
     const uint64_t mask = UINT64_C(0xffffffff);
+    if (a >= INT32_MIN && a <= INT32_MAX && b >= INT32_MIN && b <= INT32_MAX)
+        return wide_from((int64_t)(int32_t)a * (int32_t)b);
     const uint64_t ua = a < 0 ? 0u - (uint64_t)a : (uint64_t)a;
     const uint64_t ub = b < 0 ? 0u - (uint64_t)b : (uint64_t)b;
     const uint64_t a0 = ua & mask, a1 = ua >> 32, b0 = ub & mask, b1 = ub >> 32;
@@ -409,7 +412,7 @@ static void acos_of_complements(int64_t one_minus_u, int64_t one_plus_u, const f
                                 int64_t *angle_a, int64_t *sine_u)
 {
     int64_t unused;
-    /* The product of two numbers in [0, 2] with 2*frac_unit fraction bits: below 2^(2*frac_unit + 2). */
+    /* The product of two numbers in [0, 2] with 2*frac_unit fraction bits: at most 2^(2*frac_unit + 2). */
     *sine_u = (int64_t)isqrt(wide_mul(one_minus_u, one_plus_u), 2 * f->frac_unit + 4, IK5R_ROUND_NEAREST);
     (void)cordic_atan2(*sine_u, f->one_u - one_minus_u, f, angle_a, &unused);
 }
@@ -444,7 +447,9 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
                          const int32_t *o_u, int shoulder_back, int elbow_down,
                          int32_t q5_default_a, int32_t q_a[5])
 {
-    const format_t *ik = &ik_format;
+    /* Without internal guard bits the two formats are equal: take the word format's object, so
+     * that the compiler sees one constant format throughout (and folds it). */
+    const format_t *ik = IK5R_INTERNAL_GUARD_BITS > 0 ? &ik_format : &word_format;
     const int nearest = IK5R_ROUND_NEAREST;
     uint32_t status = 0;
     const int64_t px = to_internal(p_l[0]), py = to_internal(p_l[1]), pz = to_internal(p_l[2]);

@@ -150,7 +150,7 @@ def acos_of_complements(one_minus_u: int, one_plus_u: int, k: Constants) -> tupl
     """acos(x) as atan2(sqrt((1 - x)(1 + x)), x), given 1 - x and 1 + x (unit format, each in
     [0, 2]). Returns (angle_a, sine_u = sin(angle))."""
     c = k.cfg
-    # The product of two numbers in [0, 2] with 2*frac_unit fraction bits: below 2**(2*frac_unit + 2).
+    # The product of two numbers in [0, 2] with 2*frac_unit fraction bits: at most 2**(2*frac_unit + 2).
     product_u2 = one_minus_u * one_plus_u
     sine_u = isqrt(product_u2, 2 * c.frac_unit + 4, c.round_nearest)
     angle_a, _, _ = cordic_atan2(sine_u, k.one_u - one_minus_u, k)

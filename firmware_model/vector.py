@@ -394,7 +394,7 @@ def sqrt_word(x, frac: int, k: Constants) -> np.ndarray:
 def acos_of_complements(one_minus_u, one_plus_u, k: Constants) -> tuple[np.ndarray, np.ndarray]:
     """acos(x) as atan2(sqrt((1 - x)(1 + x)), x) from 1 - x and 1 + x (each in [0, 2]).
 
-    Returns (angle_a, sine_u). Words: the product is below 2**(2 * frac_unit + 2) <= 2**62.
+    Returns (angle_a, sine_u). Words: the product is at most 2**(2 * frac_unit + 2) <= 2**62.
     """
     c = k.cfg
     one_minus_u, one_plus_u = _arr(one_minus_u), _arr(one_plus_u)

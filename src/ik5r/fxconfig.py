@@ -23,9 +23,11 @@ from .arm import Arm, load_arm
 from .errors import InputError, read_toml
 
 MAX_WIDTH = 32
-#: Fraction bits of the CORDIC gain-compensation factor 1/K (stored below 2**31).
+#: Fraction bits of the CORDIC gain-compensation factor 1/K (stored below 2**31) in every word
+#: config; an internal format wider than 32 bits uses width - 1 (``Constants.inv_gain_frac``).
 INV_GAIN_FRAC = 31
-#: Width of the mantissa of a constant multiplier (fits a signed 32-bit word).
+#: Width of the mantissa of a constant multiplier (fits a signed 32-bit word) in every word config;
+#: an internal format wider than 32 bits uses width - 1 (``Constants.const_mant_bits``).
 CONST_MANT_BITS = 31
 
 
