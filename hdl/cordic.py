@@ -82,27 +82,21 @@ def skewed_rotation(k: Constants):
     flip-flop (the sign of z) steers three adders (x, y and z, ~110 LUTs), and its route was the
     pipelined Rotate's slowest path. Here the sign of z steers the z adder only; x and y read
     copies registered a stage later, one each (``cpos`` is the complement, so the two copies
-    have different inputs and synthesis cannot merge them back into one).
+    have different inputs and synthesis cannot merge them back into one). Pipelined only (``i``
+    an int): one step per clock gains nothing from it.
     """
     count = k.cfg.iterations
 
-    def step(s, i):
+    def step(s, i: int):
         xs, ys, z = s["cx"], s["cy"], s["cz"]
         out = dict(s, cneg=z[-1], cpos=~z[-1])
-        if isinstance(i, int):
-            if i < count:
-                out["cz"] = add_sub(z, table_entry(k.atan_table, i), ~z[-1])  # z -+ step
-            else:
-                out = drop(out, "cz", "cneg", "cpos")
-            if i > 0:
-                out["cx"] = add_sub(xs, asr(ys, i - 1), s["cpos"])  # xs -+ (ys >> i-1)
-                out["cy"] = add_sub(ys, asr(xs, i - 1), s["cneg"])  # ys +- (xs >> i-1)
-            return out
-        # Iterative (one step per clock): past the table the angle step is 0.
-        out["cz"] = add_sub(z, table_entry(k.atan_table, i), ~z[-1])
-        shift = (i - 1)[:len(i)]
-        out["cx"] = Mux(i == 0, xs, add_sub(xs, asr(ys, shift), s["cpos"]))
-        out["cy"] = Mux(i == 0, ys, add_sub(ys, asr(xs, shift), s["cneg"]))
+        if i < count:
+            out["cz"] = add_sub(z, Const(k.atan_table[i]), ~z[-1])  # z -+ step
+        else:
+            out = drop(out, "cz", "cneg", "cpos")
+        if i > 0:
+            out["cx"] = add_sub(xs, asr(ys, i - 1), s["cpos"])  # xs -+ (ys >> i-1)
+            out["cy"] = add_sub(ys, asr(xs, i - 1), s["cneg"])  # ys +- (xs >> i-1)
         return out
 
     return step, count + 1
@@ -338,10 +332,10 @@ class Rotate(StreamBlock):
 
     Timing: ``latency`` = 8 + adder-tree levels of the 1/K multiplier (2 up to 33-bit words) +
     iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
-    partial products, adder levels), gain rounding, iterations + 1 skewed micro-rotation stages
-    (see :func:`skewed_rotation`), guard rounding, saturation), plus 3 for the output FIFO of the
-    pipelined architecture and the register in front of it: pipelined at 32 bits 45 cycles, at 18
-    bits 31 (iterative: 3 fewer). Throughput: ``"pipelined"`` one result per cycle, never
+    partial products, adder levels), gain rounding, micro-rotations (pipelined: iterations + 1
+    skewed stages, see :func:`skewed_rotation`), guard rounding, saturation), plus 3 for the
+    output FIFO of the pipelined architecture and the register in front of it: pipelined at 32
+    bits 45 cycles, at 18 bits 31 (iterative: 4 fewer, one micro-rotation per clock). Throughput: ``"pipelined"`` one result per cycle, never
     stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready`` drops only
     when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
     :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles (one
@@ -361,7 +355,7 @@ class Rotate(StreamBlock):
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self._datapath(k)
+            dp = self._datapath(k, skewed=arch == "pipelined")
             word = signed(c.width)
             in_fields = {"x": (word, None, "abscissa, same format as y"),
                          "y": (word, None, "ordinate, same format as x"),
@@ -375,10 +369,11 @@ class Rotate(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants, *, shared_unit: bool = False) -> Datapath:
-        """The rotation datapath; ``shared_unit``: the micro-rotations on
-        ``cordic_unit(k, rotate=True)`` (shareable with vectoring, :class:`~ik5r.hdl.ik_core.IKCore`
-        compact), else :func:`skewed_rotation` (one stage more, a shorter critical path).
+    def _datapath(k: Constants, *, skewed: bool) -> Datapath:
+        """The rotation datapath; ``skewed`` (pipelined): the micro-rotations as
+        :func:`skewed_rotation` (one stage more, a shorter critical path), else on
+        ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in
+        :class:`~ik5r.hdl.ik_core.IKCore` compact).
 
         Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
         times 1/K < 0.61 with g guard bits, |xs|, |ys| < 0.61 * 2**(W-1+g) + 1; the
@@ -436,10 +431,10 @@ class Rotate(StreamBlock):
             return out
 
         dp.add("ro_gain_round", gain_round)
-        if shared_unit:
-            dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
-        else:
+        if skewed:
             dp.add_iter("ro_it", *skewed_rotation(k))
+        else:
+            dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)
         return dp

@@ -201,14 +201,14 @@ def _atan2_chain(k: Constants, prefix: str, *, zero: bool) -> Datapath:
 
 
 def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
-                        shared_unit: bool) -> Datapath:
+                        skewed: bool) -> Datapath:
     """``model.cordic_rotate(*vector, state[prefix+angle])`` of a constant vector -> prefix+x, y,
     saturated. The quadrant step and the 1/K gain of a constant vector are constants: one stage
     (compare + subtract) replaces the Rotate block's quadrant, coarse and multiplier stages; the
-    micro-rotations, rounding and clipping are the Rotate block's own stages (``shared_unit``: see
+    micro-rotations, rounding and clipping are the Rotate block's own stages (``skewed``: see
     :meth:`Rotate._datapath`)."""
     c = k.cfg
-    rot = Rotate._datapath(k, shared_unit=shared_unit)
+    rot = Rotate._datapath(k, skewed=skewed)
     names = [name for name, _, _, _ in rot.stages]
     if "ro_it" not in names:
         raise RuntimeError("Rotate datapath has no 'ro_it' stage")
@@ -443,7 +443,7 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
 
     dp.add("joint1", joint1)
     builder.stash(dp, "q1", "xa")
-    _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0), shared_unit=compact))
+    _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0), skewed=not compact))
 
     # ---- a_radial = a . (c1, s1); s5, c5 = n, o . (s1, -c1): six products, sums, rounding.
     builder.unstash(dp, "ax", "ay", "nx", "ny", "ox", "oy", "roll")
@@ -488,7 +488,7 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     builder.stash(dp, "phi", "q5")
 
     # ---- wrist centre: (xw, yw) = sat((r - a1, d1 - pz) - R(phi) (a4, d5)).
-    _append_chains(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l), shared_unit=compact))
+    _append_chains(dp, "r2", _rotate_const_chain(k, "R2__", (k.a4_l, k.d5_l), skewed=not compact))
     builder.unstash(dp, "xa", "dz")
     dp.add("wrist", lambda s: dict(drop(s, "xa", "dz", "R2__x", "R2__y", "R2__saturated"),
                                    xwr=s["xa"] - s["R2__x"], ywr=s["dz"] - s["R2__y"],
