@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ik5r-installed
-CONFIG ?= q32
+CONFIG ?= q32w
 export PYTHONDONTWRITEBYTECODE := 1
 
 .PHONY: demo test test-slow bench verilog report synth sweep results simulator clean

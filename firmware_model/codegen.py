@@ -190,7 +190,7 @@ def generate_header(k: Constants) -> str:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m ik5r.firmware.codegen", description=__doc__.splitlines()[0])
-    parser.add_argument("--config", default=None, help="config TOML or shipped name (default q32)")
+    parser.add_argument("--config", default=None, help="config TOML or shipped name (default q32w)")
     parser.add_argument("--arm", default=None, help="arm TOML (default: the arm of record)")
     parser.add_argument("-o", "--output", default="-", help=f"output file (default stdout), e.g. {HEADER_NAME}")
     args = parser.parse_args(argv)

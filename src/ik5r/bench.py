@@ -1,6 +1,6 @@
 """``make bench``: every speed figure of ik5r measured side by side in one run.
 
-    python -m ik5r.bench [--poses 1000000] [--config q32] [-o build/bench]
+    python -m ik5r.bench [--poses 1000000] [--config q32w] [-o build/bench]
 
 Solvers on the same poses (FK of joint vectors uniform in the limits): the float64 reference (all
 four branches, FK round trip included), the vectorised bit-accurate model and the C solver (batched,

@@ -8,7 +8,7 @@
 4. the quantisation report (fixed point and float32 against float64) and the bit-accuracy section
    into ``build/report/index.html`` and ``report.json``, and a summary on the terminal.
 
-    python -m ik5r.demo [--config q32] [--poses 10000] [--simulator verilator]
+    python -m ik5r.demo [--config q32w] [--poses 10000] [--simulator verilator]
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ import json
 import sys
 import time
 from pathlib import Path
+
+from ik5r.fxconfig import DEFAULT_CONFIG
 
 BLOCKS = ("atan2", "rotate", "sqrt", "acos")
 
@@ -39,7 +41,7 @@ def _verilog(k, out_dir: Path) -> list[str]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m ik5r.demo", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--config", default="q32")
+    parser.add_argument("--config", default=DEFAULT_CONFIG)
     parser.add_argument("--poses", type=int, default=10_000, help="random poses through the HDL core")
     parser.add_argument("--block-vectors", type=int, default=5_000, help="random vectors per block")
     parser.add_argument("--report-vectors", type=int, default=1_000_000, help="poses of the quantisation report")

@@ -23,6 +23,9 @@ from .arm import Arm, load_arm
 from .errors import InputError, read_toml
 
 MAX_WIDTH = 32
+#: The shipped config used when none is named: 32-bit words on a 38-bit internal format, the one
+#: that meets the joint-accuracy floor near the singular elbow (docs/algorithm.md).
+DEFAULT_CONFIG = "q32w"
 #: Fraction bits of the CORDIC gain-compensation factor 1/K (stored below 2**31) in every word
 #: config; an internal format wider than 32 bits uses width - 1 (``Constants.inv_gain_frac``).
 INV_GAIN_FRAC = 31
@@ -130,9 +133,9 @@ def config_dir() -> Path:
 
 
 def load_config(path: str | Path | None = None) -> FixedConfig:
-    """Load a config TOML; ``None`` gives ``configs/q32.toml``; a bare name ``q18`` a shipped one."""
+    """Load a config TOML; ``None`` gives :data:`DEFAULT_CONFIG`; a bare name ``q18`` a shipped one."""
     if path is None:
-        path = "q32"
+        path = DEFAULT_CONFIG
     candidate = Path(path)
     if not candidate.suffix and not candidate.is_file():
         candidate = config_dir() / f"{path}.toml"

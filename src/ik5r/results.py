@@ -17,7 +17,7 @@ import shutil
 from pathlib import Path
 
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
-SHIPPED = ("q32", "q24", "q18")
+SHIPPED = ("q32w", "q32", "q24", "q18")
 
 
 def _num(value, fmt="{:,.0f}") -> str:

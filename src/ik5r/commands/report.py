@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from ik5r.fxconfig import DEFAULT_CONFIG
+
 
 def _positive(text: str) -> int:
     value = int(text)
@@ -19,7 +21,7 @@ def register(subparsers) -> None:
     parser.add_argument("--vectors", type=_positive, default=1_000_000, metavar="N",
                         help="random poses, q uniform in the joint limits (default: 1,000,000)")
     parser.add_argument("--config", default=None, metavar="CFG",
-                        help="fixed-point config TOML or shipped name (default: q32)")
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--arm", default=None, metavar="ARM", help="arm TOML (default: the arm of record)")
     parser.add_argument("--seed", type=int, default=0, metavar="S", help="random seed (default: 0)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")

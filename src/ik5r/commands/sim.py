@@ -28,6 +28,8 @@ import sys
 import time
 from pathlib import Path
 
+from ik5r.fxconfig import DEFAULT_CONFIG
+
 
 def _count(text: str) -> int:
     try:
@@ -60,7 +62,7 @@ def register(subparsers) -> None:
                         help="simulator (default: $SIM or icarus)")
     parser.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
     parser.add_argument("--config", default=None, metavar="CFG",
-                        help="fixed-point config TOML or shipped name (default: q32)")
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--json", default=None, metavar="FILE", help="write the result JSON here")
     parser.add_argument("--pattern", choices=("random", "full"), default="random",
                         help="bulk run: random valid/ready patterns with long stalls, or full rate "

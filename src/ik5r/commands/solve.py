@@ -30,6 +30,8 @@ import sys
 
 import numpy as np
 
+from ik5r.fxconfig import DEFAULT_CONFIG
+
 SOLVERS = ("float", "fixed", "c")
 
 
@@ -56,7 +58,7 @@ def register(subparsers) -> None:
     parser.add_argument("--solver", choices=SOLVERS, default="float",
                         help="float reference, fixed-point model or C solver (default: float)")
     parser.add_argument("--config", metavar="CFG.toml", default=None,
-                        help="fixed-point config TOML or shipped name (default: q32)")
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--arm", metavar="ARM.toml", default=None,
                         help="arm description TOML (default: the arm of record, Hu et al.)")
     parser.add_argument("--all", action="store_true", help="write every valid branch of every pose")

@@ -14,6 +14,8 @@ import sys
 import time
 from pathlib import Path
 
+from ik5r.fxconfig import DEFAULT_CONFIG
+
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
 ARCH_CHOICES = ("pipelined", "iterative", "compact", "all")
 
@@ -27,7 +29,7 @@ def register(subparsers) -> None:
                         help="architecture (default: pipelined; iterative and compact are the "
                              "same choice: one item in flight; all: both)")
     parser.add_argument("--config", default=None, metavar="CFG",
-                        help="fixed-point config TOML or shipped name (default: q32)")
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--target", choices=("ecp5", "ice40"), default="ecp5",
                         help="FPGA family (default: ecp5)")
     parser.add_argument("--device", default=None,

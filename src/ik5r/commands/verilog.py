@@ -10,6 +10,8 @@ import argparse
 import json
 from pathlib import Path
 
+from ik5r.fxconfig import DEFAULT_CONFIG
+
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
 ARCH_CHOICES = ("pipelined", "iterative", "compact", "all")
 
@@ -31,7 +33,7 @@ def register(subparsers) -> None:
     parser.add_argument("-o", "--output", default="build/verilog", metavar="DIR",
                         help="output folder (default: build/verilog)")
     parser.add_argument("--config", default=None, metavar="CFG",
-                        help="fixed-point config TOML or shipped name (default: q32)")
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--block", choices=BLOCK_CHOICES, default="all",
                         help="block to generate (default: all)")
     parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
