@@ -110,6 +110,12 @@ def test_joint_figures(q32_run):
             maxima = [je[comp][key][j]["max_rad"] for key in SIN_Q3_BINS]
             assert maxima == sorted(maxima, reverse=True)
     assert je["fixed_vs_quantised"]["all"]["q1"]["max_lsb"] < 4
+    # The joint floor's verdict is the largest own error in its bin; q32 (no internal guard bits)
+    # misses it whenever a pose comes close enough to the singular elbow, which is what the
+    # default config q32w is for (tests/test_internal_format.py holds q32w to it).
+    floor = je["floor"]
+    worst = max(je["fixed_vs_quantised"]["sin_q3_ge_1e-3"][j]["max_rad"] for j in JOINTS)
+    assert floor["max_rad"] == worst and floor["met"] == (worst <= floor["bound_rad"] == 1e-6)
 
 
 def test_conditioning_explains_input_effect(q32_run):

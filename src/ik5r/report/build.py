@@ -83,6 +83,10 @@ def _joint_section(fig: dict, img: str) -> Section:
         _joint_table(fig, "fixed_vs_quantised", "float32_vs_quantised",
                      "(b) The algorithm's own error: against float64 on the pose the solver saw "
                      "(dequantised words for fixed, float32-rounded values for float32)"),
+        para(f"Joint floor: the fixed solver's own error (b) where |sin q3| ≥ 1e-3 is at most "
+             f"{fmt(fig['joint_error']['floor']['max_rad'])} rad over all joints, against a floor of "
+             f"{fmt(fig['joint_error']['floor']['bound_rad'])} rad: <span class=\"{'ok' if fig['joint_error']['floor']['met'] else 'bad'}\">"
+             f"{'met' if fig['joint_error']['floor']['met'] else 'not met'}</span>."),
         image(img, "Per-joint |error| histograms (log-log), fixed and float32 against float64"),
     ]
     data = fig["joint_error"]

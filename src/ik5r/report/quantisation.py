@@ -35,6 +35,10 @@ SIN_Q3_BINS = {"all": 0.0, "sin_q3_ge_1e-3": 1e-3, "sin_q3_ge_1e-2": 1e-2, "sin_
 BIN_LABELS = {"all": "all poses", "sin_q3_ge_1e-3": "|sin q3| ≥ 1e-3",
               "sin_q3_ge_1e-2": "|sin q3| ≥ 1e-2", "sin_q3_ge_1e-1": "|sin q3| ≥ 1e-1"}
 PERCENTILES = (50.0, 90.0, 99.0, 99.9, 99.99)
+#: The joint-accuracy floor (issue 2): the solver's own error, against float64 on the same input
+#: words and branch, where |sin q3| >= 1e-3.
+JOINT_FLOOR_RAD = 1e-6
+JOINT_FLOOR_BIN = "sin_q3_ge_1e-3"
 #: Joint-error comparisons: key -> (solver, reference pose).
 COMPARISONS = ("fixed_vs_exact", "fixed_vs_quantised", "float32_vs_exact", "float32_vs_quantised",
                "input_effect")
@@ -262,6 +266,11 @@ def joint_figures(samples: Samples) -> dict:
                 per[name] = {"max_rad": s["max"], "rms_rad": s["rms"],
                              "max_lsb": _ratio(s["max"], lsb), "rms_lsb": _ratio(s["rms"], lsb)}
             out[name_out][key] = per
+    own = out["fixed_vs_quantised"][JOINT_FLOOR_BIN]
+    worst = max((own[name]["max_rad"] for name in JOINTS if own[name]["max_rad"] is not None), default=None)
+    out["floor"] = {"bound_rad": JOINT_FLOOR_RAD, "comparison": "fixed_vs_quantised",
+                    "bin": JOINT_FLOOR_BIN, "max_rad": worst,
+                    "met": worst is not None and worst <= JOINT_FLOOR_RAD}
     return out
 
 
@@ -452,6 +461,9 @@ def summary_text(fig: dict, out_dir=None) -> str:
                      f"   ({fl['count']:,} flagged poses: max {_g(fl['position_cm_max'])} cm)")
     status = fig["status"]["fixed"]
     lines += ["", "fixed status: " + ", ".join(f"{k} {v:,}" for k, v in status.items())]
+    floor = je["floor"]
+    lines.append(f"joint error vs f64 on the same input words, |sin q3| >= 1e-3: max {_g(floor['max_rad'])} rad"
+                 f" (floor {floor['bound_rad']:g}: {'met' if floor['met'] else 'NOT met'})")
     verdict = "YES" if ts["fixed_beats_float32"] else "NO"
     lines.append(f"fixed beats float32 on max and RMS position error: {verdict} "
                  f"(ratios {_g(ratio['position_max'])}, {_g(ratio['position_rms'])})")
