@@ -9,8 +9,9 @@ unreachable, invalid and full-scale cases); every output bit (q1..q5, status) an
 order and loss.
 
 The core is large (q32 pipelined: ~250 stages) and Icarus runs it at tens of cycles per second, so
-the default run keeps to: pipelined q18 on Icarus, pipelined q32 and compact q18 on Verilator,
-the ECP5-DSP pipelined q32 on Icarus and q32w (38-bit internal format) on Verilator.
+the default run keeps to: pipelined q18 on Icarus, compact q18 on Verilator, and the ECP5-DSP
+pipelined core of q32 on Icarus and of q32w (the default config: 38-bit internal format) on
+Verilator.
 ``IK5R_SIM_FULL=1`` runs all 18 cases (both archs, q18, q32 and q32w, both simulators, and the
 ECP5-DSP variant).
 """
@@ -32,9 +33,8 @@ CONFIGS = ("q18", "q32", "q32w")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
 CASE_KEYS = ("arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
-DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("pipelined", "q32", "generic", "verilator"),
-           ("iterative", "q18", "generic", "verilator"), ("pipelined", "q32", "ecp5", "icarus"),
-           ("pipelined", "q32w", "ecp5", "verilator")}
+DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("iterative", "q18", "generic", "verilator"),
+           ("pipelined", "q32", "ecp5", "icarus"), ("pipelined", "q32w", "ecp5", "verilator")}
 
 
 def _sizes(arch: str, sim: str) -> tuple[int, int]:
