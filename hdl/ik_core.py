@@ -713,10 +713,13 @@ class IKCore(StreamBlock):
     def _inputs(self, p):
         # Words to the internal format: exact, ``internal_guard_bits`` more fraction bits.
         guard = self.constants.cfg.internal_guard_bits
-        words = {key: getattr(p, field).shift_left(guard) for key, field in (
-            ("px", "px"), ("py", "py"), ("pz", "pz"), ("ax", "ax"), ("ay", "ay"), ("az", "az"),
-            ("nx", "nx"), ("ny", "ny"), ("ox", "ox"), ("oy", "oy"), ("q5d", "q5_default"))}
-        return dict(words, roll=p.has_roll, back=p.shoulder_back, down=p.elbow_down)
+        def word(value):
+            return value.shift_left(guard)
+
+        return {"px": word(p.px), "py": word(p.py), "pz": word(p.pz), "ax": word(p.ax),
+                "ay": word(p.ay), "az": word(p.az), "nx": word(p.nx), "ny": word(p.ny),
+                "ox": word(p.ox), "oy": word(p.oy), "roll": p.has_roll, "q5d": word(p.q5_default),
+                "back": p.shoulder_back, "down": p.elbow_down}
 
     def _outputs(self, state):
         out = {f"q{j}": state[f"j{j}"] for j in range(1, 6)}
