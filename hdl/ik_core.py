@@ -644,6 +644,11 @@ class IKCore(StreamBlock):
     [atan2(sin q3, c3) = acos || a3 sin q3, a2 + a3 c3, atan2 beta] -> q2, q3, q4 -> offsets, wrap.
     Parallel CORDICs share stages; values needed much later are stashed in delay lines.
 
+    With ``ik.internal_guard_bits`` = G > 0 (q32w: G = 6) every step runs on the internal format
+    (W + G-bit words, every fraction + G, iterations + G; 1 -+ c3 as two constant multiplies of
+    the law of cosines' terms instead of c3 and 1 -+ c3); the input words are shifted up on entry and
+    the joints rounded back to words (flagging ``saturated`` if one overflows).
+
     Payloads (W = ``constants.cfg.width``; Q m.n: n fraction bits, m + n = W):
 
     * ``i.payload``: ``px``, ``py``, ``pz`` ``signed(W)`` Q.frac_length cm; ``ax``, ``ay``, ``az``,
@@ -656,8 +661,8 @@ class IKCore(StreamBlock):
       (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
 
     Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
-    see ``latency`` (pipelined: q32 264, q18 180, of which 3 in the output FIFO and the register
-    in front of it; compact: q32 411, q18 271 cycles).
+    see ``latency`` (pipelined: q32w 313, q32 264, q18 180, of which 3 in the output FIFO and the
+    register in front of it; compact: q32w 502, q32 411, q18 271 cycles).
 
     * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
       pipeline never stalls (no clock enable): results queue in an output FIFO (block RAM) while
