@@ -34,10 +34,15 @@ Three options make a datapath smaller or faster without changing a bit of its re
   unit (:meth:`Datapath.add_shared_iter`, e.g. the CORDIC micro-rotation) runs on one set of
   registers and one copy of the logic (the compact IK core: eight CORDICs, one unit).
 * ``build(..., dsp="ecp5")``: in the pipelined architecture, each partial product is an ECP5
-  ``MULT18X18D`` whose input and output registers are the two pipeline registers around it.
+  ``MULT18X18D`` whose input and output registers are the two pipeline registers around it, and
+  each add-or-subtract (:func:`add_sub`, the CORDIC micro-rotations) is a ``CCU2C`` carry chain
+  whose own LUTs take the direction (no XOR LUT in front of the chain).
 """
 
 from __future__ import annotations
+
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 from amaranth.hdl import (ClockSignal, Cat, Const, Instance, Module, Mux, Shape, Signal, Value,
                           ValueCastable, signed, unsigned)
@@ -47,16 +52,17 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.fxconfig import Constants
 
-__all__ = ["ARCHS", "DSPS", "PRODUCTS", "LIMB_BITS", "Datapath", "SharedStage", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
+__all__ = ["ARCHS", "DSPS", "ECP5_ADD_SUB_MODULE", "ecp5_add_sub", "ecp5_add_sub_verilog", "PRODUCTS", "LIMB_BITS", "Datapath", "SharedStage", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
            "leading_zeros", "add_products", "table_entry", "drop"]
 
 #: The two architectures every block is available in.
 ARCHS = ("pipelined", "iterative")
 
-#: How a pipelined datapath's partial products are built: ``*`` on registers (any FPGA; Yosys
-#: maps it to a DSP without its registers), or an ECP5 ``MULT18X18D`` whose input and output
-#: registers are the two pipeline registers around the product (same latency, same bits; the
-#: DSP's multiplier no longer sits between fabric flip-flops).
+#: How a pipelined datapath maps to the FPGA: portable operators (any FPGA; Yosys maps ``*`` to a
+#: DSP without its registers), or ECP5 primitives: a ``MULT18X18D`` per partial product whose
+#: input and output registers are the two pipeline registers around it (the DSP's multiplier no
+#: longer sits between fabric flip-flops), and a ``CCU2C`` chain per :func:`add_sub`. Same
+#: latency, same bits.
 DSPS = ("generic", "ecp5")
 
 #: How a datapath multiplies (:func:`add_products`): all partial products at once, or one
@@ -89,18 +95,119 @@ def _extend(value, width):
     return Cat(value, fill.replicate(width - len(value)))
 
 
+#: Where :func:`add_sub` puts its CCU2C chains inside :func:`ecp5_add_sub`; None outside.
+_ecp5_carry_chains: ContextVar[list | None] = ContextVar("ecp5_carry_chains", default=None)
+
+
+@contextmanager
+def ecp5_add_sub(enabled: bool = True):
+    """While active (and ``enabled``), :func:`add_sub` builds ECP5 ``CCU2C`` chains (instances of
+    :data:`ECP5_ADD_SUB_MODULE`). Yields the list their ``Instance`` objects are appended to (None
+    when not ``enabled``): the caller adds them to its module. :meth:`Datapath.build` uses it around each stage with ``dsp="ecp5"``."""
+    chains = [] if enabled else None
+    token = _ecp5_carry_chains.set(chains)
+    try:
+        yield chains
+    finally:
+        _ecp5_carry_chains.reset(token)
+
+#: CCU2C LUT of one adder bit with inputs A = a, B = b, C = subtract, D = 1: the propagate LUT4
+#: (D = 1 half) is A ^ B ^ C, the generate LUT2 (INIT[3:0], C = D = 0) is A. Generate A is right
+#: for either sign: the carry chain reads it only when A == B ^ C, i.e. when both addends are A.
+CCU2C_ADD_SUB_INIT = 0x96AA
+
+
 def add_sub(a, b, subtract):
     """``a - b`` if ``subtract`` else ``a + b``, with ONE adder (not two and a mux).
 
     ``(a << 1 | s) + ((b ^ s...s) << 1 | s)`` has ``a + (b ^ s...s) + s`` above its LSB: the
-    carry-in is folded into the extra LSB, and the XOR fits in the LUT before each carry cell.
-    Exact: the result is a ``signed`` value wide enough for any ``a +- b``.
+    carry-in is folded into the extra LSB. Exact: the result is a ``signed`` value wide enough
+    for any ``a +- b``.
+
+    Yosys maps the XOR to a LUT of its own in front of each carry cell (one LUT level and one
+    route more than an adder: the CORDIC direction's path, and half of a micro-rotation's LUTs).
+    Inside :func:`ecp5_add_sub` (a pipelined datapath built with ``dsp="ecp5"``) the same sum is
+    an ECP5 ``CCU2C`` chain whose own LUTs take ``subtract`` as a third input
+    (:func:`ecp5_add_sub_verilog`), as Yosys's own ``$alu`` mapping does with its B-invert input,
+    which it never infers from this form.
     """
     a, b, subtract = Value.cast(a), Value.cast(b), Value.cast(subtract)
     width = max(len(a) + (not a.shape().signed), len(b) + (not b.shape().signed)) + 1
+    chains = _ecp5_carry_chains.get()
+    if chains is not None and not isinstance(subtract, Const):
+        return _ccu2c_add_sub(_extend(a, width), _extend(b, width), subtract, chains)
     inverted = _extend(b, width) ^ subtract.replicate(width)
     total = Cat(subtract, _extend(a, width)) + Cat(subtract, inverted)
     return total[1:width + 1].as_signed()
+
+
+#: The Verilog module of one :func:`add_sub` on a CCU2C chain (:func:`ecp5_add_sub_verilog`).
+ECP5_ADD_SUB_MODULE = "ik5r_ccu2c_add_sub"
+
+
+def _ccu2c_add_sub(a_bits, b_bits, subtract, chains):
+    """``a +- b`` (equal-width raw bits) as an instance of :data:`ECP5_ADD_SUB_MODULE`,
+    appended to ``chains``; returns the signed sum."""
+    width = len(a_bits)
+    total = Signal(signed(width), name="add_sub")
+    chains.append(Instance(ECP5_ADD_SUB_MODULE, p_WIDTH=width, i_A=a_bits, i_B=b_bits,
+                           i_SUB=subtract, o_S=total))
+    return total
+
+
+def ecp5_add_sub_verilog() -> str:
+    """Verilog of :data:`ECP5_ADD_SUB_MODULE`: ``S = SUB ? A - B : A + B`` (``WIDTH`` bits, A and B
+    already as wide as the sum) on one chain of ECP5 ``CCU2C`` cells. :func:`~ik5r.hdl.generate.generate`
+    appends it to the Verilog of a design that instantiates it.
+
+    Position 0 of the chain turns ``SUB`` into the carry (A = C = SUB, B = 0: the propagate is 0,
+    so the carry out is the generate, A); positions 1..WIDTH add a bit of A to a bit of B inverted
+    when subtracting (:data:`CCU2C_ADD_SUB_INIT`). A spare top position, for a whole number of
+    two-bit cells, repeats the sign bits; its sum is not used. One module for every instance
+    (rather than the cells inlined in the design) keeps the Verilog small and lets Verilator
+    compile the chain once per width.
+    """
+    init = f"16'h{CCU2C_ADD_SUB_INIT:04X}"
+    return f"""
+// S = SUB ? A - B : A + B on one ECP5 CCU2C carry chain whose LUTs take SUB (ik5r add_sub).
+module {ECP5_ADD_SUB_MODULE} #(
+    parameter WIDTH = 2
+) (
+    input wire [WIDTH-1:0] A,
+    input wire [WIDTH-1:0] B,
+    input wire SUB,
+    output wire [WIDTH-1:0] S
+);
+    /*verilator no_inline_module*/
+    localparam CELLS = (WIDTH + 2) / 2;
+    wire [2*CELLS-1:0] lane_a, lane_b, lane_s;
+    wire [CELLS:0] carry;
+    assign carry[0] = 1'b0;
+    assign lane_a[WIDTH:0] = {{A, SUB}};
+    assign lane_b[WIDTH:0] = {{B, 1'b0}};
+    generate
+        if (2 * CELLS > WIDTH + 1) begin : spare
+            assign lane_a[2*CELLS-1] = A[WIDTH-1];
+            assign lane_b[2*CELLS-1] = B[WIDTH-1];
+        end
+    endgenerate
+    genvar i;
+    generate
+        for (i = 0; i < CELLS; i = i + 1) begin : bit_pair
+            CCU2C #(
+                .INIT0({init}), .INIT1({init}), .INJECT1_0("NO"), .INJECT1_1("NO")
+            ) ccu2c (
+                .CIN(carry[i]),
+                .A0(lane_a[2*i]), .B0(lane_b[2*i]), .C0(SUB), .D0(1'b1),
+                .A1(lane_a[2*i+1]), .B1(lane_b[2*i+1]), .C1(SUB), .D1(1'b1),
+                .S0(lane_s[2*i]), .S1(lane_s[2*i+1]),
+                .COUT(carry[i+1])
+            );
+        end
+    endgenerate
+    assign S = lane_s[WIDTH:1];
+endmodule
+"""
 
 
 def rshift_round(value, shift: int, nearest: bool):
@@ -346,8 +453,11 @@ class Datapath:
                 state = fn(state)
                 continue
             for step in range(count):
-                out = fn(state, step) if iterated else fn(state)
                 prefix = f"{name}{step}" if iterated else name
+                with ecp5_add_sub(dsp == "ecp5") as chains:
+                    out = fn(state, step) if iterated else fn(state)
+                for index, cell in enumerate(chains or ()):
+                    m.submodules[f"{prefix}_add_sub{index}"] = cell
                 regs = self._registers(prefix, out)
                 stage_valid = Signal(name=f"{prefix}_valid")
                 plain = list(regs)

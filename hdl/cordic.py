@@ -347,7 +347,8 @@ class Rotate(StreamBlock):
     arch : ``"pipelined"`` or ``"iterative"``
     dsp : ``"generic"`` or ``"ecp5"``
         Pipelined arch: the partial products as ``*`` or as ECP5 ``MULT18X18D`` instances using
-        their input and output registers (see :data:`~ik5r.hdl.common.DSPS`).
+        their input and output registers, the micro-rotations as ``CCU2C`` chains (see
+        :data:`~ik5r.hdl.common.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """

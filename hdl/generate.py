@@ -19,7 +19,7 @@ from amaranth.lib import wiring
 
 from ik5r.fxconfig import Constants
 
-from .common import ARCHS
+from .common import ARCHS, ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
 
@@ -157,4 +157,6 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     component = build(block, arch, constants, tag_width, **options)
     pmap = portmap(component, block, arch, constants, name)
     text = verilog.convert(component, name=name, emit_src=False, strip_internal_attrs=True)
+    if f"{ECP5_ADD_SUB_MODULE} #(" in text:
+        text += ecp5_add_sub_verilog()
     return text, pmap

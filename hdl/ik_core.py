@@ -669,7 +669,8 @@ class IKCore(StreamBlock):
       ``o`` is held, and ``i.ready`` drops only when ``capacity`` poses (q32 513, q18 257) are
       inside, in flight or queued (see :class:`~ik5r.hdl.common.StreamBlock`). One add/sub level
       (or one 17 x 17 partial product) per stage. ``dsp="ecp5"`` builds the partial products as
-      ``MULT18X18D`` instances with their input and output registers (same latency, same bits).
+      ``MULT18X18D`` instances with their input and output registers and the CORDIC
+      add/subtracts as ``CCU2C`` chains (same latency, same bits).
     * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
       (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
       previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the

@@ -4,7 +4,8 @@ Each case: block x arch x config x simulator, a cocotb-driven stream run (random
 back-pressure with long stalls, a reset in the middle of traffic, latency / cycles-per-result
 measurement) and a bulk run, each of N random vectors + the block's edge set; every output field
 bit for bit, tags for order and loss. The blocks with multipliers are also run as the ECP5 variant
-(``dsp="ecp5"``: MULT18X18D instances with their registers, simulated with hdl/sim/MULT18X18D.v).
+(``dsp="ecp5"``: MULT18X18D instances with their registers and CCU2C add/sub chains, simulated
+with the models in hdl/sim/).
 
 The default run keeps to a few minutes on 2 cores: every case on Icarus, and on Verilator the
 pipelined q32 case of each block plus the iterative q18 one (each Verilator case is a C++ build);

@@ -49,7 +49,7 @@ CASES = [
                  marks=() if FULL or (a, c, "generic", s) in DEFAULT else (pytest.mark.slow,))
     for s in SIMS for a in ARCHS for c in CONFIGS
 ] + [
-    # The ECP5 variant: MULT18X18D instances (hdl/sim/MULT18X18D.v) in the pipelined core.
+    # The ECP5 variant: MULT18X18D and CCU2C instances (models in hdl/sim/) in the pipelined core.
     pytest.param("pipelined", c, "ecp5", s, id=f"ik-pipelined-dspecp5-{c}-{s}",
                  marks=() if FULL or ("pipelined", c, "ecp5", s) in DEFAULT else (pytest.mark.slow,))
     for s in SIMS for c in CONFIGS

@@ -20,14 +20,17 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from amaranth.back import verilog
+from amaranth.hdl import Module, Signal, signed, unsigned
 
 from ik5r.firmware import model
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.acos import Acos
-from ik5r.hdl.common import OUTPUT_FIFO_LATENCY
+from ik5r.hdl.common import OUTPUT_FIFO_LATENCY, add_sub, ecp5_add_sub, ecp5_add_sub_verilog
 from ik5r.hdl.cordic import Atan2, Rotate
 from ik5r.hdl.sqrt import Sqrt
 from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
+from ik5r.hdl.tb.runner import PRIMITIVE_MODELS
 from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
 
 CONFIGS = ("q18", "q32")
@@ -302,13 +305,65 @@ def test_verilator_lint(cfg, tmp_path):
             text, pmap = generate(block, arch, k, 2 if arch == "pipelined" else 0, **options)
             source = tmp_path / f"{pmap['module']}.v"
             source.write_text(text)
-            models = [str(HDL_DIR / "sim" / "MULT18X18D.v")] if "dsp" in options else []
+            models = [str(path) for path in PRIMITIVE_MODELS.get(options.get("dsp"), [])]
             result = subprocess.run(
                 [verilator, "--lint-only", "-Wall", str(HDL_DIR / "verilator.vlt"), *models, str(source),
                  "--top-module", pmap["module"]],
                 capture_output=True, text=True, env=env)
             assert result.returncode == 0 and "%Warning" not in result.stderr, \
                 f"{pmap['module']}:\n{result.stderr[:3000]}"
+
+
+@pytest.mark.parametrize("a_shape,b_shape", [(signed(5), signed(4)), (signed(4), unsigned(4)),
+                                             (unsigned(3), signed(6))])
+def test_ecp5_add_sub_exhaustive(a_shape, b_shape, tmp_path):
+    """``add_sub`` as a CCU2C chain (``dsp="ecp5"``), simulated on Icarus with hdl/sim/CCU2C.v,
+    against Verilog's own ``s ? a - b : a + b`` for every a, b and s (odd and even chain lengths,
+    signed and unsigned operands)."""
+    iverilog = shutil.which("iverilog")
+    if iverilog is None:
+        pytest.fail("iverilog not found (make test installs it)")
+    m = Module()
+    a, b, s = Signal(a_shape, name="a"), Signal(b_shape, name="b"), Signal(name="s")
+    with ecp5_add_sub() as chains:
+        total = add_sub(a, b, s)
+    assert chains, "no CCU2C built"
+    for index, cell in enumerate(chains):
+        m.submodules[f"add_sub{index}"] = cell
+    y = Signal(total.shape(), name="y")
+    m.d.comb += y.eq(total)
+    text = verilog.convert(m, name="dut", ports=[a, b, s, y], emit_src=False) + ecp5_add_sub_verilog()
+    sign = lambda shape: "signed " if shape.signed else ""
+    # Verilog takes a mixed expression as unsigned: an unsigned operand gets a 0 sign bit.
+    operand = lambda shape, name: name if shape.signed else f"$signed({{1'b0, {name}}})"
+    bench = f"""
+module bench;
+  reg {sign(a_shape)}[{a_shape.width - 1}:0] a; reg {sign(b_shape)}[{b_shape.width - 1}:0] b; reg s;
+  wire signed [{len(y) - 1}:0] y;
+  reg signed [{len(y) - 1}:0] expected;
+  integer i, j, k, errors = 0, cases = 0;
+  dut dut(.a(a), .b(b), .s(s), .y(y));
+  initial begin
+    for (i = 0; i < {1 << a_shape.width}; i = i + 1)
+      for (j = 0; j < {1 << b_shape.width}; j = j + 1)
+        for (k = 0; k < 2; k = k + 1) begin
+          a = i; b = j; s = k; #1;
+          expected = s ? {operand(a_shape, "a")} - {operand(b_shape, "b")} : {operand(a_shape, "a")} + {operand(b_shape, "b")};
+          cases = cases + 1;
+          if (y !== expected) errors = errors + 1;
+        end
+    $display("cases=%0d errors=%0d", cases, errors);
+  end
+endmodule
+"""
+    (tmp_path / "dut.v").write_text(text)
+    (tmp_path / "bench.v").write_text(bench)
+    subprocess.run([iverilog, "-g2012", "-o", str(tmp_path / "sim"), str(tmp_path / "bench.v"),
+                    str(tmp_path / "dut.v"), str(HDL_DIR / "sim" / "CCU2C.v")], check=True)
+    run = subprocess.run(["vvp", "-n", str(tmp_path / "sim")], capture_output=True, text=True,
+                         check=True)
+    cases = 2 << (a_shape.width + b_shape.width)
+    assert f"cases={cases} errors=0" in run.stdout, run.stdout
 
 
 @pytest.mark.slow

@@ -59,7 +59,8 @@ def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "gene
 
 
 #: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
-PRIMITIVE_MODELS = {"ecp5": [Path(__file__).resolve().parents[1] / "sim" / "MULT18X18D.v"]}
+PRIMITIVE_MODELS = {"ecp5": [Path(__file__).resolve().parents[1] / "sim" / f"{cell}.v"
+                              for cell in ("MULT18X18D", "CCU2C")]}
 
 
 def _write_if_changed(path: Path, text: str) -> None:
@@ -179,8 +180,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
               cflags: str = "-O1", dsp: str = "generic") -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
-    ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` instances, simulated with
-    ``hdl/sim/MULT18X18D.v``."""
+    ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
+    with their models in ``hdl/sim/``."""
     from cocotb_tools.runner import get_runner
 
     from ik5r.hdl.generate import resolve_arch

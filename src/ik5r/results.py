@@ -1,61 +1,121 @@
-"""Regenerate the README's results section from the files the measurements wrote.
+"""Regenerate the README's results section from measurement records kept in the repository.
 
-    python -m ik5r.results [--build build] [--readme README.md]
+    python -m ik5r.results [--build build] [--sweep build/sweep] [--readme README.md] [--no-collect]
 
-Reads ``build/bench/bench.json`` (``make bench``), every ``build/synth/*/result.json``
-(``ik5r synth``) of the shipped configs, and the sweep's ``sweep.json`` with its plots (``--sweep``, default ``build/sweep``)
-(``ik5r sweep``); copies the plots to ``docs/results/`` and rewrites the text between the
-``<!-- results:begin -->`` and ``<!-- results:end -->`` markers of the README. Nothing is typed by
-hand: a figure missing from the files is shown as missing.
+Two steps:
+
+1. **collect** (skipped with ``--no-collect``): the measurements of this machine's ``build/`` are
+   copied into ``docs/results/records/``: each ``build/synth/*/result.json`` (``ik5r synth``, a
+   shipped config, nextpnr seed 1, whose Verilog is what this checkout generates) as
+   ``synth/<module>_<config>_<target>-<device>.json`` with the SHA-256 of that Verilog, the sweep's
+   ``sweep.json`` and plots (``ik5r sweep``), and ``bench.json`` / ``bench.md`` (``make bench``).
+   A record is replaced only by a newer measurement of the same design point.
+2. **render**: the text between the ``<!-- results:begin -->`` and ``<!-- results:end -->``
+   markers of the README is rewritten from the records alone. A synthesis record whose Verilog
+   hash is not that of the Verilog this checkout generates is left out (and named on stdout).
+
+So the figures in the README are never typed, survive a fresh clone (``build/`` is not kept), and
+each one can be traced to the JSON record it came from.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import shutil
 from pathlib import Path
 
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 SHIPPED = ("q32w", "q32", "q24", "q18")
+PLOTS = ("error_vs_luts.png", "fmax_vs_width.png")
+#: Keys of a synth result that describe this machine's cache, not the measurement.
+LOCAL_KEYS = ("cache_dir", "cached", "key")
 
 
 def _num(value, fmt="{:,.0f}") -> str:
     return "–" if value is None else fmt.format(value)
 
 
-def _current_verilog(r: dict, cache: dict) -> str:
-    """The Verilog this checkout generates for the design point of a synth result."""
-    from ik5r.fxconfig import constants, load_config
-    from ik5r.hdl.generate import generate
+class VerilogOfCheckout:
+    """The Verilog this checkout generates for the design point of a synth result (memoised)."""
 
-    dsp = r.get("dsp", "generic")
-    key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0))
-    if key not in cache:
-        options = {} if dsp == "generic" else {"dsp": dsp}
-        cache[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
-                              r.get("tag_width", 0), **options)[0]
-    return cache[key]
+    def __init__(self):
+        self._texts = {}
+
+    def text(self, r: dict) -> str:
+        from ik5r.fxconfig import constants, load_config
+        from ik5r.hdl.generate import generate
+
+        dsp = r.get("dsp", "generic")
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0))
+        if key not in self._texts:
+            options = {} if dsp == "generic" else {"dsp": dsp}
+            self._texts[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
+                                        r.get("tag_width", 0), **options)[0]
+        return self._texts[key]
+
+    def sha256(self, r: dict) -> str:
+        return hashlib.sha256(self.text(r).encode()).hexdigest()
 
 
-def synth_table(build: Path) -> list[str]:
-    # The newest result of each design point whose Verilog is what this checkout generates (the
-    # cache keeps the runs of older HDL versions too: they are left out).
-    latest, texts = {}, {}
-    for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime, reverse=True):
+def _record_name(r: dict) -> str:
+    return f"{r['module']}_{r['config']}_{r['target']}-{r['device']}.json"
+
+
+def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: VerilogOfCheckout) -> list[str]:
+    """Copy this machine's measurements into ``records`` (see the module docstring); returns what
+    was written."""
+    written = []
+    synth_dir = records / "synth"
+    for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
         r = json.loads(path.read_text())
-        point = (r["block"], r["arch"], r.get("dsp", "generic"), r["config"], r["target"], r["device"])
         # Runs at other nextpnr seeds (robustness checks) are not the design point's figure.
-        if r.get("config") not in SHIPPED or point in latest or r.get("seed", 1) != 1:
+        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or r.get("fmax_mhz") is None:
             continue
         design = path.parent / "design.v"
-        if design.exists() and design.read_text() == _current_verilog(r, texts):
-            latest[point] = r
-    rows = list(latest.values())
+        if not design.exists() or design.read_text() != verilog.text(r):
+            continue
+        record = {k: v for k, v in r.items() if k not in LOCAL_KEYS}
+        record["verilog_sha256"] = verilog.sha256(r)
+        record["measured_at"] = path.stat().st_mtime
+        target = synth_dir / _record_name(r)
+        if target.exists() and json.loads(target.read_text()).get("measured_at", 0) >= record["measured_at"]:
+            continue
+        synth_dir.mkdir(parents=True, exist_ok=True)
+        target.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+        written.append(str(target))
+    if (sweep / "sweep.json").exists():
+        records.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(sweep / "sweep.json", records / "sweep.json")
+        written.append(str(records / "sweep.json"))
+        docs.mkdir(parents=True, exist_ok=True)
+        for plot in PLOTS:
+            if (sweep / plot).exists():
+                shutil.copyfile(sweep / plot, docs / plot)
+                written.append(str(docs / plot))
+    for name in ("bench.json", "bench.md"):
+        if (build / "bench" / name).exists():
+            records.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(build / "bench" / name, records / name)
+            written.append(str(records / name))
+    return written
+
+
+def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], list[str]]:
+    """The synthesis table from the records whose Verilog is this checkout's, and the names of
+    the records left out."""
+    rows, stale = [], []
+    for path in sorted((records / "synth").glob("*.json")):
+        r = json.loads(path.read_text())
+        if r.get("verilog_sha256") == verilog.sha256(r):
+            rows.append(r)
+        else:
+            stale.append(path.name)
     if not rows:
-        return ["No synthesis results yet: run `ik5r synth` (see above)."]
+        return ["No synthesis results yet: run `ik5r synth` (see above)."], stale
     rows.sort(key=lambda r: (r["config"], r["block"], r["arch"]))
-    lines = ["| block | arch | multipliers | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
+    lines = ["| block | arch | primitives | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         lines.append(f"| {r['block']} | {r['arch']} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']} "
@@ -63,25 +123,20 @@ def synth_table(build: Path) -> list[str]:
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")
-    return lines
+    return lines, stale
 
 
-def bench_table(build: Path) -> list[str]:
-    path = build / "bench" / "bench.md"
+def bench_table(records: Path) -> list[str]:
+    path = records / "bench.md"
     return path.read_text().rstrip().splitlines() if path.exists() else ["No benchmark yet: run `make bench`."]
 
 
-def sweep_part(sweep: Path, docs: Path) -> list[str]:
-    path = sweep / "sweep.json"
+def sweep_part(records: Path) -> list[str]:
+    path = records / "sweep.json"
     if not path.exists():
         return ["No sweep yet: run `ik5r sweep -o build/sweep`."]
     points = json.loads(path.read_text())["points"]
-    lines = []
-    docs.mkdir(parents=True, exist_ok=True)
-    for plot in ("error_vs_luts.png", "fmax_vs_width.png"):
-        if (sweep / plot).exists():
-            shutil.copyfile(sweep / plot, docs / plot)
-            lines.append(f"![{plot}](docs/results/{plot})")
+    lines = [f"![{plot}](docs/results/{plot})" for plot in PLOTS if (records.parent / plot).exists()]
     lines += ["", "| block | arch | width | LUTs | DSPs | Fmax (MHz) | max position error (cm) | "
               "RMS position error (cm) | Pareto |", "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
     for p in sorted(points, key=lambda p: (p["block"], p["arch"], p["width"])):
@@ -91,28 +146,41 @@ def sweep_part(sweep: Path, docs: Path) -> list[str]:
     return lines
 
 
-def section(build: Path, sweep: Path, docs: Path) -> str:
-    parts = [BEGIN, "", "*Generated by `python -m ik5r.results` from `build/`; do not edit by hand.*", "",
-             "### Speed (`make bench`)", "", *bench_table(build), "",
-             "### Synthesis (`ik5r synth`, Yosys + nextpnr, out of context)", "", *synth_table(build), "",
-             f"### Word-length sweep (`ik5r sweep`, {sweep})", "", *sweep_part(sweep, docs), "", END]
-    return "\n".join(parts)
+def section(records: Path, verilog: VerilogOfCheckout) -> tuple[str, list[str]]:
+    synth, stale = synth_table(records, verilog)
+    parts = [BEGIN, "", "*Generated by `python -m ik5r.results` from the records in `docs/results/records/`; "
+             "do not edit by hand.*", "",
+             "### Speed (`make bench`)", "", *bench_table(records), "",
+             "### Synthesis (`ik5r synth`, Yosys + nextpnr, out of context)", "", *synth, "",
+             "### Word-length sweep (`ik5r sweep`)", "", *sweep_part(records), "", END]
+    return "\n".join(parts), stale
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m ik5r.results", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--build", default="build")
+    parser.add_argument("--build", default="build", help="where ik5r synth and make bench wrote")
     parser.add_argument("--sweep", default="build/sweep", help="the sweep's output folder")
     parser.add_argument("--readme", default="README.md")
+    parser.add_argument("--no-collect", action="store_true",
+                        help="render from the records as they are (copy nothing from --build)")
     args = parser.parse_args(argv)
     readme = Path(args.readme)
     text = readme.read_text()
     if BEGIN not in text or END not in text:
         raise SystemExit(f"{readme}: no {BEGIN} ... {END} markers")
+    docs = readme.parent / "docs" / "results"
+    records = docs / "records"
+    verilog = VerilogOfCheckout()
+    if not args.no_collect:
+        for path in collect(Path(args.build), Path(args.sweep), records, docs, verilog):
+            print(f"recorded {path}")
+    body, stale = section(records, verilog)
+    for name in stale:
+        print(f"left out {name}: its Verilog is not what this checkout generates (re-run ik5r synth)")
     head, rest = text.split(BEGIN, 1)
     _, tail = rest.split(END, 1)
-    readme.write_text(head + section(Path(args.build), Path(args.sweep), readme.parent / "docs" / "results") + tail)
+    readme.write_text(head + body + tail)
     print(f"{readme}: results section regenerated")
     return 0
 

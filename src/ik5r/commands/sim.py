@@ -71,9 +71,9 @@ def register(subparsers) -> None:
     parser.add_argument("--tag-width", type=int, default=8, metavar="N", help="tag field width (default: 8)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
-                        help="multipliers of the pipelined arch: generic '*' or ECP5 MULT18X18D "
-                             "instances with their registers (simulated with hdl/sim/MULT18X18D.v) "
-                             "(default: generic)")
+                        help="primitives of the pipelined arch: generic operators, or ECP5 "
+                             "MULT18X18D (with their registers) and CCU2C instances (simulated "
+                             "with their models in hdl/sim/) (default: generic)")
     parser.set_defaults(run=run)
 
 

@@ -45,9 +45,9 @@ def register(subparsers) -> None:
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
     parser.add_argument("--dsp", choices=("generic", "ecp5"), default=None,
-                        help="multipliers: ECP5 MULT18X18D instances with their input and output "
-                             "registers, or generic '*' mapped by Yosys (default: ecp5 on ECP5, "
-                             "generic on iCE40)")
+                        help="primitives: ECP5 MULT18X18D instances with their input and output "
+                             "registers and CCU2C add/sub chains, or generic operators mapped by "
+                             "Yosys (default: ecp5 on ECP5, generic on iCE40)")
     parser.add_argument("--cache", default="build/synth", metavar="DIR",
                         help="cache folder (default: build/synth)")
     parser.add_argument("--force", action="store_true", help="ignore cached results")

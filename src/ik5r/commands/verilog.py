@@ -42,8 +42,9 @@ def register(subparsers) -> None:
     parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
                         help="width of the tag field carried through each block (default: 0)")
     parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
-                        help="multipliers of the pipelined arch: generic '*' (any FPGA), or ECP5 "
-                             "MULT18X18D instances using their input and output registers (module "
+                        help="primitives of the pipelined arch: generic operators (any FPGA), or ECP5 "
+                             "MULT18X18D instances using their input and output registers and CCU2C "
+                             "add/sub chains (module "
                              "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
                              "(default: generic)")
     parser.set_defaults(run=run)

@@ -1,0 +1,61 @@
+"""``python -m ik5r.results``: measurements collected into records, the README section rendered
+from the records alone, records of other Verilog left out."""
+
+from __future__ import annotations
+
+import json
+import os
+
+from ik5r import results
+from ik5r.fxconfig import constants, load_config
+from ik5r.hdl.generate import generate
+
+
+def _synth_result(block="sqrt", arch="iterative", config="q18", luts=123, fmax=111.5, seed=1):
+    return {"block": block, "arch": arch, "dsp": "generic", "tag_width": 0, "config": config,
+            "module": f"ik5r_{block}_{arch}", "target": "ecp5", "device": "85k", "speed_grade": 6,
+            "seed": seed, "luts": luts, "ffs": 45, "dsps": 0, "brams": 0, "fmax_mhz": fmax,
+            "latency_cycles": 20, "cycles_per_result": 20, "results_per_second": fmax * 1e6 / 20,
+            "cache_dir": "/somewhere/on/this/machine", "cached": False, "key": "abc"}
+
+
+def _write_run(build, name, result, verilog_text, mtime):
+    folder = build / "synth" / name
+    folder.mkdir(parents=True)
+    (folder / "design.v").write_text(verilog_text)
+    (folder / "result.json").write_text(json.dumps(result))
+    os.utime(folder / "result.json", (mtime, mtime))
+
+
+def test_collect_and_render(tmp_path):
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# title\n\n{results.BEGIN}\nold text\n{results.END}\ntail\n")
+    build = tmp_path / "build"
+    current = generate("sqrt", "iterative", constants(load_config("q18")))[0]
+    _write_run(build, "old", _synth_result(luts=999), current, 1_000)
+    _write_run(build, "new", _synth_result(luts=123), current, 2_000)
+    _write_run(build, "seed3", _synth_result(luts=7, seed=3), current, 3_000)
+    _write_run(build, "stale", _synth_result(block="atan2", luts=555), "module other; endmodule\n", 3_000)
+    (build / "bench").mkdir()
+    (build / "bench" / "bench.md").write_text("| solver | poses/s |\n| --- | ---: |\n| float | 42 |\n")
+    (build / "bench" / "bench.json").write_text("{}\n")
+
+    assert results.main(["--build", str(build), "--sweep", str(tmp_path / "none"),
+                         "--readme", str(readme)]) == 0
+    records = tmp_path / "docs" / "results" / "records"
+    names = sorted(p.name for p in (records / "synth").glob("*.json"))
+    assert names == ["ik5r_sqrt_iterative_q18_ecp5-85k.json"]     # newest seed-1 run, current Verilog
+    record = json.loads((records / "synth" / names[0]).read_text())
+    assert record["luts"] == 123 and "cache_dir" not in record and len(record["verilog_sha256"]) == 64
+    text = readme.read_text()
+    assert text.startswith("# title\n") and text.endswith("tail\n") and "old text" not in text
+    assert "| sqrt | iterative | generic | q18 | ecp5-85k speed 6 | 123 |" in text
+    assert "| float | 42 |" in text and "No sweep yet" in text
+
+    # Render from the records alone (a fresh clone has no build/); a record whose Verilog hash is
+    # not this checkout's is left out.
+    stale = dict(record, verilog_sha256="0" * 64, block="rotate", module="ik5r_rotate_iterative")
+    (records / "synth" / "ik5r_rotate_iterative_q18_ecp5-85k.json").write_text(json.dumps(stale))
+    assert results.main(["--build", str(tmp_path / "empty"), "--readme", str(readme), "--no-collect"]) == 0
+    text = readme.read_text()
+    assert "| sqrt | iterative | generic | q18 |" in text and "| rotate |" not in text
