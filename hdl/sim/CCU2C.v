@@ -8,16 +8,17 @@
 module CCU2C #(
     parameter [15:0] INIT0 = 16'h0000,
     parameter [15:0] INIT1 = 16'h0000,
-    parameter INJECT1_0 = "YES",
-    parameter INJECT1_1 = "YES"
+    parameter [23:0] INJECT1_0 = "YES",
+    parameter [23:0] INJECT1_1 = "YES"
 ) (
     input wire CIN,
     input wire A0, B0, C0, D0, A1, B1, C1, D1,
     output wire S0, S1,
     output wire COUT
 );
-    localparam INJECT_0 = INJECT1_0 == "YES";
-    localparam INJECT_1 = INJECT1_1 == "YES";
+    localparam [23:0] YES = "YES";
+    localparam INJECT_0 = INJECT1_0 == YES;
+    localparam INJECT_1 = INJECT1_1 == YES;
 
     wire propagate_0 = INIT0[{D0, C0, B0, A0}];
     wire generate_0 = INJECT_0 ? 1'b0 : INIT0[{2'b00, B0, A0}];
