@@ -204,9 +204,9 @@ def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
                         skewed: bool) -> Datapath:
     """``model.cordic_rotate(*vector, state[prefix+angle])`` of a constant vector -> prefix+x, y,
     saturated. The quadrant step and the 1/K gain of a constant vector are constants: one stage
-    (compare + subtract) replaces the Rotate block's quadrant, coarse and multiplier stages; the
-    micro-rotations, rounding and clipping are the Rotate block's own stages (``skewed``: see
-    :meth:`Rotate._datapath`)."""
+    (compare + subtract; ``skewed``: two, the compares registered first) replaces the Rotate
+    block's quadrant, coarse and multiplier stages; the micro-rotations, rounding and clipping are
+    the Rotate block's own stages (``skewed``: see :meth:`Rotate._datapath`)."""
     c = k.cfg
     rot = Rotate._datapath(k, skewed=skewed)
     names = [name for name, _, _, _ in rot.stages]
@@ -223,9 +223,11 @@ def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
     cases = {"up": gained(-y0, x0), "down": gained(y0, -x0), "none": gained(x0, y0)}
     h = k.half_pi_z
 
-    def quadrant(s):
-        z = s["angle"].shift_left(c.angle_guard_bits)
-        up, down = z > h, z < -h
+    def z_of(s):
+        return s["angle"].shift_left(c.angle_guard_bits)
+
+    def quadrant(s, flags):
+        z, up, down = z_of(s), flags["up"], flags["down"]
         out = drop(s, "angle")
         out["cx"] = Mux(up, cases["up"][0], Mux(down, cases["down"][0], cases["none"][0]))
         out["cy"] = Mux(up, cases["up"][1], Mux(down, cases["down"][1], cases["none"][1]))
@@ -234,7 +236,8 @@ def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
 
     chain = Datapath(prefix)
     chain.shapes = dict(rot.shapes)
-    chain.add("ro_const", quadrant)
+    _add_selecting(chain, "ro_const", {"up": lambda s: z_of(s) > h, "down": lambda s: z_of(s) < -h},
+                   quadrant, registered=skewed)
     chain.stages.extend(tail)
     return _namespaced(chain, prefix)
 
@@ -337,18 +340,41 @@ class _Builder:
 
 # --- the core ------------------------------------------------------------------------------------
 
-def _wrap(value, k: Constants):
-    """``model.wrap_angle``: one correction by a turn (compare and subtract in parallel)."""
-    pi = k.pi_a
-    return Mux(value > pi, value - 2 * pi, Mux(value < -pi, value + 2 * pi, value))
+def _add_selecting(dp: Datapath, name: str, compares: dict, fn, *, registered: bool) -> None:
+    """Stage ``name``: ``fn(state, flags)`` with ``flags[key] = compares[key](state)``, the
+    compares that select its values.
+
+    ``registered`` (the pipelined core): the compares run one stage earlier, in ``name_cmp``, and
+    reach ``fn`` from registers. On ECP5 a compare's carry chain followed by a select as wide as
+    the word took 10.1 ns (the q32w core's critical path at 98.9 MHz); split, each stage is one
+    carry chain or one select behind a register.
+    """
+    if not registered:
+        dp.add(name, lambda s: fn(s, {key: compare(s) for key, compare in compares.items()}))
+        return
+    keys = {key: f"{name}_{key}" for key in compares}
+    dp.add(f"{name}_cmp", lambda s: dict(s, **{keys[key]: compare(s)
+                                               for key, compare in compares.items()}))
+    dp.add(name, lambda s: fn(drop(s, *keys.values()), {key: s[keys[key]] for key in keys}))
 
 
-def _opposite(angle, k: Constants):
-    """``model.opposite``."""
-    return Mux(angle > 0, angle - k.pi_a, angle + k.pi_a)
+def _wrap_compares(key: str, k: Constants) -> dict:
+    """The compares of ``model.wrap_angle`` of ``state[key]`` (flags ``key_over``, ``key_under``)."""
+    return {f"{key}_over": lambda s: s[key] > k.pi_a, f"{key}_under": lambda s: s[key] < -k.pi_a}
 
 
-def _add_c3(el: Datapath, k: Constants, limit: int) -> None:
+def _wrapped(s, flags, key: str, k: Constants):
+    """``model.wrap_angle`` of ``s[key]``: one correction by a turn, as its compares select."""
+    value, turn = s[key], 2 * k.pi_a
+    return Mux(flags[f"{key}_over"], value - turn, Mux(flags[f"{key}_under"], value + turn, value))
+
+
+def _opposite(angle, positive, k: Constants):
+    """``model.opposite`` of ``angle``, ``positive`` being ``angle > 0``."""
+    return Mux(positive, angle - k.pi_a, angle + k.pi_a)
+
+
+def _add_c3(el: Datapath, k: Constants, limit: int, *, registered: bool) -> None:
     """c3 = clip(mul_const(num, c3_from_l2)) -> ``ac_x`` (the Acos datapath's clipped input)."""
     nearest, one = k.cfg.round_nearest, k.one_u
     mc = k.c3_from_l2
@@ -358,11 +384,13 @@ def _add_c3(el: Datapath, k: Constants, limit: int) -> None:
     add_products(el, "c3m", [(lambda s: s["c3v"], _const_mul_operand(k, mc, limit), mc.mant, "c3p")],
                  drop_keys=("c3v",))
     el.add("c3_post", lambda s: dict(drop(s, "c3p"), c3r=rshift_round(s["c3p"], mc.post, nearest)))
-    el.add("c3_clip", lambda s: dict(drop(s, "c3r"), ac_x=Mux(s["c3r"] > one, one,
-                                                              Mux(s["c3r"] < -one, -one, s["c3r"]))))
+    _add_selecting(el, "c3_clip", {"over": lambda s: s["c3r"] > one, "under": lambda s: s["c3r"] < -one},
+                   lambda s, f: dict(drop(s, "c3r"), ac_x=Mux(f["over"], one,
+                                                              Mux(f["under"], -one, s["c3r"]))),
+                   registered=registered)
 
 
-def _add_c3_complements(el: Datapath, k: Constants, limit: int) -> None:
+def _add_c3_complements(el: Datapath, k: Constants, limit: int, *, registered: bool) -> None:
     """1 - c3 and 1 + c3 straight from the law of cosines (the internal format's way, see
     ``model.ik_solve``): mul_const(2 a2 a3 -+ num, c3_complement_from_l2), each clipped to 2 ->
     ``ac_a``, ``ac_b`` (the Acos datapath's factors) and c3 = 1 - (1 - c3) -> ``ac_x``."""
@@ -381,13 +409,15 @@ def _add_c3_complements(el: Datapath, k: Constants, limit: int) -> None:
                                      cmr=rshift_round(s["cmp"], mc.post, nearest),
                                      cpr=rshift_round(s["cpp"], mc.post, nearest)))
 
-    def clip(s):
-        over = s["cmr"] > two
-        minus, plus = Mux(over, two, s["cmr"]), Mux(s["cpr"] > two, two, s["cpr"])
+    def clip(s, flags):
+        over = flags["minus_over"]
+        minus, plus = Mux(over, two, s["cmr"]), Mux(flags["plus_over"], two, s["cpr"])
         return dict(drop(s, "cmr", "cpr"), ac_a=minus[:fu + 2], ac_b=plus[:fu + 2],
                     ac_x=Mux(over, one - two, one - s["cmr"]))
 
-    el.add("c3_clip", clip)
+    _add_selecting(el, "c3_clip", {"minus_over": lambda s: s["cmr"] > two,
+                                   "plus_over": lambda s: s["cpr"] > two},
+                   clip, registered=registered)
 
 
 def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool) -> Datapath:
@@ -433,15 +463,16 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     # ---- q1 (branch), r - a1; then (c1, s1) = rotate((1, 0), q1).
     builder.unstash(dp, "back")
 
-    def joint1(s):
+    def joint1(s, flags):
         theta, back, rho_l = s["T1__angle"], s["back"], s["RH__rho"]
-        q1 = Mux(back, _opposite(theta, k), theta)
+        q1 = Mux(back, _opposite(theta, flags["positive"], k), theta)
         out = drop(s, "T1__angle", "T1__zero", "RH__rho", "RH__sat", "back")
         out.update(q1=q1, C1__angle=q1, xa=Mux(back, -k.a1_l - rho_l, rho_l - k.a1_l),
                    st=_flag(s["T1__zero"], S.SINGULAR_BASE) | _flag(s["RH__sat"], S.SATURATED))
         return out
 
-    dp.add("joint1", joint1)
+    _add_selecting(dp, "joint1", {"positive": lambda s: s["T1__angle"] > 0}, joint1,
+                   registered=not compact)
     builder.stash(dp, "q1", "xa")
     _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0), skewed=not compact))
 
@@ -476,15 +507,16 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     _append_chains(dp, "p3", _atan2_chain(k, "PT__", zero=True), _atan2_chain(k, "Q5__", zero=True))
     builder.unstash(dp, "q5d")
 
-    def pitch(s):
-        phi = _opposite(s["PT__angle"], k)
+    def pitch(s, flags):
+        phi = _opposite(s["PT__angle"], flags["positive"], k)
         roll = s["roll"]
         out = drop(s, "PT__angle", "PT__zero", "Q5__angle", "Q5__zero", "roll", "q5d")
         out.update(phi=phi, R2__angle=phi, q5=Mux(roll, s["Q5__angle"], s["q5d"]),
                    st=s["st"] | _flag(s["PT__zero"] | (roll & s["Q5__zero"]), S.INVALID))
         return out
 
-    dp.add("pitch", pitch)
+    _add_selecting(dp, "pitch", {"positive": lambda s: s["PT__angle"] > 0}, pitch,
+                   registered=not compact)
     builder.stash(dp, "phi", "q5")
 
     # ---- wrist centre: (xw, yw) = sat((r - a1, d1 - pz) - R(phi) (a4, d5)).
@@ -514,20 +546,20 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     el.add("links", lambda s: dict(drop(s, "d2"), num=s["d2"] - k.links_sq_l2))
     limit = k.twice_a2a3_l2
 
-    def reach(s):
-        num = s["num"]
-        over, under = num > limit, num < -limit
+    def reach(s, flags):
+        num, over, under = s["num"], flags["over"], flags["under"]
         return dict(drop(s, "num"), unreach=over | under,
                     numc=Mux(over, limit, Mux(under, -limit, num)))
 
-    el.add("reach", reach)
+    _add_selecting(el, "reach", {"over": lambda s: s["num"] > limit, "under": lambda s: s["num"] < -limit},
+                   reach, registered=not compact)
     one = k.one_u
     if words.cfg.internal_guard_bits == 0:
-        _add_c3(el, k, limit)
+        _add_c3(el, k, limit, registered=not compact)
         acos = Acos._datapath(k, products)
         first_acos = [name for name, _, _, _ in acos.stages].index("ac_factors")
     else:
-        _add_c3_complements(el, k, limit)
+        _add_c3_complements(el, k, limit, registered=not compact)
         acos = Acos._datapath(k, products, radicand_bits=2 * fu + 4)
         first_acos = [name for name, _, _, _ in acos.stages].index("ac_sq_op")
     names = [name for name, _, _, _ in acos.stages]
@@ -593,22 +625,30 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     def minus(value, offset):
         return value - offset if offset else value
 
-    dp.add("q2_wrap", lambda s: dict(drop(s, "q2r", "q1", "q5"), q2=_wrap(s["q2r"], k),
-                                     j1=minus(s["q1"], off[0]), j3=minus(s["q3"], off[2]),
-                                     j5=minus(s["q5"], off[4])))
-    dp.add("q4_sub", lambda s: dict(drop(s, "q2"), t=s["phi"] - s["q2"], j2=minus(s["q2"], off[1]),
-                                    j1=_wrap(s["j1"], k), j3=_wrap(s["j3"], k), j5=_wrap(s["j5"], k)))
-    dp.add("q4_wrap", lambda s: dict(drop(s, "phi"), t=_wrap(s["t"], k), j2=_wrap(s["j2"], k)))
+    def wrapping(name, keys, fn):
+        compares = {}
+        for key in keys:
+            compares.update(_wrap_compares(key, k))
+        _add_selecting(dp, name, compares, fn, registered=not compact)
+
+    wrapping("q2_wrap", ["q2r"], lambda s, f: dict(drop(s, "q2r", "q1", "q5"), q2=_wrapped(s, f, "q2r", k),
+                                                   j1=minus(s["q1"], off[0]), j3=minus(s["q3"], off[2]),
+                                                   j5=minus(s["q5"], off[4])))
+    wrapping("q4_sub", ["j1", "j3", "j5"],
+             lambda s, f: dict(drop(s, "q2"), t=s["phi"] - s["q2"], j2=minus(s["q2"], off[1]),
+                               **{key: _wrapped(s, f, key, k) for key in ("j1", "j3", "j5")}))
+    wrapping("q4_wrap", ["t", "j2"], lambda s, f: dict(drop(s, "phi"), t=_wrapped(s, f, "t", k),
+                                                       j2=_wrapped(s, f, "j2", k)))
     dp.add("q4_sub2", lambda s: dict(drop(s, "q3"), t=s["t"] - s["q3"]))
     if tag:
         builder.unstash(dp, "tag")
     if off[3]:
-        dp.add("q4_wrap2", lambda s: dict(drop(s, "t"), q4=_wrap(s["t"], k)))
+        wrapping("q4_wrap2", ["t"], lambda s, f: dict(drop(s, "t"), q4=_wrapped(s, f, "t", k)))
         dp.add("j4_sub", lambda s: dict(drop(s, "q4"), j4=s["q4"] - off[3]))
-        dp.add("j4_wrap", lambda s: dict(s, j4=_wrap(s["j4"], k)))
+        wrapping("j4_wrap", ["j4"], lambda s, f: dict(s, j4=_wrapped(s, f, "j4", k)))
     else:
         # wrap(q4 - 0) == q4: q4 is already wrapped.
-        dp.add("q4_wrap2", lambda s: dict(drop(s, "t"), j4=_wrap(s["t"], k)))
+        wrapping("q4_wrap2", ["t"], lambda s, f: dict(drop(s, "t"), j4=_wrapped(s, f, "t", k)))
     guard = words.cfg.internal_guard_bits
     if guard:
         joints = [f"j{j}" for j in range(1, 6)]
@@ -661,14 +701,15 @@ class IKCore(StreamBlock):
       (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
 
     Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
-    see ``latency`` (pipelined: q32w 313, q32 264, q18 180, of which 3 in the output FIFO and the
+    see ``latency`` (pipelined: q32w 323, q32 274, q18 190, of which 3 in the output FIFO and the
     register in front of it; compact: q32w 502, q32 411, q18 271 cycles).
 
     * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
       pipeline never stalls (no clock enable): results queue in an output FIFO (block RAM) while
       ``o`` is held, and ``i.ready`` drops only when ``capacity`` poses (q32 513, q18 257) are
       inside, in flight or queued (see :class:`~ik5r.hdl.common.StreamBlock`). One add/sub level
-      (or one 17 x 17 partial product) per stage. ``dsp="ecp5"`` builds the partial products as
+      (or one 17 x 17 partial product) per stage; a compare that selects a value is registered
+      a stage ahead of its select. ``dsp="ecp5"`` builds the partial products as
       ``MULT18X18D`` instances with their input and output registers and the CORDIC
       add/subtracts as ``CCU2C`` chains (same latency, same bits).
     * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
