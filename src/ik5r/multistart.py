@@ -1,0 +1,130 @@
+"""Many seeded starts per pose for :mod:`ik5r.numeric`: the first solution, or every distinct one.
+
+``solve(chain, targets, starts=S)`` runs Levenberg-Marquardt from S joint vectors per pose (start 0
+is ``q0`` when given, the others uniform in the limits from ``numpy.random.default_rng(seed)``, so a
+run is reproducible). With ``all_solutions`` every start runs and the converged ones are
+de-duplicated (two solutions are the same when every joint differs by less than ``DISTINCT``, angles
+of full-turn joints compared modulo 2 pi); otherwise starts run in rounds, each round only on the
+poses still unsolved, and the first converged start answers. Poses with no converged start get one
+row with the best start's joints, residuals and status (``singular`` or ``not_converged``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import numeric as nm
+from .chain import Chain
+
+DISTINCT = 1e-6
+DEFAULT_STARTS = {"first": 32, "all": 64}
+_ROUNDS = (1, 3, 12)  # starts per pose in successive rounds of the first-solution search
+
+
+def _starts(chain: Chain, poses: int, starts: int, q0, rng) -> np.ndarray:
+    """(poses, starts, n) start joint vectors."""
+    q = rng.uniform(chain.lower, chain.upper, size=(poses, starts, chain.n))
+    if q0 is not None:
+        q[:, 0] = np.broadcast_to(np.asarray(q0, dtype=np.float64), (poses, chain.n))
+    return q
+
+
+def _run(chain, targets, rows, q, **kw):
+    out = [nm.levenberg_marquardt(chain, targets.take(rows[i:i + nm._CHUNK]), q[i:i + nm._CHUNK], **kw)
+           for i in range(0, len(rows), nm._CHUNK)]
+    return tuple(np.concatenate(parts) for parts in zip(*out)) if out else None
+
+
+def _distinct(chain: Chain, q: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """keep (P,S): converged candidates not within DISTINCT of an earlier kept one."""
+    wraps = chain.wraps()
+    keep = np.zeros(ok.shape, dtype=bool)
+    for lo in range(0, len(q), 256):
+        qq, good = q[lo:lo + 256], ok[lo:lo + 256]
+        diff = np.abs(qq[:, :, None, :] - qq[:, None, :, :])
+        diff[..., wraps] = np.minimum(diff[..., wraps], 2 * np.pi - diff[..., wraps])
+        same = (diff.max(axis=-1) < DISTINCT) & good[:, :, None] & good[:, None, :]
+        earlier = np.tril(same, k=-1).any(axis=2)  # same as some earlier converged candidate
+        keep[lo:lo + 256] = good & ~earlier
+    return keep
+
+
+def _failed_rows(poses, best_q, best_pos, best_rot, best_sing):
+    status = np.where(best_sing, nm.SINGULAR, nm.NOT_CONVERGED)
+    return nm.Solutions(poses, best_q, status, best_pos, best_rot)
+
+
+def _collect(parts: list[nm.Solutions]) -> nm.Solutions:
+    sol = nm.Solutions(*(np.concatenate([getattr(s, f) for s in parts])
+                         for f in ("row", "q", "status", "pos_err", "rot_err")))
+    order = np.argsort(sol.row, kind="stable")
+    return nm.Solutions(sol.row[order], sol.q[order], sol.status[order], sol.pos_err[order], sol.rot_err[order])
+
+
+def _prechecked(chain, targets):
+    pre = nm.check_targets(chain, targets)
+    bad = np.nonzero(pre != nm.OK)[0]
+    nan = np.full(len(bad), np.nan)
+    rejected = nm.Solutions(bad, np.full((len(bad), chain.n), np.nan), pre[bad], nan, nan.copy())
+    return np.nonzero(pre == nm.OK)[0], rejected
+
+
+def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, **kw) -> nm.Solutions:
+    """Every distinct converged solution of every pose."""
+    todo, rejected = _prechecked(chain, targets)
+    rng = np.random.default_rng(seed)
+    qs = _starts(chain, len(todo), starts, q0, rng)
+    rows = np.repeat(todo, starts)
+    q, pos, rot, conv, sing = _run(chain, targets, rows, qs.reshape(-1, chain.n), **kw)
+    shape = (len(todo), starts)
+    keep = _distinct(chain, q.reshape(*shape, chain.n), conv.reshape(shape)).reshape(-1)
+    found = nm.Solutions(rows[keep], q[keep], np.full(keep.sum(), nm.OK), pos[keep], rot[keep])
+    none = ~conv.reshape(shape).any(axis=1)
+    best = np.argmin(np.where(np.isnan(rot), 0.0, rot).reshape(shape) + pos.reshape(shape), axis=1)
+    flat = np.arange(len(todo)) * starts + best
+    sel = flat[none]
+    failed = _failed_rows(todo[none], q[sel], pos[sel], rot[sel], sing[sel])
+    return _collect([found, failed, rejected])
+
+
+def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, **kw) -> nm.Solutions:
+    """One solution per pose: the first start (in order) that converges."""
+    todo, rejected = _prechecked(chain, targets)
+    rng = np.random.default_rng(seed)
+    qs = _starts(chain, len(todo), starts, q0, rng)
+    n = chain.n
+    best_q = np.full((len(todo), n), np.nan)
+    best_pos = np.full(len(todo), np.inf)
+    best_rot = np.full(len(todo), np.inf)
+    best_score = np.full(len(todo), np.inf)
+    best_sing = np.zeros(len(todo), dtype=bool)
+    solved = np.zeros(len(todo), dtype=bool)
+    begin = 0
+    for width in list(_ROUNDS) + [starts] * starts:
+        width = min(width, starts - begin)
+        open_ = np.nonzero(~solved)[0]
+        if width <= 0 or not len(open_):
+            break
+        q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
+                                       qs[open_, begin:begin + width].reshape(-1, n), **kw)
+        shape = (len(open_), width)
+        conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
+        any_conv = conv.any(axis=1)
+        pick = np.where(any_conv, np.argmax(conv, axis=1), np.argmin(score, axis=1))
+        flat = np.arange(len(open_)) * width + pick
+        better = any_conv | (score[np.arange(len(open_)), pick] < best_score[open_])
+        upd, sel = open_[better], flat[better]
+        best_q[upd], best_pos[upd], best_rot[upd], best_sing[upd] = q[sel], pos[sel], rot[sel], sing[sel]
+        best_score[upd] = score[np.arange(len(open_)), pick][better]
+        solved[open_] = any_conv
+        begin += width
+    status = np.where(solved, nm.OK, np.where(best_sing, nm.SINGULAR, nm.NOT_CONVERGED))
+    return _collect([nm.Solutions(todo, best_q, status, best_pos, best_rot), rejected])
+
+
+def solve(chain: Chain, targets: nm.Targets, *, all_solutions=False, starts=None, q0=None, seed=0, **kw):
+    """Numeric IK of a batch; see the module docstring."""
+    if starts is None:
+        starts = DEFAULT_STARTS["all" if all_solutions else "first"]
+    fn = solve_all if all_solutions else solve_first
+    return fn(chain, targets, starts, q0=q0, seed=seed, **kw)
