@@ -258,3 +258,22 @@ def jacobian(chain: Chain, q: np.ndarray):
 def random_joints(chain: Chain, count: int, rng: np.random.Generator) -> np.ndarray:
     """Joint vectors drawn uniformly within the limits."""
     return rng.uniform(chain.lower, chain.upper, size=(count, chain.n))
+
+
+def closed_form_arm(path: str | Path | None = None):
+    """The :class:`ik5r.arm.Arm` of an arm file of the closed-form 5R family, else None.
+
+    The file is validated as a general chain first (errors name FILE and field either way)."""
+    from .arm import parse_arm
+
+    if path is None:
+        return parse_arm(read_toml("seed_arm.toml", resources.files("ik5r").joinpath(
+            "data/seed_arm.toml").read_text()), "seed_arm.toml")
+    doc = read_toml(path)
+    parse_chain(doc, path)
+    if doc.get("convention", "standard") != "standard" or "tool" in doc:
+        return None
+    try:
+        return parse_arm(doc, path)
+    except InputError:
+        return None

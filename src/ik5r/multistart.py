@@ -17,7 +17,7 @@ from . import numeric as nm
 from .chain import Chain
 
 DISTINCT = 1e-6
-DEFAULT_STARTS = {"first": 32, "all": 64}
+DEFAULT_STARTS = {"first": 32, "all": 128}
 _ROUNDS = (1, 3, 12)  # starts per pose in successive rounds of the first-solution search
 
 
@@ -49,6 +49,32 @@ def _distinct(chain: Chain, q: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return keep
 
 
+_KICKS = np.array([0.0, 1e-4, -1e-4, 1e-3, -1e-3, 1e-2, -1e-2, 0.1, -0.1])
+
+
+def _polish(chain, targets, rows, q, **kw):
+    """Rows whose best start stopped close to the target, next to a fold singularity: Gauss-Newton
+    sees a minimum there (J^T e = 0) where the true cost has a saddle, or crawls along a narrow
+    valley. Restart each from points moved along the Jacobian's weakest joint direction (both ways,
+    several sizes) with the long iteration budget; keep the best."""
+    weight = max(chain.reach, 1.0) / 4.0
+    R, p, J = nm.jacobian(chain, q)
+    _, Jt = nm._task(targets.take(rows), R, p, J, weight)
+    weakest = np.linalg.svd(Jt)[2][:, -1, :]
+    k = len(_KICKS)
+    starts = clamp_rows(chain, q[:, None, :] + _KICKS[None, :, None] * weakest[:, None, :])
+    out = _run(chain, targets, np.repeat(rows, k), starts.reshape(-1, chain.n), **kw)
+    qq, pos, rot, conv, sing = (v.reshape(len(rows), k, *v.shape[1:]) for v in out)
+    score = pos + np.where(np.isnan(rot), 0.0, rot)
+    pick = np.where(conv.any(axis=1), np.argmax(conv, axis=1), np.argmin(score, axis=1))
+    at = np.arange(len(rows))
+    return qq[at, pick], pos[at, pick], rot[at, pick], conv[at, pick], sing[at, pick]
+
+
+def clamp_rows(chain, q):
+    return nm.clamp(chain, q.reshape(-1, chain.n)).reshape(q.shape)
+
+
 def _failed_rows(poses, best_q, best_pos, best_rot, best_sing):
     status = np.where(best_sing, nm.SINGULAR, nm.NOT_CONVERGED)
     return nm.Solutions(poses, best_q, status, best_pos, best_rot)
@@ -75,7 +101,10 @@ def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int
     rng = np.random.default_rng(seed)
     qs = _starts(chain, len(todo), starts, q0, rng)
     rows = np.repeat(todo, starts)
-    q, pos, rot, conv, sing = _run(chain, targets, rows, qs.reshape(-1, chain.n), **kw)
+    q, pos, rot, conv, sing = _run(chain, targets, rows, qs.reshape(-1, chain.n), polish=False, **kw)
+    close = np.nonzero(~conv & (pos + np.where(np.isnan(rot), 0.0, rot) <= nm._CLOSE))[0]
+    if len(close):
+        q[close], pos[close], rot[close], conv[close], sing[close] = _polish(chain, targets, rows[close], q[close], **kw)
     shape = (len(todo), starts)
     keep = _distinct(chain, q.reshape(*shape, chain.n), conv.reshape(shape)).reshape(-1)
     found = nm.Solutions(rows[keep], q[keep], np.full(keep.sum(), nm.OK), pos[keep], rot[keep])
@@ -106,7 +135,7 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         if width <= 0 or not len(open_):
             break
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
-                                       qs[open_, begin:begin + width].reshape(-1, n), **kw)
+                                       qs[open_, begin:begin + width].reshape(-1, n), polish=False, **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
         any_conv = conv.any(axis=1)
@@ -118,6 +147,11 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         best_score[upd] = score[np.arange(len(open_)), pick][better]
         solved[open_] = any_conv
         begin += width
+    close = np.nonzero(~solved & (best_score <= nm._CLOSE))[0]
+    if len(close):
+        q, pos, rot, conv, sing = _polish(chain, targets, todo[close], best_q[close], **kw)
+        best_q[close], best_pos[close], best_rot[close], best_sing[close] = q, pos, rot, sing
+        solved[close] = conv
     status = np.where(solved, nm.OK, np.where(best_sing, nm.SINGULAR, nm.NOT_CONVERGED))
     return _collect([nm.Solutions(todo, best_q, status, best_pos, best_rot), rejected])
 

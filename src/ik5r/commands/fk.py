@@ -1,6 +1,7 @@
 """``ik5r fk``: forward kinematics of joint vectors (CSV in, CSV out).
 
-Input columns q1..q5 (radians, any order, extra columns ignored); output columns
+Input columns q1..qn, n the arm's joint count (radians; cm for prismatic joints; any order, extra
+columns ignored); output columns
 px,py,pz (cm), nx,ny,nz, ox,oy,oz, ax,ay,az (the tool frame), floats at repr precision, one line
 per input record. A non-finite joint value gives NaN outputs on that line.
 """
@@ -22,13 +23,15 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from ik5r import chain as general
     from ik5r import csvio, reference
-    from ik5r.arm import load_arm
 
-    arm = load_arm(args.arm)
-    table = csvio.read_table(args.joints, csvio.JOINT_COLUMNS)
-    q = table.matrix(csvio.JOINT_COLUMNS)
+    arm = general.closed_form_arm(args.arm)  # the 5R family keeps the reference's own FK
+    model = general.load_chain(args.arm) if arm is None else None
+    joints = csvio.JOINT_COLUMNS if arm is not None else tuple(f"q{i + 1}" for i in range(model.n))
+    table = csvio.read_table(args.joints, joints)
+    q = table.matrix(joints)
     with np.errstate(invalid="ignore"):
-        pose = reference.fk_pose(arm, q)
+        pose = reference.fk_pose(arm, q) if arm is not None else general.fk_pose(model, q)
     csvio.write_table(args.output, csvio.POSE_COLUMNS, [pose[:, j] for j in range(12)])
     return 0

@@ -32,7 +32,7 @@ import numpy as np
 
 from ik5r.fxconfig import DEFAULT_CONFIG
 
-SOLVERS = ("float", "fixed", "c")
+SOLVERS = ("float", "fixed", "c", "numeric")
 
 
 def _near(text: str) -> np.ndarray:
@@ -55,8 +55,10 @@ def register(subparsers) -> None:
     parser.add_argument("poses", metavar="POSES.csv", help="CSV with columns px..az ('-': stdin)")
     parser.add_argument("-o", "--output", metavar="OUT.csv", default=None,
                         help="output CSV (default: standard output)")
-    parser.add_argument("--solver", choices=SOLVERS, default="float",
-                        help="float reference, fixed-point model or C solver (default: float)")
+    parser.add_argument("--solver", choices=SOLVERS, default=None,
+                        help="float reference, fixed-point model, C solver (closed form, 5R family) "
+                             "or numeric (any arm: ik5r.commands.solve_numeric); default: float for "
+                             "the 5R family, numeric for other arms")
     parser.add_argument("--config", metavar="CFG.toml", default=None,
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--arm", metavar="ARM.toml", default=None,
@@ -65,7 +67,31 @@ def register(subparsers) -> None:
     parser.add_argument("--near", type=_near, default=None, metavar="q1,q2,q3,q4,q5",
                         help="choose the branch nearest these joints (radians); also the free q1 "
                              "and the q5 of poses without n, o")
+    _register_numeric(parser)
     parser.set_defaults(run=run)
+
+
+def _joint_list(text: str) -> np.ndarray:
+    try:
+        values = np.array([float(p) for p in text.split(",")])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not numbers: {text!r}") from None
+    if not np.isfinite(values).all():
+        raise argparse.ArgumentTypeError(f"must be finite: {text!r}")
+    return values
+
+
+def _register_numeric(parser) -> None:
+    from ik5r.numeric import MODES
+
+    group = parser.add_argument_group("numeric solver (--solver numeric)")
+    group.add_argument("--mode", choices=MODES, default="pose",
+                       help="pose (p, n, o, a), position (p) or direction (p, a; roll free); default pose")
+    group.add_argument("--starts", type=int, default=None,
+                       help="random starts per pose (default 32, or 128 with --all)")
+    group.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    group.add_argument("--start", type=_joint_list, default=None, metavar="q1,...,qn",
+                       help="first start of every pose (e.g. the current joints)")
 
 
 def _fixed_solver(kind: str, k):
@@ -89,6 +115,12 @@ def run(args) -> int:
     from ik5r.arm import load_arm
     from ik5r.fxconfig import constants, load_config, quantize
 
+    if args.solver is None:
+        from ik5r.chain import closed_form_arm
+        args.solver = "float" if closed_form_arm(args.arm) is not None else "numeric"
+    if args.solver == "numeric":
+        from ik5r.commands.solve_numeric import run_numeric
+        return run_numeric(args)
     arm = load_arm(args.arm)
     cfg = load_config(args.config) if (args.solver != "float" or args.config is not None) else None
     table = csvio.read_table(args.poses, csvio.POSITION_COLUMNS + csvio.APPROACH_COLUMNS,
