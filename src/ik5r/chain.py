@@ -179,6 +179,7 @@ def parse_chain(doc: dict, path: str | Path = "<arm>") -> Chain:
     tool = _tool(path, doc, ls, an)
     reach += float(np.linalg.norm(tool[:3, 3]))
     consts = [pre[0]] + [post[i] @ pre[i + 1] for i in range(len(pre) - 1)] + [post[-1] @ tool]
+    consts = [np.where(np.abs(c) < 1e-15, 0.0, c) for c in consts]  # cos(90 deg) is 6e-17: make it 0
     name = doc.get("name", Path(str(path)).stem)
     if not isinstance(name, str):
         raise InputError(path, f"must be a string, got {name!r}", field="name")
@@ -199,9 +200,21 @@ def shipped_arm(name: str) -> Path:
     return Path(str(resources.files("ik5r").joinpath(f"data/arms/{name}.toml")))
 
 
-def _apply(R, p, C):
-    """(R, p) <- (R, p) @ C for a constant 4x4 C."""
-    return R @ C[:3, :3], p + R @ C[:3, 3]
+def _combine(cols, weights):
+    """sum_k weights[k] * cols[k], skipping zero weights (the DH constants are mostly 0 and +-1)."""
+    out = None
+    for col, w in zip(cols, weights):
+        if w == 0.0:
+            continue
+        term = col if w == 1.0 else -col if w == -1.0 else w * col
+        out = term if out is None else out + term
+    return out if out is not None else np.zeros_like(cols[0])
+
+
+def _apply(cols, p, C):
+    """(R, p) <- (R, p) @ C for a constant 4x4 C; R as its three columns (N,3) each."""
+    p = p if not C[:3, 3].any() else p + _combine(cols, C[:3, 3])
+    return [_combine(cols, C[:3, j]) for j in range(3)], p
 
 
 def frames(chain: Chain, q: np.ndarray):
@@ -209,23 +222,23 @@ def frames(chain: Chain, q: np.ndarray):
     z (N,n,3) and joint origins (N,n,3) in the base frame."""
     q = np.asarray(q, dtype=np.float64)
     count = q.shape[0]
-    R = np.broadcast_to(chain.consts[0][:3, :3], (count, 3, 3)).copy()
-    p = np.broadcast_to(chain.consts[0][:3, 3], (count, 3)).copy()
+    c0 = chain.consts[0]
+    cols = [np.broadcast_to(c0[:3, j], (count, 3)) for j in range(3)]
+    p = np.broadcast_to(c0[:3, 3], (count, 3))
     axes = np.empty((count, chain.n, 3))
     origins = np.empty((count, chain.n, 3))
     for i in range(chain.n):
-        axes[:, i] = R[:, :, 2]
+        x, y, z = cols
+        axes[:, i] = z
         origins[:, i] = p
         v = chain.offset[i] + chain.scale[i] * q[:, i]
         if chain.prismatic[i]:
-            p = p + v[:, None] * R[:, :, 2]
+            p = p + v[:, None] * z
         else:
             c, s = np.cos(v)[:, None], np.sin(v)[:, None]
-            x, y = R[:, :, 0].copy(), R[:, :, 1]
-            R[:, :, 0] = c * x + s * y
-            R[:, :, 1] = c * y - s * x
-        R, p = _apply(R, p, chain.consts[i + 1])
-    return R, p, axes, origins
+            cols = [c * x + s * y, c * y - s * x, z]
+        cols, p = _apply(cols, p, chain.consts[i + 1])
+    return np.stack(cols, axis=2), np.asarray(p), axes, origins
 
 
 def fk(chain: Chain, q: np.ndarray):
@@ -243,15 +256,19 @@ def fk_pose(chain: Chain, q: np.ndarray) -> np.ndarray:
 def jacobian(chain: Chain, q: np.ndarray):
     """Tool R, p and the geometric Jacobian (N, 6, n): rows linear velocity (cm/unit), angular."""
     R, p, axes, origins = frames(chain, q)
-    J = np.empty((q.shape[0], 6, chain.n))
     scale = np.asarray(chain.scale)
+    d = p[:, None, :] - origins
+    zx, zy, zz = axes[:, :, 0], axes[:, :, 1], axes[:, :, 2]
+    dx, dy, dz = d[:, :, 0], d[:, :, 1], d[:, :, 2]
+    J = np.empty((q.shape[0], 6, chain.n))
+    J[:, 0], J[:, 1], J[:, 2] = zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx
+    J[:, 3], J[:, 4], J[:, 5] = zx, zy, zz
     prism = np.asarray(chain.prismatic)
-    lin = np.cross(axes, p[:, None, :] - origins)
-    lin[:, prism] = axes[:, prism]
-    ang = axes.copy()
-    ang[:, prism] = 0.0
-    J[:, :3] = np.swapaxes(lin, 1, 2) * scale
-    J[:, 3:] = np.swapaxes(ang, 1, 2) * scale
+    if prism.any():
+        J[:, :3, prism] = J[:, 3:, prism]
+        J[:, 3:, prism] = 0.0
+    if (scale != 1.0).any():
+        J *= scale
     return R, p, J
 
 

@@ -71,6 +71,19 @@ def _polish(chain, targets, rows, q, **kw):
     return qq[at, pick], pos[at, pick], rot[at, pick], conv[at, pick], sing[at, pick]
 
 
+def _polish_close(chain, targets, todo, solved, best_score, best, kw):
+    """Polish (in place) the unsolved poses whose best start stopped within _CLOSE of the target,
+    once: they sit at a fold, where more random starts rarely help."""
+    close = np.nonzero(~solved & (best_score <= nm._CLOSE))[0]
+    if not len(close):
+        return
+    out = _polish(chain, targets, todo[close], best[0][close], **kw)
+    for array, value in zip(best, (out[0], out[1], out[2], out[4])):
+        array[close] = value
+    solved[close] = out[3]
+    best_score[close] = np.inf  # later rounds replace them only with a converged start
+
+
 def clamp_rows(chain, q):
     return nm.clamp(chain, q.reshape(-1, chain.n)).reshape(q.shape)
 
@@ -135,7 +148,7 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         if width <= 0 or not len(open_):
             break
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
-                                       qs[open_, begin:begin + width].reshape(-1, n), polish=False, **kw)
+                                       qs[open_, begin:begin + width].reshape(-1, n), polish=begin == 0, **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
         any_conv = conv.any(axis=1)
@@ -147,11 +160,8 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         best_score[upd] = score[np.arange(len(open_)), pick][better]
         solved[open_] = any_conv
         begin += width
-    close = np.nonzero(~solved & (best_score <= nm._CLOSE))[0]
-    if len(close):
-        q, pos, rot, conv, sing = _polish(chain, targets, todo[close], best_q[close], **kw)
-        best_q[close], best_pos[close], best_rot[close], best_sing[close] = q, pos, rot, sing
-        solved[close] = conv
+        if begin == sum(_ROUNDS[:2]) or begin == starts:
+            _polish_close(chain, targets, todo, solved, best_score, (best_q, best_pos, best_rot, best_sing), kw)
     status = np.where(solved, nm.OK, np.where(best_sing, nm.SINGULAR, nm.NOT_CONVERGED))
     return _collect([nm.Solutions(todo, best_q, status, best_pos, best_rot), rejected])
 

@@ -34,7 +34,7 @@ _STOP = 1e-11  # iterate past the tolerance: one more Newton step is nearly free
 _CLOSE = 1e-3  # residual (cm, rad) under which a start gets _EXTRA times the iterations
 _EXTRA = 8
 _TWO_PI = 2.0 * np.pi
-_CHUNK = 8192
+_CHUNK = 32768
 
 
 @dataclass
@@ -187,7 +187,7 @@ def levenberg_marquardt(chain: Chain, targets: Targets, q0, *, iterations=60, to
     out_sing = np.zeros(count, dtype=bool)
     e, Jt, pos, rot = _evaluate(chain, targets, out_q, weight)
     diag = np.einsum("ijk,ijk->ik", Jt, Jt)
-    st = _Accepted(np.arange(count), out_q.copy(), e, Jt, pos, rot, 1e-3 * diag.max(axis=1) + 1e-300)
+    st = _Accepted(np.arange(count), out_q.copy(), e, Jt, pos, rot, 0.1 * diag.max(axis=1) + 1e-300)
     tg = targets
     for it in range(extra * iterations + 1):
         within = (st.pos <= tol_cm) & ~(st.rot > tol_rad)
