@@ -194,8 +194,7 @@ def levenberg_marquardt(chain: Chain, targets: Targets, q0, *, iterations=60, to
         close = (st.pos <= _CLOSE) & ~(st.rot > _CLOSE)  # crawling along a fold's valley: let it run
         done = ((st.pos <= _STOP) & ~(st.rot > _STOP)) | (st.nu > 1e6) | (it >= iterations) & ~close
         done |= it == extra * iterations
-        if it:
-            done |= within & ~accepted
+        done |= within & (st.nu >= 16)  # at the float64 floor: steps keep being rejected
         if done.any():
             idx = st.active[done]
             out_q[idx], out_pos[idx], out_rot[idx] = st.q[done], st.pos[done], st.rot[done]
