@@ -21,11 +21,12 @@ DEFAULT_STARTS = {"first": 32, "all": 128}
 _ROUNDS = (1, 3, 12)  # starts per pose in successive rounds of the first-solution search
 
 
-def _starts(chain: Chain, poses: int, starts: int, q0, rng) -> np.ndarray:
-    """(poses, starts, n) start joint vectors."""
-    q = rng.uniform(chain.lower, chain.upper, size=(poses, starts, chain.n))
+def _starts(chain: Chain, todo: np.ndarray, starts: int, q0, rng) -> np.ndarray:
+    """(len(todo), starts, n) start joint vectors; q0 (n,) for every pose or (N, n) per pose."""
+    q = rng.uniform(chain.lower, chain.upper, size=(len(todo), starts, chain.n))
     if q0 is not None:
-        q[:, 0] = np.broadcast_to(np.asarray(q0, dtype=np.float64), (poses, chain.n))
+        q0 = np.asarray(q0, dtype=np.float64)
+        q[:, 0] = q0[todo] if q0.ndim == 2 else q0
     return q
 
 
@@ -112,7 +113,7 @@ def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int
     """Every distinct converged solution of every pose."""
     todo, rejected = _prechecked(chain, targets)
     rng = np.random.default_rng(seed)
-    qs = _starts(chain, len(todo), starts, q0, rng)
+    qs = _starts(chain, todo, starts, q0, rng)
     rows = np.repeat(todo, starts)
     q, pos, rot, conv, sing = _run(chain, targets, rows, qs.reshape(-1, chain.n), polish=False, **kw)
     close = np.nonzero(~conv & (pos + np.where(np.isnan(rot), 0.0, rot) <= nm._CLOSE))[0]
@@ -133,7 +134,7 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
     """One solution per pose: the first start (in order) that converges."""
     todo, rejected = _prechecked(chain, targets)
     rng = np.random.default_rng(seed)
-    qs = _starts(chain, len(todo), starts, q0, rng)
+    qs = _starts(chain, todo, starts, q0, rng)
     n = chain.n
     best_q = np.full((len(todo), n), np.nan)
     best_pos = np.full(len(todo), np.inf)

@@ -1,0 +1,172 @@
+"""``make bench`` for any arm: the numeric solver against roboticstoolbox ``ik_LM`` and ikpy.
+
+    python -m ik5r.bench_arms [--poses 20000] [--rtb 1000] [--ikpy 20] [-o build/bench] [--record]
+
+Per arm (Toz's 6R and the PUMA 560, pose mode): poses are the FK of joint vectors uniform in the
+limits; every solver gets the same first start per pose (another uniform draw), then restarts as it
+does by itself (ik5r: more random starts; ik_LM: ``slimit`` random searches; ikpy: none). A pose
+counts as solved when the FK of the returned joints is within 1e-9 cm and 1e-9 rad of the target
+(the floor of issue 17), measured by ik5r's FK; each tool's own success flag is reported too.
+ik5r solves the whole batch at once (numpy, one core); ik_LM and ikpy are called once per pose on
+the first poses. Times are CPU times of this process. Writes bench_arms.json / bench_arms.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+
+from . import multistart
+from . import numeric as nm
+from .chain import Chain, fk, load_chain, random_joints, shipped_arm
+
+ARMS = ("toz-6r", "puma560")
+TOL = 1e-9
+
+
+def _rtb_robot(chain: Chain):
+    import roboticstoolbox as rtb
+    from spatialmath import SE3
+
+    ets = rtb.ETS()
+    for i in range(chain.n):
+        if chain.prismatic[i] or abs(chain.scale[i]) != 1.0:
+            raise ValueError("the rtb baseline takes revolute joints of scale +-1")
+        c = chain.consts[i] @ _rz(chain.offset[i])
+        ets = ets * rtb.ET.SE3(SE3(c, check=False)) * rtb.ET.Rz(flip=chain.scale[i] < 0,
+                                                                  qlim=[chain.lower[i], chain.upper[i]])
+    ets = ets * rtb.ET.SE3(SE3(chain.consts[chain.n], check=False))
+    return rtb.Robot(ets)
+
+
+def _rtb_dh_robot(name: str):
+    """The arm as an rtb DHRobot (standard DH only), as ik5r.bench builds the 5R: ik_LM's slower
+    path (the robot is turned into an ETS on every call)."""
+    import roboticstoolbox as rtb
+
+    if name != "puma560":
+        return None
+    rows = [(0, np.pi / 2, 0), (43.18, 0, 0), (2.03, -np.pi / 2, 15.005), (0, np.pi / 2, 43.18),
+            (0, -np.pi / 2, 0), (0, 0, 0)]
+    return rtb.DHRobot([rtb.RevoluteDH(a=a, alpha=alpha, d=d, qlim=[-np.pi, np.pi]) for a, alpha, d in rows])
+
+
+def _rz(t):
+    c, s = np.cos(t), np.sin(t)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def _ikpy_chain(chain: Chain):
+    from ikpy.chain import Chain as IkpyChain
+    from ikpy.link import OriginLink, URDFLink
+    from scipy.spatial.transform import Rotation
+
+    links = [OriginLink()]
+    for i in range(chain.n + 1):
+        c = chain.consts[i] @ (_rz(chain.offset[i]) if i < chain.n else np.eye(4))
+        rpy = Rotation.from_matrix(c[:3, :3]).as_euler("xyz")
+        kw = ({"rotation": np.array([0.0, 0.0, np.sign(chain.scale[i])]), "bounds": (chain.lower[i], chain.upper[i])}
+              if i < chain.n else {"joint_type": "fixed"})
+        links.append(URDFLink(name=f"j{i}", origin_translation=c[:3, 3], origin_orientation=rpy, **kw))
+    return IkpyChain(links, active_links_mask=[False] + [True] * chain.n + [False])
+
+
+def _errors(chain, q, R, p):
+    R2, p2 = fk(chain, q)
+    return nm.residuals(nm.Targets("pose", p, R), R2, p2)
+
+
+def _summary(chain, q, R, p, cpu, own=None) -> dict:
+    pos, rot = _errors(chain, q, R, p)
+    solved = (pos <= TOL) & (rot <= TOL)
+    out = {"poses": len(q), "cpu_s": cpu, "poses_per_s": len(q) / cpu, "success": float(solved.mean()),
+           "max_pos_err_cm": float(np.nanmax(pos)), "max_rot_err_rad": float(np.nanmax(rot))}
+    if own is not None:
+        out["own_success"] = float(np.mean(own))
+    return out
+
+
+def bench_arm(name: str, poses: int, rtb_count: int, ikpy_count: int, seed: int = 0) -> dict:
+    chain = load_chain(shipped_arm(name))
+    rng = np.random.default_rng(seed)
+    R, p = fk(chain, random_joints(chain, poses, rng))
+    starts = random_joints(chain, poses, rng)
+    t0 = time.process_time()
+    sol = multistart.solve(chain, nm.Targets("pose", p, R), q0=starts, seed=seed)
+    cpu = time.process_time() - t0
+    out = {"arm": name, "joints": chain.n, "ik5r": _summary(chain, sol.q, R, p, cpu)}
+    m = min(rtb_count, poses)
+    out["ik5r_first"] = _summary(chain, sol.q[:m], R[:m], p[:m], cpu * m / poses)
+    for key, robot, tol in (("rtb_ik_LM", _rtb_robot(chain), 1e-6), ("rtb_ik_LM_tight", _rtb_robot(chain), 1e-20),
+                            ("rtb_ik_LM_dh", _rtb_dh_robot(name), 1e-20)):
+        if robot is None:
+            continue
+        q, own = np.empty((m, chain.n)), []
+        t0 = time.process_time()
+        for i in range(m):
+            target = np.eye(4)
+            target[:3, :3], target[:3, 3] = R[i], p[i]
+            res = robot.ik_LM(target, q0=starts[i], tol=tol)
+            q[i] = res.q
+            own.append(bool(res.success))
+        out[key] = _summary(chain, q, R[:m], p[:m], time.process_time() - t0, own)
+        out[f"x_{key}"] = out["ik5r"]["poses_per_s"] / out[key]["poses_per_s"]
+    ik = _ikpy_chain(chain)
+    k = min(ikpy_count, poses)
+    q = np.empty((k, chain.n))
+    t0 = time.process_time()
+    for i in range(k):
+        full = ik.inverse_kinematics(p[i], R[i], orientation_mode="all",
+                                     initial_position=np.concatenate([[0.0], starts[i], [0.0]]))
+        q[i] = full[1:-1]
+    out["ikpy"] = _summary(chain, q, R[:k], p[:k], time.process_time() - t0)
+    out["x_ikpy"] = out["ik5r"]["poses_per_s"] / out["ikpy"]["poses_per_s"]
+    return out
+
+
+def table(result: dict) -> str:
+    lines = ["| arm | solver | poses | solved (<= 1e-9 cm, rad) | max position error (cm) | poses/s (CPU) | ik5r / this |",
+             "| --- | --- | ---: | ---: | ---: | ---: | ---: |"]
+    for r in result["arms"]:
+        for key, label in (("ik5r", "ik5r numeric (batch)"), ("ik5r_first", "ik5r, on the ik_LM poses"),
+                           ("rtb_ik_LM", "rtb ik_LM (ETS, tol 1e-6)"), ("rtb_ik_LM_tight", "rtb ik_LM (ETS, tol 1e-20)"),
+                           ("rtb_ik_LM_dh", "rtb ik_LM (DHRobot, tol 1e-20)"), ("ikpy", "ikpy")):
+            if key not in r:
+                continue
+            s = r[key]
+            ratio = f"{r['x_' + key]:.2f}" if key.startswith(("rtb", "ikpy")) else "–"
+            own = f" (own flag {s['own_success']:.1%})" if "own_success" in s else ""
+            lines.append(f"| {r['arm']} | {label} | {s['poses']:,} | {s['success']:.3%}{own} | "
+                         f"{s['max_pos_err_cm']:.1e} | {s['poses_per_s']:,.0f} | {ratio} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m ik5r.bench_arms", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--poses", type=int, default=20000)
+    parser.add_argument("--rtb", type=int, default=1000)
+    parser.add_argument("--ikpy", type=int, default=20)
+    parser.add_argument("-o", "--output", default="build/bench")
+    parser.add_argument("--record", action="store_true", help="copy to docs/results/records/")
+    args = parser.parse_args(argv)
+    result = {"arms": [bench_arm(name, args.poses, args.rtb, args.ikpy) for name in ARMS]}
+    out = Path(args.output)
+    out.mkdir(parents=True, exist_ok=True)
+    text = table(result)
+    (out / "bench_arms.json").write_text(json.dumps(result, indent=2) + "\n")
+    (out / "bench_arms.md").write_text(text + "\n")
+    print(text)
+    if args.record:
+        shutil.copy(out / "bench_arms.json", Path("docs/results/records/bench_arms.json"))
+        shutil.copy(out / "bench_arms.md", Path("docs/results/records/bench_arms.md"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
