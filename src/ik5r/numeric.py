@@ -4,9 +4,9 @@ Levenberg-Marquardt on the analytic geometric Jacobian, run on every (pose, star
 at once. Modes: ``pose`` (tool point and full orientation), ``position`` (tool point only),
 ``direction`` (tool point and tool z axis, the roll about it free, as Park et al.). Each start is a
 joint vector drawn uniformly within the limits (start 0 may be given, e.g. the current joints).
-The damped step is ``J^T (J J^T + lam I)^-1 e`` or ``(J^T J + lam I)^-1 J^T e``, whichever system is
-smaller (they are equal), with lam relative to the trace of J^T J, divided by 10 after an accepted
-step and multiplied by 10 after a rejected one, so the end game is Gauss-Newton (quadratic).
+The damped step is ``J^T (J J^T + mu I)^-1 e`` or ``(J^T J + mu I)^-1 J^T e``, whichever system is
+smaller (they are equal); mu follows Nielsen's rule on the gain ratio (actual over predicted
+decrease), so the end game is Gauss-Newton (quadratic).
 Joints whose limits span a full turn are wrapped into them; the others are clipped.
 
 Statuses (per output row): ``ok`` (both residuals within tolerance), ``invalid`` (a non-finite

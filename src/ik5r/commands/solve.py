@@ -109,16 +109,21 @@ def _fixed_solver(kind: str, k):
         raise RuntimeError(f"--solver c: cannot load the C solver: {exc}") from exc
 
 
+def _numeric_arm(args) -> bool:
+    """Whether --solver is numeric; without --solver: float for the 5R family, numeric otherwise."""
+    if args.solver is None:
+        from ik5r.chain import closed_form_arm
+        args.solver = "float" if closed_form_arm(args.arm) is not None else "numeric"
+    return args.solver == "numeric"
+
+
 def run(args) -> int:
     from ik5r import csvio, reference
     from ik5r import status as st
     from ik5r.arm import load_arm
     from ik5r.fxconfig import constants, load_config, quantize
 
-    if args.solver is None:
-        from ik5r.chain import closed_form_arm
-        args.solver = "float" if closed_form_arm(args.arm) is not None else "numeric"
-    if args.solver == "numeric":
+    if _numeric_arm(args):
         from ik5r.commands.solve_numeric import run_numeric
         return run_numeric(args)
     arm = load_arm(args.arm)
