@@ -17,6 +17,7 @@ from . import numeric as nm
 from .chain import Chain
 
 DISTINCT = 1e-6
+WARM_DAMPING = 1e-6  # initial LM damping (relative) from a start known to be close
 DEFAULT_STARTS = {"first": 32, "all": 128}
 _ROUNDS = (1, 3, 12)  # starts per pose in successive rounds of the first-solution search
 
@@ -130,8 +131,10 @@ def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int
     return _collect([found, failed, rejected])
 
 
-def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, **kw) -> nm.Solutions:
-    """One solution per pose: the first start (in order) that converges."""
+def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, warm=False,
+                **kw) -> nm.Solutions:
+    """One solution per pose: the first start (in order) that converges. ``warm``: q0 is close to
+    the solution (e.g. the previous point of a path): its first step is barely damped."""
     todo, rejected = _prechecked(chain, targets)
     rng = np.random.default_rng(seed)
     qs = _starts(chain, todo, starts, q0, rng)
@@ -149,7 +152,8 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         if width <= 0 or not len(open_):
             break
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
-                                       qs[open_, begin:begin + width].reshape(-1, n), polish=begin == 0, **kw)
+                                       qs[open_, begin:begin + width].reshape(-1, n), polish=begin == 0,
+                                       **({"damping": WARM_DAMPING} if warm and begin == 0 else {}), **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
         any_conv = conv.any(axis=1)
@@ -167,9 +171,11 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
     return _collect([nm.Solutions(todo, best_q, status, best_pos, best_rot), rejected])
 
 
-def solve(chain: Chain, targets: nm.Targets, *, all_solutions=False, starts=None, q0=None, seed=0, **kw):
+def solve(chain: Chain, targets: nm.Targets, *, all_solutions=False, starts=None, q0=None, seed=0, warm=False,
+          **kw):
     """Numeric IK of a batch; see the module docstring."""
     if starts is None:
         starts = DEFAULT_STARTS["all" if all_solutions else "first"]
-    fn = solve_all if all_solutions else solve_first
-    return fn(chain, targets, starts, q0=q0, seed=seed, **kw)
+    if all_solutions:
+        return solve_all(chain, targets, starts, q0=q0, seed=seed, **kw)
+    return solve_first(chain, targets, starts, q0=q0, seed=seed, warm=warm and q0 is not None, **kw)

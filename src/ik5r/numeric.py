@@ -175,7 +175,7 @@ def _evaluate(chain, targets, q, weight):
 
 
 def levenberg_marquardt(chain: Chain, targets: Targets, q0, *, iterations=60, tol_cm=TOL_CM,
-                        tol_rad=TOL_RAD, polish=True):
+                        tol_rad=TOL_RAD, polish=True, damping=0.1):
     """Run LM from q0 (M,n) on targets (M rows), with Nielsen's damping update (gain ratio).
     With ``polish``, starts already within _CLOSE of the target get _EXTRA times the iterations.
     Returns q, pos_err, rot_err, converged, singular."""
@@ -187,7 +187,7 @@ def levenberg_marquardt(chain: Chain, targets: Targets, q0, *, iterations=60, to
     out_sing = np.zeros(count, dtype=bool)
     e, Jt, pos, rot = _evaluate(chain, targets, out_q, weight)
     diag = np.einsum("ijk,ijk->ik", Jt, Jt)
-    st = _Accepted(np.arange(count), out_q.copy(), e, Jt, pos, rot, 0.1 * diag.max(axis=1) + 1e-300)
+    st = _Accepted(np.arange(count), out_q.copy(), e, Jt, pos, rot, damping * diag.max(axis=1) + 1e-300)
     tg = targets
     for it in range(extra * iterations + 1):
         within = (st.pos <= tol_cm) & ~(st.rot > tol_rad)

@@ -72,16 +72,19 @@ def park(iterations: int = 12) -> dict:
     for k in range(iterations + 1):
         q, pos, rot, _, _ = nm.levenberg_marquardt(chain, target, q0, iterations=k, polish=False)
         trace.append({"iteration": k, "error_mm": float(pos[0] * 10), "direction_rad": float(rot[0])})
+    first = nm.Targets("direction", p0 + [[0.0, 1.0, 0.0]], a=R0[:, :, 2])
+    step_trace = [float(nm.levenberg_marquardt(chain, first, q0, iterations=k, polish=False,
+                                               damping=multistart.WARM_DAMPING)[1][0] * 10) for k in range(6)]
     # the move as a welding path: 46 points 10 mm apart, each started from the previous solution
     steps, q, worst = [], q0, 0.0
     for s in np.linspace(0.0, 45.0, 46)[1:]:
         t = nm.Targets("direction", p0 + [[0.0, s, 0.0]], a=R0[:, :, 2])
-        sol = multistart.solve(chain, t, q0=q[0], starts=8)
+        sol = multistart.solve(chain, t, q0=q[0], starts=8, warm=True)
         q = sol.q
         worst = max(worst, float(sol.pos_err[0] * 10))
         steps.append(nm.STATUS_NAMES[sol.status[0]])
     return {"start_deg": list(PARK_START_DEG), "start_mm": (p0[0] * 10).tolist(), "trace": trace,
-            "paper_error_5th": PARK_PAPER_ERROR_5TH, "path_points": len(steps),
+            "paper_error_5th": PARK_PAPER_ERROR_5TH, "path_points": len(steps), "path_first_step_error_mm": step_trace,
             "path_ok": steps.count("ok"), "path_worst_error_mm": worst}
 
 

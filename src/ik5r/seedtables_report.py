@@ -28,7 +28,8 @@ def _park(p: dict) -> list[str]:
     lines.append(f"Park et al.: error {p['paper_error_5th']} at the 5th iteration, below 0.01 mm after 5 in every "
                  f"simulated case. As a welding path ({p['path_points']} points 10 mm apart, each started from "
                  f"the previous joints): {p['path_ok']}/{p['path_points']} ok, worst error "
-                 f"{p['path_worst_error_mm']:.1e} mm.")
+                 f"{p['path_worst_error_mm']:.1e} mm; the first 10 mm step (warm start), error after iterations 0..5: "
+                 + ", ".join(f"{e:.1e}" for e in p["path_first_step_error_mm"]) + " mm.")
     return lines
 
 

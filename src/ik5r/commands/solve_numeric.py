@@ -44,7 +44,8 @@ def run_numeric(args) -> int:
         raise InputError("--start", f"needs {chain.n} joint values for this arm, got {len(q0)}")
     if args.starts is not None and args.starts < 1:
         raise InputError("--starts", f"must be at least 1, got {args.starts}")
-    sol = multistart.solve(chain, targets, all_solutions=args.all, starts=args.starts, q0=q0, seed=args.seed)
+    sol = multistart.solve(chain, targets, all_solutions=args.all, starts=args.starts, q0=q0, seed=args.seed,
+                           warm=q0 is not None)
     first = np.r_[True, sol.row[1:] != sol.row[:-1]] if len(sol.row) else np.zeros(0, dtype=bool)
     index = np.arange(len(sol.row)) - np.maximum.accumulate(np.where(first, np.arange(len(sol.row)), 0))
     joints = [f"q{i + 1}" for i in range(chain.n)]
