@@ -174,6 +174,17 @@ def test_statuses_unreachable_invalid_not_converged():
     assert sol.status[0] in (nm.NOT_CONVERGED, nm.SINGULAR) and sol.pos_err[0] > 1.0
 
 
+def test_prismatic_arm_solved_in_position_mode():
+    chain = parse_chain(__import__("tomllib").loads(PRISMATIC_ARM), "prismatic.toml")
+    q = random_joints(chain, 40, np.random.default_rng(8))
+    _, p = fk(chain, q)
+    sol = multistart.solve(chain, nm.Targets("position", p))
+    assert (sol.status == nm.OK).all()
+    assert ((sol.q >= chain.lower - 1e-12) & (sol.q <= chain.upper + 1e-12)).all()  # within the limits
+    _, p2 = fk(chain, sol.q)
+    assert np.linalg.norm(p2 - p, axis=1).max() <= 1e-9
+
+
 def test_fk_cli_any_arm(tmp_path):
     joints = _write(tmp_path / "q.csv", [f"q{j + 1}" for j in range(6)], [[0.1, 0.2, 0.3, 0.4, 0.5, 0.6]])
     out = tmp_path / "p.csv"

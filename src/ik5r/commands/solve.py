@@ -5,7 +5,8 @@ writes them. Without n and o, q5 is --near's q5 (0 by default).
 
 Solvers: ``float`` the float64 reference (:mod:`ik5r.reference`); ``fixed`` the bit-accurate
 fixed-point model (``ik5r.firmware.vector``, the vectorised twin of ``model.py``); ``c`` the integer
-C solver through ctypes (``ik5r.firmware.csolver``).
+C solver through ctypes (``ik5r.firmware.csolver``); ``numeric`` any serial arm, Levenberg-Marquardt
+from many starts (its columns and options: :mod:`ik5r.commands.solve_numeric`, docs/arms.md).
 
 Branch choice: by default one line per pose, the float reference's choice: the valid branch nearest
 --near when given, else the first valid one of front/elbow-up, front/elbow-down, back/elbow-up,

@@ -39,6 +39,8 @@ def run_numeric(args) -> int:
 
     chain = load_chain(args.arm)
     targets = read_targets(args.poses, args.mode)
+    if getattr(args, "near", None) is not None:
+        raise InputError("--near", "the numeric solver takes its first start from --start")
     q0 = args.start
     if q0 is not None and len(q0) != chain.n:
         raise InputError("--start", f"needs {chain.n} joint values for this arm, got {len(q0)}")
