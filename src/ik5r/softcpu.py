@@ -37,7 +37,6 @@ JOB_POSES = 256
 #: Cycle limit per solve: far above any measured solve (the slowest, rv32i on vexriscv_min,
 #: stays under 100,000), so only a hung CPU reaches it.
 CYCLES_PER_SOLVE_LIMIT = 1_000_000
-STARTUP_CYCLES = 200_000
 JOB_MAGIC = 0x4B523549
 VERILATOR_FLAGS = ("--cc", "--exe", "--build", "-O3", "--x-assign", "fast", "--x-initial", "fast",
                    "--noassert", "-Wno-fatal", "-Wno-lint", "-Wno-style", "--top-module", "ik5r_soc")
@@ -146,7 +145,7 @@ class SoftCpu:
         fw = self.firmware
         job = np.concatenate([np.array([count, 0], np.uint32), poses.reshape(-1)])
         out_first = rv32.JOB_HEADER_WORDS + rv32.POSE_WORDS * count
-        limit = STARTUP_CYCLES + self.cycles_per_solve_limit * count
+        limit = self.cycles_per_solve_limit * (count + 1)  # + 1: start-up (self check, .bss)
         # Read back from word 1 (solves done) to the last result word (the poses in between too).
         header = np.array([JOB_MAGIC, len(fw.image), fw.job_word, len(job), 1,
                            out_first - 1 + rv32.RESULT_WORDS * count, limit & 0xFFFF_FFFF,
@@ -212,3 +211,29 @@ class SoftCpu:
                 progress(last, count)
         self.stats.sim_seconds += time.perf_counter() - start
         return q_all, status_all
+
+
+#: SoC RAM in synthesis: 16 KiB, what the solver needs (about 12 KiB of code and constants, the
+#: stack and a one-pose job area), initialised with the firmware image.
+SYNTH_RAM_WORDS = 4096
+
+
+def soc_design(k: Constants, cpu: str) -> tuple[str, dict]:
+    """Verilog of the SoC with ``cpu`` and the firmware of ``k`` in its RAM (no host port), and a
+    port-map-like dict for :func:`ik5r.synth.synthesize` (cycles per solve: measured by
+    simulation, not known here)."""
+    from ik5r.hdl.soc import CPUS, generate_soc
+
+    if cpu not in CPUS:
+        raise SoftCpuError(f"cpu must be one of {', '.join(CPUS)}, got {cpu!r}")
+    isa = CPUS[cpu][1][0]
+    try:
+        fw = rv32.build(k, isa, SYNTH_RAM_WORDS)
+    except rv32.Rv32BuildError as exc:
+        raise SoftCpuError(str(exc)) from None
+    module = f"ik5r_soc_{cpu}"
+    text = generate_soc(cpu=cpu, ram_words=SYNTH_RAM_WORDS, init=fw.image, host_port=False,
+                        name=module)
+    return text, {"module": module, "latency_cycles": None, "cycles_per_result": None,
+                  "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
+                  "data_bytes": fw.data_bytes}
