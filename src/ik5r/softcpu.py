@@ -21,6 +21,7 @@ import shutil
 import subprocess
 import tempfile
 import time
+from importlib import resources
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -76,10 +77,7 @@ def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS) -> Path:
         text = generate_soc(cpu=cpu, ram_words=ram_words, host_port=True)
     except (ValueError, RuntimeError) as exc:
         raise SoftCpuError(f"SoC: {exc}") from None
-    harness = Path(__file__).resolve().parents[2] / "hdl" / "sim" / "soc_harness.cpp"
-    if not harness.is_file():
-        from ik5r.hdl import sim as hdl_sim
-        harness = Path(hdl_sim.__file__).resolve().parent / "soc_harness.cpp"
+    harness = resources.files("ik5r.hdl.sim") / "soc_harness.cpp"
     tool = verilator()
     key = hashlib.sha256(text.encode() + harness.read_bytes() + tool.encode()
                          + "\0".join(VERILATOR_FLAGS).encode()).hexdigest()[:20]
