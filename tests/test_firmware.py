@@ -127,3 +127,17 @@ def test_bit_exact_large(config, isa):
     cpu = "vexriscv" if isa == "rv32im" else "vexriscv_min"
     r = measure(constants(load_config(config)), cpu=cpu, isa=isa, vectors=2000, seed=1)
     _check(r, 2000 + 200)
+
+
+def test_soc_constructor_checks_and_deterministic_verilog():
+    from ik5r.hdl.soc import SoC, generate_soc
+
+    with pytest.raises(ValueError, match="ram_words"):
+        SoC(ram_words=1000)
+    with pytest.raises(ValueError, match="cpu must be one of"):
+        SoC(cpu="nios2")
+    with pytest.raises(ValueError, match="init has"):
+        SoC(ram_words=256, init=[0] * 257)
+    first = generate_soc(cpu="vexriscv_min", ram_words=256, init=[1, 2, 3], host_port=False)
+    assert first == generate_soc(cpu="vexriscv_min", ram_words=256, init=[1, 2, 3], host_port=False)
+    assert "module ik5r_soc(" in first and "module VexRiscv" in first
