@@ -141,3 +141,22 @@ def test_soc_constructor_checks_and_deterministic_verilog():
     first = generate_soc(cpu="vexriscv_min", ram_words=256, init=[1, 2, 3], host_port=False)
     assert first == generate_soc(cpu="vexriscv_min", ram_words=256, init=[1, 2, 3], host_port=False)
     assert "module ik5r_soc(" in first and "module VexRiscv" in first
+
+
+def test_missing_verilator_and_failed_build_are_one_line(monkeypatch, capsys):
+    import shutil
+
+    from ik5r.firmware import rv32
+
+    real_which = shutil.which
+    with monkeypatch.context() as patch:
+        patch.setattr(shutil, "which", lambda name, *a, **kw: None if name == "verilator"
+                      else real_which(name, *a, **kw))
+        patch.setitem(sys.modules, "verilator", None)
+        assert main(["firmware", "--vectors", "1", "--no-directed", "-q"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "verilator not found" in err
+    monkeypatch.setattr(rv32, "CFLAGS", rv32.CFLAGS + ("-DIK5R_WIDTH=not_a_number",))
+    assert main(["firmware", "--vectors", "1", "--no-directed", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "firmware build (rv32im, q32w) failed" in err
