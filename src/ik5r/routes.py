@@ -61,22 +61,23 @@ def _ratio(a: float, b: float) -> str:
 
 
 def _verdict(rows: list[dict]) -> list[str]:
-    cpu = next((r for r in rows if r["cpu"] and "rv32im" in r["label"] and r["device"].endswith("25k")), None)
-    cores = [r for r in rows if not r["cpu"]]
-    if cpu is None or not cores:
-        return []
-    lines = [f"Against the rv32im soft CPU on the ECP5-25k ({_fmt(cpu['luts'])} LUT4, "
-             f"{_fmt(cpu['poses'])} poses/s):"]
-    for core in cores:
+    """One line per IK core against the rv32im soft CPU on the same device (else the 25k)."""
+    cpus = {r["device"]: r for r in rows if r["cpu"] and "rv32im" in r["label"]}
+    lines = []
+    for core in (r for r in rows if not r["cpu"]):
+        cpu = cpus.get(core["device"]) or cpus.get("ecp5-25k")
+        if cpu is None:
+            continue
         per_lut = "beats" if core["per_kilo_lut"] > cpu["per_kilo_lut"] else "does NOT beat"
         lines.append(
-            f"- the {core['label']} ({core['device']}) uses {_ratio(core['luts'], cpu['luts'])} the LUT4, "
-            f"{_fmt(core['dsps'])} vs {_fmt(cpu['dsps'])} DSPs, {_fmt(core['brams'])} vs {_fmt(cpu['brams'])} "
-            f"block RAMs, runs at {_ratio(core['fmax'], cpu['fmax'])} the clock, takes "
-            f"{_ratio(core['cycles'], cpu['cycles'])} the cycles per pose and "
-            f"{_ratio(core['latency_us'], cpu['latency_us'])} the latency, gives "
-            f"{_ratio(core['poses'], cpu['poses'])} the poses/s and {_ratio(core['per_kilo_lut'], cpu['per_kilo_lut'])} "
-            f"the poses/s per 1,000 LUT4: it {per_lut} the soft CPU per LUT.")
+            f"- **{core['label']}** on the {core['device']} vs the rv32im soft CPU on the {cpu['device']}"
+            f"{' (no soft CPU record on the ' + core['device'] + ')' if cpu['device'] != core['device'] else ''}: "
+            f"{_ratio(core['luts'], cpu['luts'])} the LUT4, {_fmt(core['dsps'])} vs {_fmt(cpu['dsps'])} DSPs, "
+            f"{_fmt(core['brams'])} vs {_fmt(cpu['brams'])} block RAMs, {_ratio(core['fmax'], cpu['fmax'])} "
+            f"the clock, {_ratio(core['cycles'], cpu['cycles'])} the cycles per pose, "
+            f"{_ratio(core['latency_us'], cpu['latency_us'])} the latency, {_ratio(core['poses'], cpu['poses'])} "
+            f"the poses/s and {_ratio(core['per_kilo_lut'], cpu['per_kilo_lut'])} the poses/s per 1,000 LUT4: "
+            f"it {per_lut} the soft CPU per LUT.")
     return lines
 
 
