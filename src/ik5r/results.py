@@ -76,7 +76,9 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
     for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
         r = json.loads(path.read_text())
         # Runs at other nextpnr seeds (robustness checks) are not the design point's figure.
-        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or r.get("fmax_mhz") is None:
+        # A run that did not fit its device is a measurement too (no Fmax, fits_device false).
+        placed = r.get("fmax_mhz") is not None or (r.get("fits_device") is False and r.get("pnr_error"))
+        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or not placed:
             continue
         design = path.parent / "design.v"
         if not design.exists() or design.read_text() != verilog.text(r):
@@ -129,7 +131,8 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         lines.append(f"| {r['block']} | {r['arch']} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']} "
-                     f"speed {r.get('speed_grade', '–')} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
+                     f"{'speed ' + str(r['speed_grade']) if r.get('speed_grade') else ''}"
+                     f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")

@@ -48,7 +48,8 @@ def route_rows(records: Path, is_current) -> list[dict]:
                      "cycles": cycles, "latency_us": latency_cycles / fmax, "poses": poses,
                      "per_kilo_lut": poses / (s["luts"] / 1000), "current": is_current(s),
                      "mismatches": None if fw is None else fw["mismatches"],
-                     "vectors": None if fw is None else fw["vectors"], "cpu": bool(fw)})
+                     "vectors": None if fw is None else fw["vectors"], "cpu": bool(fw),
+                     "firmware": fw_name})
     return rows
 
 
@@ -96,7 +97,10 @@ def routes_part(records: Path, is_current) -> list[str]:
         lines.append(f"| {r['label']}{stale} | {r['device']} | {_fmt(r['luts'])} | {_fmt(r['ffs'])} | "
                      f"{_fmt(r['dsps'])} | {_fmt(r['brams'])} | {_fmt(r['fmax'], 1)} | {_fmt(r['cycles'])} | "
                      f"{_fmt(r['latency_us'], 2)} | {_fmt(r['poses'])} | {_fmt(r['per_kilo_lut'])} |")
-    checked = [r for r in rows if r["cpu"]]
+    checked = []  # one entry per firmware record (the 85k row reuses the 25k's)
+    for r in rows:
+        if r["cpu"] and all(r["firmware"] != c["firmware"] for c in checked):
+            checked.append(r)
     notes = ["", "Soft CPU cycles per pose: mean over the poses of `ik5r firmware` (random reachable + "
              "directed set; read the pose from RAM, `ik5r_solve`, write the result), cycle-accurate "
              "in Verilator; " + "; ".join(f"{r['label'].split(': ')[1]}: {r['vectors']:,} poses, "
