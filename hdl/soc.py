@@ -120,7 +120,12 @@ class SoC(wiring.Component):
         ibus, dbus = self._bus("ibus"), self._bus("dbus")
         hold = self.hold if self.host_port else Const(0)
         self._cpu(m, ibus, dbus, hold)
-        m.submodules.ram = ram = Memory(shape=32, depth=self.ram_words, init=self.init)
+        # no_rw_check: no read data is used in a clock in which its address is written (the data
+        # bus ignores read data on a write, the program is not written while it runs, the host
+        # port works with the CPU held), so Yosys needs no collision logic and maps the RAM on
+        # ECP5 to one DP16KD set (8 for 16 KiB) instead of two.
+        m.submodules.ram = ram = Memory(shape=32, depth=self.ram_words, init=self.init,
+                                        attrs={"no_rw_check": 1})
         iread = ram.read_port(domain="sync")
         dread = ram.read_port(domain="sync")
         dwrite = ram.write_port(granularity=8)
