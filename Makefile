@@ -6,7 +6,7 @@ STAMP := $(VENV)/.ik5r-installed
 CONFIG ?= q32w
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: demo test test-slow bench verilog report synth sweep results simulator clean
+.PHONY: demo test test-slow bench verilog report synth sweep results simulator riscv firmware clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,13 +24,31 @@ simulator:
 	    echo "error: Icarus Verilog (iverilog) not found; install it, e.g. 'sudo apt-get install iverilog'" >&2; exit 1; \
 	  fi; }
 
+# The RISC-V cross compiler and picolibc (ik5r firmware, the soft CPU tests) come from Debian.
+RISCV_PACKAGES := gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf
+riscv:
+	@command -v riscv64-unknown-elf-gcc >/dev/null && [ -e /usr/lib/picolibc/riscv64-unknown-elf/picolibc.specs ] || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing the RISC-V cross compiler (apt-get install $(RISCV_PACKAGES))"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(RISCV_PACKAGES) >/dev/null; \
+	  else \
+	    echo "error: riscv64-unknown-elf-gcc / picolibc not found; install them, e.g. 'sudo apt-get install $(RISCV_PACKAGES)'" >&2; exit 1; \
+	  fi; }
+
+# The C solver on the simulated soft CPU: rv32im on VexRiscv, rv32i on VexRiscv_Min and on VexRiscv.
+FW_VECTORS ?= 2000
+firmware: $(STAMP) riscv
+	$(VENV)/bin/ik5r firmware --isa rv32im --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32im_$(CONFIG).json
+	$(VENV)/bin/ik5r firmware --isa rv32i --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_min_rv32i_$(CONFIG).json
+	$(VENV)/bin/ik5r firmware --isa rv32i --cpu vexriscv --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32i_$(CONFIG).json
+
 demo: $(STAMP) simulator
 	$(PY) -m ik5r.demo --config $(CONFIG)
 
-test: $(STAMP) simulator
+test: $(STAMP) simulator riscv
 	$(PY) -m pytest -q
 
-test-slow: $(STAMP) simulator
+test-slow: $(STAMP) simulator riscv
 	$(PY) -m pytest -q -m slow
 
 bench: $(STAMP) simulator

@@ -9,7 +9,7 @@ import sys
 from .errors import InputError
 
 #: Verb modules, in the order ``ik5r --help`` lists them.
-VERBS = ("fk", "solve", "report", "verilog", "sim", "synth", "sweep")
+VERBS = ("fk", "solve", "report", "verilog", "sim", "synth", "sweep", "firmware")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -26,6 +26,8 @@ import json
 import shutil
 from pathlib import Path
 
+from .routes import routes_part
+
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 SHIPPED = ("q32w", "q32", "q24", "q18")
 PLOTS = ("error_vs_luts.png", "fmax_vs_width.png")
@@ -49,6 +51,9 @@ class VerilogOfCheckout:
 
         dsp = r.get("dsp", "generic")
         key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0))
+        if key not in self._texts and r["block"] == "cpu":
+            from ik5r.softcpu import soc_design  # the SoC with the firmware this checkout builds
+            self._texts[key] = soc_design(constants(load_config(r["config"])), r["arch"])[0]
         if key not in self._texts:
             options = {} if dsp == "generic" else {"dsp": dsp}
             self._texts[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
@@ -71,7 +76,9 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
     for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
         r = json.loads(path.read_text())
         # Runs at other nextpnr seeds (robustness checks) are not the design point's figure.
-        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or r.get("fmax_mhz") is None:
+        # A run that did not fit its device is a measurement too (no Fmax, fits_device false).
+        placed = r.get("fmax_mhz") is not None or (r.get("fits_device") is False and r.get("pnr_error"))
+        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or not placed:
             continue
         design = path.parent / "design.v"
         if not design.exists() or design.read_text() != verilog.text(r):
@@ -94,6 +101,11 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
             if (sweep / plot).exists():
                 shutil.copyfile(sweep / plot, docs / plot)
                 written.append(str(docs / plot))
+    for path in sorted(build.glob("firmware/*.json")):
+        target = records / "firmware" / path.name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, target)
+        written.append(str(target))
     for name in ("bench.json", "bench.md", "bench_arms.json", "bench_arms.md"):
         if (build / "bench" / name).exists():
             records.mkdir(parents=True, exist_ok=True)
@@ -108,7 +120,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
     rows, stale = [], []
     for path in sorted((records / "synth").glob("*.json")):
         r = json.loads(path.read_text())
-        if r.get("verilog_sha256") == verilog.sha256(r):
+        if _current(r, verilog):
             rows.append(r)
         else:
             stale.append(path.name)
@@ -119,11 +131,23 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         lines.append(f"| {r['block']} | {r['arch']} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']} "
-                     f"speed {r.get('speed_grade', '–')} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
+                     f"{'speed ' + str(r['speed_grade']) if r.get('speed_grade') else ''}"
+                     f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")
     return lines, stale
+
+
+def _current(r: dict, verilog: VerilogOfCheckout) -> bool:
+    """Whether the record's Verilog is what this checkout generates (a soft CPU record needs
+    the cross compiler to tell: without it, the record counts as not current)."""
+    from ik5r.softcpu import SoftCpuError
+
+    try:
+        return r.get("verilog_sha256") == verilog.sha256(r)
+    except SoftCpuError:
+        return False
 
 
 def bench_table(records: Path) -> list[str]:
@@ -165,6 +189,7 @@ def section(records: Path, verilog: VerilogOfCheckout) -> tuple[str, list[str]]:
              "### Speed (`make bench`)", "", *bench_table(records), "",
              "### Any serial arm: numeric IK (`make bench`, `python -m ik5r.seedtables`)", "", *arms_part(records), "",
              "### Synthesis (`ik5r synth`, Yosys + nextpnr, out of context)", "", *synth, "",
+             *routes_part(records, lambda r: _current(r, verilog)), "",
              "### Word-length sweep (`ik5r sweep`)", "", *sweep_part(records), "", END]
     return "\n".join(parts), stale
 

@@ -289,12 +289,17 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
-    arch = resolve_arch(block, arch)
     k = constants(cfg)
     t0 = time.perf_counter()
-    # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-    dsp = opts.dsp if arch == "pipelined" else "generic"
-    text, pmap = generate(block, arch, k, opts.tag_width, **({} if dsp == "generic" else {"dsp": dsp}))
+    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
+        from .softcpu import soc_design
+        dsp = "generic"
+        text, pmap = soc_design(k, arch)
+    else:
+        arch = resolve_arch(block, arch)
+        # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
+        dsp = opts.dsp if arch == "pipelined" else "generic"
+        text, pmap = generate(block, arch, k, opts.tag_width, **({} if dsp == "generic" else {"dsp": dsp}))
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
     tools = tool_versions(opts.target)
@@ -389,8 +394,9 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "fmax_mhz": fmax,
         "timing_met": None if fmax is None else fmax >= opts.freq_mhz,
         "latency_cycles": pmap["latency_cycles"], "cycles_per_result": cpr,
-        "results_per_second": None if fmax is None else fmax * 1e6 / cpr,
-        "latency_ns": None if fmax is None else pmap["latency_cycles"] * 1e3 / fmax,
+        "results_per_second": None if fmax is None or cpr is None else fmax * 1e6 / cpr,
+        "latency_ns": None if fmax is None or cpr is None else pmap["latency_cycles"] * 1e3 / fmax,
+        **{name: pmap[name] for name in ("isa", "ram_bytes", "code_bytes", "data_bytes") if name in pmap},
         "critical_path": _critical_path(report) if report else None,
         "pnr_error": pnr_error,
         "tools": tools,
