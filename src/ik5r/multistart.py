@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import lmkernel
 from . import numeric as nm
 from .chain import Chain
 
@@ -31,7 +32,12 @@ def _starts(chain: Chain, todo: np.ndarray, starts: int, q0, rng) -> np.ndarray:
     return q
 
 
-def _run(chain, targets, rows, q, **kw):
+def _run(chain, targets, rows, q, backend="auto", **kw):
+    """LM from starts q (M, n) on targets[rows]: the C kernel, or the numpy reference in chunks."""
+    if backend == "c" or backend == "auto" and lmkernel.available():
+        return lmkernel.levenberg_marquardt(chain, targets, q, rows=rows, **kw)
+    if backend not in ("auto", "numpy"):
+        raise ValueError(f"backend must be auto, c or numpy, got {backend!r}")
     out = [nm.levenberg_marquardt(chain, targets.take(rows[i:i + nm._CHUNK]), q[i:i + nm._CHUNK], **kw)
            for i in range(0, len(rows), nm._CHUNK)]
     return tuple(np.concatenate(parts) for parts in zip(*out)) if out else None
