@@ -37,7 +37,7 @@ class LMChain(ctypes.Structure):
 class LMParams(ctypes.Structure):
     _fields_ = [("iterations", ctypes.c_int), ("extra", ctypes.c_int), ("tol_cm", ctypes.c_double),
                 ("tol_rad", ctypes.c_double), ("stop", ctypes.c_double), ("close", ctypes.c_double),
-                ("damping", ctypes.c_double), ("hopeless", ctypes.c_double)]
+                ("damping", ctypes.c_double), ("hopeless", ctypes.c_double), ("give_up", ctypes.c_int)]
 
 
 def source_files() -> dict[str, bytes]:
@@ -66,7 +66,7 @@ def driver_input(chain: Chain, targets: nm.Targets, q0, *, iterations=60, polish
     lines += [" ".join(repr(v) for v in s.consts[i]) for i in range(chain.n + 1)]
     lines += [f"{s.offset[i]!r} {s.scale[i]!r} {s.lower[i]!r} {s.upper[i]!r} {s.kind[i]}" for i in range(chain.n)]
     lines.append(f"{iterations} {nm._EXTRA if polish else 1} {nm.TOL_CM!r} {nm.TOL_RAD!r} {nm._STOP!r} "
-                 f"{nm._CLOSE!r} {damping!r} {nm._HOPELESS!r}")
+                 f"{nm._CLOSE!r} {damping!r} {nm._HOPELESS!r} {nm._GIVE_UP}")
     for i, q in enumerate(np.asarray(q0, dtype=np.float64)):
         parts = [targets.p[i]] + ([targets.R[i].ravel()] if targets.mode == "pose" else [])
         parts += ([targets.a[i]] if targets.mode == "direction" else []) + [q]
@@ -111,7 +111,8 @@ def _contiguous(a):
 
 
 def levenberg_marquardt(chain: Chain, targets: nm.Targets, q0, *, rows=None, iterations=60, tol_cm=nm.TOL_CM,
-                        tol_rad=nm.TOL_RAD, polish=True, damping=0.1, rank_check=True, return_iterations=False):
+                        tol_rad=nm.TOL_RAD, polish=True, damping=0.1, give_up=nm._GIVE_UP, rank_check=True,
+                        return_iterations=False):
     """:func:`ik5r.numeric.levenberg_marquardt` in C. ``rows`` (M,) picks the target of each start
     (default: row i solves target i), so repeated targets are not copied. Returns the same tuple
     (q, pos_err, rot_err, converged, singular), plus the steps tried per row when asked. Without
@@ -123,7 +124,8 @@ def levenberg_marquardt(chain: Chain, targets: nm.Targets, q0, *, rows=None, ite
     if len(rows) != count or (count and (rows.min() < 0 or rows.max() >= len(targets))):
         raise ValueError("rows must index the targets, one per start")
     p, R, a = _contiguous(targets.p), _contiguous(targets.R), _contiguous(targets.a)
-    params = LMParams(iterations, nm._EXTRA if polish else 1, tol_cm, tol_rad, nm._STOP, nm._CLOSE, damping, nm._HOPELESS)
+    params = LMParams(iterations, nm._EXTRA if polish else 1, tol_cm, tol_rad, nm._STOP, nm._CLOSE, damping,
+                      nm._HOPELESS, give_up)
     q, pos, rot = np.empty((count, chain.n)), np.empty(count), np.empty(count)
     steps = np.empty(count, dtype=np.int64)
     ptr = [None if x is None else x.ctypes.data for x in (rows, p, R, a, q0, q, pos, rot, steps)]

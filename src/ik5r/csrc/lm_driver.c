@@ -21,8 +21,8 @@ static int read_chain(lm_chain *c, lm_params *pr) {
     for (i = 0; i < c->n; i++)
         if (scanf("%lf %lf %lf %lf %d", &c->offset[i], &c->scale[i], &c->lower[i], &c->upper[i], &c->kind[i]) != 5)
             return 0;
-    return scanf("%d %d %lf %lf %lf %lf %lf %lf", &pr->iterations, &pr->extra, &pr->tol_cm, &pr->tol_rad, &pr->stop,
-                 &pr->close, &pr->damping, &pr->hopeless) == 8;
+    return scanf("%d %d %lf %lf %lf %lf %lf %lf %d", &pr->iterations, &pr->extra, &pr->tol_cm, &pr->tol_rad,
+                 &pr->stop, &pr->close, &pr->damping, &pr->hopeless, &pr->give_up) == 9;
 }
 
 int main(void) {

@@ -283,7 +283,7 @@ static long long solve_row(const lm_chain *c, int n, const lm_params *pr, const 
         int close = below(cur->pos, cur->rot, pr->close);
         double predicted, rho;
         if (below(cur->pos, cur->rot, pr->stop) || nu > 1e6 || (it >= pr->iterations && !close) || it == last
-            || (within && nu >= 16) || (it >= pr->iterations / 2 && !below(cur->pos, cur->rot, pr->hopeless)))
+            || (within && nu >= 16) || (it >= pr->give_up && !below(cur->pos, cur->rot, pr->hopeless)))
             break;
         predicted = damped_step(cur, m, n, mu, h);
         for (i = 0; i < n; i++) qn[i] = q[i] + h[i];

@@ -24,7 +24,8 @@ typedef struct {
 typedef struct {
     int iterations, extra;               /* budget; rows within `close` get extra * iterations */
     double tol_cm, tol_rad, stop, close, damping;
-    double hopeless;                     /* rows farther than this after iterations / 2 stop */
+    double hopeless;                     /* rows farther than this after give_up steps stop */
+    int give_up;
 } lm_params;
 
 /* Rows r < count: solve pose rows[r] (target_p[3*i], target_R[9*i] row-major or target_a[3*i])
