@@ -112,3 +112,13 @@ def test_sanitizer_driver_matches_the_library(name):
     assert rows.shape == (len(q0), chain.n + 3)
     assert np.array_equal(rows[:, :chain.n], q) and np.array_equal(rows[:, chain.n], pos)
     assert np.array_equal(rows[:, chain.n + 1], rot, equal_nan=True) and (rows[:, -1] == steps).all()
+
+
+def test_numpy_fallback_without_a_compiler(monkeypatch):
+    """No working C compiler: multistart falls back to the numpy reference, same answers."""
+    chain, targets, q0 = _problem("toz-6r:pose", 20, 5)
+    with_c = multistart.solve(chain, targets, q0=q0)
+    monkeypatch.setattr(lmkernel, "available", lambda: False)
+    monkeypatch.setattr(lmkernel, "levenberg_marquardt", None)  # would raise if called
+    alone = multistart.solve(chain, targets, q0=q0)
+    assert (alone.status == with_c.status).all() and np.abs(alone.q - with_c.q).max() <= 1e-9
