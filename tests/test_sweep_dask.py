@@ -18,7 +18,7 @@ import pytest
 from ik5r.cli import main
 
 #: Figures that depend on the run, not on the point.
-RUN_FIELDS = ("error_seconds", "error_from_cache", "synth_from_cache")
+RUN_FIELDS = ("error_seconds", "error_cpu_seconds", "error_from_cache", "synth_from_cache")
 
 
 def _figures(out: Path) -> list[dict]:

@@ -146,9 +146,10 @@ def error_task(cfg: FixedConfig, poses: int, seed: int) -> dict:
     """Error figures of the fixed-point IK at ``cfg`` against float64 (see ik5r.sweep_error)."""
     from .sweep_error import error_figures
 
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     doc = error_figures(cfg, poses, seed)
     doc["error_seconds"] = round(time.perf_counter() - start, 2)
+    doc["error_cpu_seconds"] = round(time.process_time() - cpu, 2)
     return doc
 
 
