@@ -39,8 +39,8 @@ def test_files_and_meta(q32_run):
     meta = doc["meta"]
     assert meta["config"] == "q32" and meta["vectors"] == N and meta["seed"] == 3
     assert meta["arm"] == "hu-5r" and meta["total_s"] > 0
-    assert list(doc["sections"]) == ["overview", "task_space", "joint_error", "conditioning", "status",
-                                     "worst_poses", "hardware"]
+    assert list(doc["sections"]) == ["overview", "hardware", "task_space", "joint_error", "conditioning",
+                                     "status", "worst_poses"]
     for section in doc["sections"].values():
         assert section["title"] and isinstance(section["data"], dict)
     ov = doc["sections"]["overview"]["data"]
@@ -252,3 +252,28 @@ def test_config_comparison_page(tmp_path):
 def provenance_rows(doc):
     from ik5r.report.provenance import rows
     return rows(doc["meta"]["provenance"]) + [("header", "")]
+
+
+@pytest.mark.slow
+@pytest.mark.sim
+def test_report_hdl_bit_accuracy_and_links(tmp_path):
+    """ik5r report --hdl (what make demo runs) on a small run: zero mismatches, every link resolves."""
+    from ik5r.cli import main
+
+    out = tmp_path / "hdl"
+    assert main(["report", "--hdl", "--vectors", "2000", "--hdl-poses", "300", "--block-vectors", "300",
+                 "--config", "q18", "-q", "-o", str(out)]) == 0
+    doc = _strict_json(out / "report.json")
+    bit = doc["sections"]["bit_accuracy"]["data"]
+    assert bit["total_mismatches"] == 0
+    assert [r["block"] for r in bit["hdl"]] == ["ik", "atan2", "rotate", "sqrt", "acos"]
+    assert all(r["vectors"] >= 300 and r["mismatches"] == 0 for r in bit["hdl"])
+    files = doc["sections"]["files"]["data"]
+    assert len(files["modules"]) == 5 and len(files["simulations"]) == 5
+    page = (out / "index.html").read_text()
+    for href in re.findall(r'<a href="([^"#]+)"', page):
+        assert (out / href).is_file(), href
+    for m in files["modules"]:
+        assert f"module {m['module']}(" in (out / m["verilog"]).read_text()
+        assert json.loads((out / m["portmap"]).read_text())["module"] == m["module"]
+    assert doc["meta"]["provenance"]["tools"]["verilator"]

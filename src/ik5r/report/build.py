@@ -241,20 +241,21 @@ def quantisation_sections(samples: Samples, fig: dict, out_dir, prov: dict | Non
 def build_report(out_dir, vectors: int = 1_000_000, config: FixedConfig | str | None = None,
                  arm: Arm | str | None = None, seed: int = 0, *, progress: bool = True,
                  extra_sections: list[Section] | None = None, worst: int = 20,
-                 simulators: bool = False):
+                 simulators: bool = False, front_sections: list[Section] | None = None):
     """Run the quantisation report into ``out_dir``; returns (report JSON dict, summary text).
 
-    Sections: the quantisation figures, the N = ``worst`` worst poses of each measure (CSV), the
-    hardware records of the config, then ``extra_sections`` (e.g. bit accuracy, generated files).
+    Sections: the overview, ``front_sections`` (e.g. bit accuracy), the hardware records of the
+    config, the quantisation figures, the N = ``worst`` worst poses of each measure (CSV), then
+    ``extra_sections`` (e.g. the generated files).
     """
     cfg = config if isinstance(config, FixedConfig) else load_config(config)
     arm_ = arm if isinstance(arm, Arm) else load_arm(arm)
     samples = compute(arm_, cfg, vectors, seed, progress=progress)
     fig = figures(samples)
     prov = provenance.provenance(cfg, simulators=simulators)
-    sections = quantisation_sections(samples, fig, out_dir, prov)
-    sections += [worst_poses.section(samples, out_dir, worst), hardware.section(cfg)]
-    sections += list(extra_sections or [])
+    overview, *figure_sections = quantisation_sections(samples, fig, out_dir, prov)
+    sections = [overview, *(front_sections or []), hardware.section(cfg), *figure_sections,
+                worst_poses.section(samples, out_dir, worst), *(extra_sections or [])]
     meta = {"report": "quantisation", "config": cfg.name, "arm": arm_.name, "vectors": vectors,
             "seed": seed, "total_s": round(fig["timing"]["total_s"], 3),
             "generated_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),

@@ -1,7 +1,7 @@
 """``ik5r report --hdl``: the report with the hardware simulated (what ``make demo`` shows).
 
-1. Verilog of every block and of the IK core (both architectures) into ``DIR/verilog/`` with
-   their port maps (JSON);
+1. Verilog of the pipelined IK core and of every block into ``DIR/verilog/`` with their port maps
+   (JSON), the very files the simulations below use;
 2. the IK core under cocotb (random idles, back-pressure, a mid-traffic reset) on ``hdl_poses``
    random reachable poses plus the directed edge set, every output bit against the bit-accurate
    model, and each block on ``block_vectors``; each run's result JSON into ``DIR/sim/``;
@@ -24,35 +24,40 @@ BLOCKS = ("atan2", "rotate", "sqrt", "acos")
 
 
 def write_verilog(k: Constants, out_dir: Path) -> list[dict]:
-    """Verilog and port map of every block and the IK core; [{block, arch, module, files}]."""
-    from ..hdl.generate import archs_of, generate
+    """Verilog and port map of the IK core and every block, as simulated (pipelined, with the
+    testbench's tag field); [{block, arch, module, verilog, portmap}]. ``ik5r verilog`` writes the
+    other architectures and tag widths."""
+    from ..hdl.generate import generate
+    from ..hdl.tb.runner import DEFAULT_TAG_WIDTH
 
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for block in (*BLOCKS, "ik"):
-        for arch in archs_of(block):
-            text, pmap = generate(block, arch, k, 0)
-            (out_dir / f"{pmap['module']}.v").write_text(text)
-            (out_dir / f"{pmap['module']}.json").write_text(json.dumps(pmap, indent=2) + "\n")
-            written.append({"block": block, "arch": arch, "module": pmap["module"],
-                            "latency_cycles": pmap.get("latency_cycles"),
-                            "cycles_per_result": pmap.get("cycles_per_result")})
+    for block in ("ik", *BLOCKS):
+        text, pmap = generate(block, "pipelined", k, DEFAULT_TAG_WIDTH)
+        verilog, portmap = out_dir / f"{pmap['module']}.v", out_dir / f"{pmap['module']}.json"
+        verilog.write_text(text)
+        portmap.write_text(json.dumps(pmap, indent=2) + "\n")
+        written.append({"block": block, "arch": "pipelined", "module": pmap["module"],
+                        "verilog": verilog, "portmap": portmap,
+                        "latency_cycles": pmap.get("latency_cycles"),
+                        "cycles_per_result": pmap.get("cycles_per_result")})
     return written
 
 
-def simulate(cfg: FixedConfig, out_dir: Path, simulator: str, hdl_poses: int, block_vectors: int,
-             progress: bool, log) -> list[dict]:
-    """The IK core and each block under cocotb; each result JSON into ``out_dir``."""
+def simulate(cfg: FixedConfig, modules: list[dict], out_dir: Path, simulator: str, hdl_poses: int,
+             block_vectors: int, progress: bool, log) -> list[dict]:
+    """Each module of ``modules`` under cocotb; each result JSON into ``out_dir``."""
     from ..hdl.tb.runner import run_block
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    runs = [("ik", hdl_poses, "random reachable poses")] + [(b, block_vectors, "vectors") for b in BLOCKS]
     results = []
-    for block, count, what in runs:
+    for m in modules:
+        block = m["block"]
+        count, what = (hdl_poses, "random reachable poses") if block == "ik" else (block_vectors, "vectors")
         log(f"{block} under cocotb on {simulator}: {count:,} {what} + the edge set")
-        result = run_block(block, "pipelined", cfg.source if Path(cfg.source).is_file() else cfg.name,
+        result = run_block(block, m["arch"], cfg.source if Path(cfg.source).is_file() else cfg.name,
                            simulator, stream_vectors=min(count, 500), bulk_vectors=count, seed=1,
-                           progress=progress and block == "ik")
+                           progress=progress and block == "ik", verilog=m["verilog"], portmap=m["portmap"])
         name = f"{block}_{result['arch']}_{simulator}.json"
         (out_dir / name).write_text(json.dumps(jsonable(result), indent=2) + "\n")
         results.append(dict(result, json_file=f"sim/{name}"))
@@ -79,11 +84,13 @@ def files_section(modules: list[dict], sims: list[dict]) -> Section:
             + "</tr>\n" + "\n".join(html_rows) + "</table>")
     data = {"modules": [dict(m, verilog=f"verilog/{m['module']}.v", portmap=f"verilog/{m['module']}.json")
                         for m in modules],
+            "tag_width": 8,
             "simulations": [r["json_file"] for r in sims]}
     return Section("files", "Generated Verilog, port maps, simulation results", para(
-        "The Verilog the report simulated (deterministic: the same config gives the same text), its port "
-        "maps (the stream interface, formats, latency and throughput of each module) and the result of "
-        "each cocotb run.") + body, data)
+        "The Verilog the report simulated (deterministic: the same config gives the same text; with the "
+        "testbench's 8-bit tag field, carried in order beside each item), its port maps (the stream "
+        "interface, formats, latency and throughput of each module) and the result of each cocotb run. "
+        "<code>ik5r verilog --block all --arch all</code> writes every architecture, with or without tags.") + body, data)
 
 
 def build_full_report(out_dir, vectors: int = 1_000_000, config=None, arm=None, seed: int = 0, *,
@@ -94,22 +101,22 @@ def build_full_report(out_dir, vectors: int = 1_000_000, config=None, arm=None, 
 
     out_dir = Path(out_dir)
     cfg = config if isinstance(config, FixedConfig) else load_config(config)
-    extra, bit = [], None
+    front, extra, bit = [], [], None
     if hdl:
         t0 = time.perf_counter()
         k = constants(cfg)
         log(f"Verilog of every block and the IK core ({cfg.name}) -> {out_dir / 'verilog'}")
         modules = write_verilog(k, out_dir / "verilog")
-        sims = simulate(cfg, out_dir / "sim", simulator, hdl_poses, block_vectors, progress, log)
+        sims = simulate(cfg, modules, out_dir / "sim", simulator, hdl_poses, block_vectors, progress, log)
         log("C solver vs scalar model vs vectorised model")
         poses = concat(random_poses(k, max(hdl_poses // 8, 1), seed=1), edge_poses(k))
         section = bitaccuracy.section(k, bitaccuracy.software_agreement(k, poses), sims)
         bit = section.data
-        extra = [section, files_section(modules, sims)]
+        front, extra = [section], [files_section(modules, sims)]
         log(f"HDL part done in {time.perf_counter() - t0:.0f} s")
     log(f"quantisation report on {vectors:,} poses -> {out_dir}")
     doc, summary = build_report(out_dir, vectors=vectors, config=cfg, arm=arm, seed=seed, progress=progress,
-                                extra_sections=extra, worst=worst, simulators=hdl)
+                                front_sections=front, extra_sections=extra, worst=worst, simulators=hdl)
     return doc, summary, bit
 
 
