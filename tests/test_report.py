@@ -39,7 +39,7 @@ def test_files_and_meta(q32_run):
     meta = doc["meta"]
     assert meta["config"] == "q32" and meta["vectors"] == N and meta["seed"] == 3
     assert meta["arm"] == "hu-5r" and meta["total_s"] > 0
-    assert list(doc["sections"]) == ["overview", "hardware", "task_space", "joint_error", "conditioning",
+    assert list(doc["sections"]) == ["glance", "overview", "hardware", "task_space", "joint_error", "conditioning",
                                      "status", "worst_poses"]
     for section in doc["sections"].values():
         assert section["title"] and isinstance(section["data"], dict)

@@ -238,6 +238,38 @@ def quantisation_sections(samples: Samples, fig: dict, out_dir, prov: dict | Non
     ]
 
 
+def _glance(fig: dict, sections: list[Section]) -> Section:
+    """The story in one table: accuracy verdicts, bit accuracy, the IK core's hardware figures."""
+    ts, floor = fig["task_space"], fig["joint_error"]["floor"]
+    by_key = {s.key: s.data for s in sections}
+
+    def verdict(ok):
+        return f'<span class="{"ok" if ok else "bad"}">{"yes" if ok else "no"}</span>'
+
+    rows = [("fixed point beats float32 on max and RMS position error",
+             f"{verdict(ts['fixed_beats_float32'])} (max {fmt(ts['fixed']['position_cm']['max'])} cm against "
+             f"{fmt(ts['float32']['position_cm']['max'])} cm)"),
+            ("joint error ≤ 1e-6 rad against float64 on the same words, |sin q3| ≥ 1e-3",
+             f"{verdict(floor['met'])} (max {fmt(floor['max_rad'])} rad)")]
+    data = {"fixed_beats_float32": ts["fixed_beats_float32"], "joint_floor_met": floor["met"]}
+    total = by_key.get("bit_accuracy", {}).get("total_mismatches")
+    if total is not None:
+        rows.append(("C, scalar model, vectorised model and HDL agree on every bit",
+                     f"{verdict(total == 0)} ({total:,} mismatching items)"))
+        data["total_mismatches"] = total
+    core = next((r for r in by_key.get("hardware", {}).get("rows", [])
+                 if r["block"] == "ik" and r["arch"] == "pipelined"), None)
+    if core:
+        rows.append(("pipelined IK core (committed record)",
+                     f"{fmt(core['fmax_mhz'])} MHz on {esc(core['device'])}, latency {core['latency_cycles']} "
+                     f"cycles, {core['cycles_per_pose']} cycle/pose, {fmt(core['lut4_sites'])} LUT4, "
+                     f"{fmt(core['dsps'])} DSP, {fmt(core['brams'])} BRAM"))
+        data["core"] = core
+    body = "<table>" + "".join(f"<tr><th>{esc(k)}</th><td style=\"text-align:left\">{v}</td></tr>"
+                               for k, v in rows) + "</table>"
+    return Section("glance", "At a glance", body, data)
+
+
 def build_report(out_dir, vectors: int = 1_000_000, config: FixedConfig | str | None = None,
                  arm: Arm | str | None = None, seed: int = 0, *, progress: bool = True,
                  extra_sections: list[Section] | None = None, worst: int = 20,
@@ -256,6 +288,7 @@ def build_report(out_dir, vectors: int = 1_000_000, config: FixedConfig | str | 
     overview, *figure_sections = quantisation_sections(samples, fig, out_dir, prov)
     sections = [overview, *(front_sections or []), hardware.section(cfg), *figure_sections,
                 worst_poses.section(samples, out_dir, worst), *(extra_sections or [])]
+    sections.insert(0, _glance(fig, sections))
     meta = {"report": "quantisation", "config": cfg.name, "arm": arm_.name, "vectors": vectors,
             "seed": seed, "total_s": round(fig["timing"]["total_s"], 3),
             "generated_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
