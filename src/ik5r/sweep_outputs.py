@@ -133,7 +133,11 @@ def _error_vs_width(points: list[dict], out_dir: Path, plt) -> str:
     return "error_vs_width.png"
 
 
-def _html(points: list[dict], meta: dict, out_dir: Path) -> None:
+CAPTIONS = {"error_vs_luts.png": "position error against LUTs", "fmax_vs_width.png": "Fmax against word width",
+            "error_vs_width.png": "position error against word width"}
+
+
+def _html(points: list[dict], meta: dict, out_dir: Path, images: list[str]) -> None:
     from .report.html import Section, image, para, render_page, table
 
     header = ["point", "block", "arch", "width", "iter", "internal guard", "pos max (cm)", "pos RMS (cm)",
@@ -146,9 +150,7 @@ def _html(points: list[dict], meta: dict, out_dir: Path) -> None:
              "yes" if p.get("pareto") else ""] for p in points]
     sections = [
         Section("points", "Sweep points", table(header, rows)),
-        Section("plots", "Plots", image("error_vs_luts.png", "position error against LUTs")
-                + image("fmax_vs_width.png", "Fmax against word width")
-                + image("error_vs_width.png", "position error against word width")),
+        Section("plots", "Plots", "".join(image(name, CAPTIONS[name]) for name in images)),
         Section("rule", "Config rule", para(
             "frac.length = w − 8, frac.unit = w − 2, frac.angle = w − 3, iterations = w, "
             "guard_bits = round(log2 w) − 1, angle_guard_bits = 3, rounding nearest "
@@ -172,8 +174,14 @@ def write_outputs(points: list[dict], meta: dict, out_dir: Path, freq_floor: flo
             writer.writerow({k: ("" if p.get(k) is None else p.get(k)) for k in CSV_FIELDS})
     doc = jsonable({"meta": meta, "points": points})
     (out_dir / "sweep.json").write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
-    images = _plots(points, out_dir, freq_floor)
-    _html(points, meta, out_dir)
+    if any(p.get("luts") is not None for p in points):
+        images = _plots(points, out_dir, freq_floor)
+    else:   # an error-only sweep (--no-synth): no area or Fmax to plot
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        images = [_error_vs_width(points, out_dir, plt)]
+    _html(points, meta, out_dir, images)
     return images
 
 

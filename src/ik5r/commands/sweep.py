@@ -140,8 +140,7 @@ def run(args) -> int:
                        progress=cliopts.show_progress(args), log=lambda m: cliopts.say(args, m),
                        guard_bits=args.guard_bits, synth=not args.no_synth, scheduler=args.scheduler,
                        note=(lambda m: cliopts.say(args, m)) if cliopts.verbosity(args) >= 1 else None)
-    if cliopts.verbosity(args) >= 0:
-        _print_table(result["points"])
+    _print_table(result["points"])
     if not args.no_synth:
         front = [p for p in result["points"] if p.get("pareto")]
         names = ", ".join(f"{p['name']} {p['block']} {p['arch']}" for p in front)
