@@ -14,12 +14,20 @@ from .quantisation import (BIN_LABELS, JOINTS, PERCENTILES, SIN_Q3_BINS, Samples
                            summary_text)
 
 
+def _where(source: str) -> str:
+    """A shipped config by its place in the repository, any other by its path."""
+    from ..fxconfig import config_dir
+
+    path = Path(source)
+    return f"shipped: configs/{path.name}" if path.parent == config_dir() else source
+
+
 def _overview(fig: dict, prov: dict) -> Section:
     cfg, t = fig["config"], fig["timing"]
     ts = fig["task_space"]
     verdict = ts["fixed_beats_float32"]
     rows = [
-        ("config", f"{cfg['name']} ({cfg['source']})"),
+        ("config", f"{cfg['name']} ({_where(cfg['source'])})"),
         ("word width", cfg["width"]),
         ("fraction bits: length / unit / angle", f"{cfg['frac_length']} / {cfg['frac_unit']} / {cfg['frac_angle']}"),
         ("LSB: length (cm) / unit / angle (rad)",
