@@ -80,15 +80,15 @@ def test_progress_only_on_a_terminal(monkeypatch):
     assert cliopts.colour("bad", False, Stream(True)) == "bad"
 
 
-def test_redirected_report_has_no_progress_bar(tmp_path):
+def test_redirected_report_has_no_progress_bar(tmp_path, capsys):
     done = subprocess.run([sys.executable, "-m", "ik5r", "report", "--vectors", "500", "-o", str(tmp_path / "r")],
                           capture_output=True, text=True, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "\r" not in done.stderr and "chunk/s" not in done.stderr
     assert "fixed beats float32" in done.stdout
-    quiet = subprocess.run([sys.executable, "-m", "ik5r", "report", "--vectors", "500", "-q",
-                            "-o", str(tmp_path / "q")], capture_output=True, text=True, cwd=tmp_path)
-    assert quiet.returncode == 0 and quiet.stderr == "" and len(quiet.stdout.splitlines()) == 1
+    assert main(["report", "--vectors", "500", "-q", "-o", str(tmp_path / "q")]) == 0
+    quiet = capsys.readouterr()
+    assert quiet.err == "" and quiet.out.splitlines() == [f"report: {tmp_path / 'q'}/index.html"]
 
 
 def test_config_names_resolve_from_any_directory(tmp_path, capsys, monkeypatch):
