@@ -54,6 +54,7 @@ test-slow: $(STAMP) simulator riscv
 bench: $(STAMP) simulator
 	$(PY) -m ik5r.bench
 	$(PY) -m ik5r.bench_arms
+	$(PY) -m ik5r.bench_sweep
 
 verilog: $(STAMP)
 	$(VENV)/bin/ik5r verilog --block all --config $(CONFIG) -o build/verilog

@@ -28,6 +28,7 @@ import sys
 import time
 from pathlib import Path
 
+from ik5r import cliopts
 from ik5r.fxconfig import DEFAULT_CONFIG
 
 
@@ -69,11 +70,11 @@ def register(subparsers) -> None:
                              "(default: random)")
     parser.add_argument("--waves", action="store_true", help="record FST waves (also WAVES=1)")
     parser.add_argument("--tag-width", type=int, default=8, metavar="N", help="tag field width (default: 8)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
                         help="primitives of the pipelined arch: generic operators, or ECP5 "
                              "MULT18X18D (with their registers) and CCU2C instances (simulated "
                              "with their models in hdl/sim/) (default: generic)")
+    cliopts.add_common(parser)
     parser.set_defaults(run=run)
 
 
@@ -89,7 +90,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     result = run_block(args.block, args.arch, args.config or cfg.name, sim,
                        stream_vectors=stream_vectors, bulk_vectors=max(args.vectors, 1), seed=args.seed,
-                       pattern=args.pattern, waves=waves, progress=not args.no_progress,
+                       pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
                        tag_width=args.tag_width, chunk=max(50000, args.vectors // 10), dsp=args.dsp)
     wall = time.perf_counter() - t0
     bulk = result.get("bulk") or {}
