@@ -2,7 +2,9 @@
 
 ``generate(block, arch, constants, tag_width) -> (verilog_text, portmap)``. The module is named
 ``ik5r_<block>_<arch>`` (e.g. ``ik5r_atan2_pipelined``); the text is deterministic (no source
-locations, no paths, no time stamps) so two runs give byte-identical files.
+locations, no paths, no time stamps) so two runs give byte-identical files. It starts with a
+header comment (:mod:`.provenance`: config, formats, latency, error bound, tool versions, source
+commit); hashes of the design are of the text without it (:func:`.provenance.body_sha256`).
 
 Amaranth flattens each stream of the component into ports named ``<stream>__<member>``:
 ``i__payload``, ``i__valid``, ``i__ready``, ``o__payload``, ``o__valid``, ``o__ready``, plus the
@@ -20,6 +22,7 @@ from amaranth.lib import wiring
 from ik5r.fxconfig import Constants
 
 from .common import ARCHS, ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .provenance import verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
 
@@ -154,9 +157,10 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     if arch not in archs_of(block):
         raise ValueError(f"{block}: arch must be one of {archs_of(block)}, got {arch!r}")
     name = module_name(block, arch, **options)
+    header_options = dict(options)
     component = build(block, arch, constants, tag_width, **options)
     pmap = portmap(component, block, arch, constants, name)
     text = verilog.convert(component, name=name, emit_src=False, strip_internal_attrs=True)
     if f"{ECP5_ADD_SUB_MODULE} #(" in text:
         text += ecp5_add_sub_verilog()
-    return text, pmap
+    return verilog_header(component, block, arch, constants, name, header_options) + text, pmap

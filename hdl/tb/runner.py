@@ -99,6 +99,13 @@ def _runtime_cache(build_args: list[str]) -> Path:
     return ROOT / "build" / "sim" / "_verilator_runtime" / key
 
 
+def _source_digest(path: Path) -> str:
+    """SHA-1 of a source without its header comment (a new commit's header is the same design:
+    the simulation built from the old one is reused)."""
+    from ik5r.hdl.provenance import strip_header
+    return hashlib.sha1(strip_header(path.read_text()).encode()).hexdigest()
+
+
 def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose: bool,
            cflags: str = "-O1") -> float:
     """Build (or reuse) the simulation; returns seconds spent. ``cflags``: the C++ optimisation of
@@ -115,7 +122,7 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
             # Verilator's FST writer needs lz4.h (Debian: liblz4-dev); without it, VCD.
             build_args += ["--trace-fst"] if _have_lz4() else []
     stamp_doc = {"sim": sim, "args": build_args, "waves": waves,
-                 "sources": {str(s): hashlib.sha1(s.read_bytes()).hexdigest() for s in sources}}
+                 "sources": {str(s): _source_digest(s) for s in sources}}
     stamp = build_dir / "build.stamp"
     binary = build_dir / ("ik5r_tb_top" if sim == "verilator" else "sim.vvp")
     if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
