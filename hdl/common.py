@@ -55,19 +55,14 @@ from ik5r.fxconfig import Constants
 __all__ = ["ARCHS", "DSPS", "ECP5_ADD_SUB_MODULE", "ecp5_add_sub", "ecp5_add_sub_verilog", "PRODUCTS", "LIMB_BITS", "Datapath", "SharedStage", "StreamBlock", "add_sub", "asr", "rshift_round", "saturate",
            "leading_zeros", "add_products", "table_entry", "drop"]
 
-#: The two architectures every block is available in.
-ARCHS = ("pipelined", "iterative")
+from .modes import ARCHS, DSPS, PRODUCTS  # noqa: E402 (defined once, in .modes)
 
-#: How a pipelined datapath maps to the FPGA: portable operators (any FPGA; Yosys maps ``*`` to a
-#: DSP without its registers), or ECP5 primitives: a ``MULT18X18D`` per partial product whose
-#: input and output registers are the two pipeline registers around it (the DSP's multiplier no
-#: longer sits between fabric flip-flops), and a ``CCU2C`` chain per :func:`add_sub`. Same
-#: latency, same bits.
-DSPS = ("generic", "ecp5")
-
-#: How a datapath multiplies (:func:`add_products`): all partial products at once, or one
-#: 18 x 18 partial product per clock step into an accumulator (one DSP per multiplier).
-PRODUCTS = ("parallel", "sequential")
+# DSPS: how a pipelined datapath maps to the FPGA: portable operators (any FPGA; Yosys maps ``*``
+# to a DSP without its registers), or ECP5 primitives: a ``MULT18X18D`` per partial product whose
+# input and output registers are the two pipeline registers around it (the DSP's multiplier no
+# longer sits between fabric flip-flops), and a ``CCU2C`` chain per :func:`add_sub`. Same
+# latency, same bits. PRODUCTS: how a datapath multiplies (:func:`add_products`): all partial
+# products at once, or one 18 x 18 partial product per clock step into an accumulator.
 
 #: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
 #: fits one ECP5 MULT18X18D.

@@ -21,15 +21,14 @@ from amaranth.lib import wiring
 
 from ik5r.fxconfig import Constants
 
-from .common import ARCHS, ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .common import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 from .provenance import verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
 
-#: Block names accepted by :func:`generate` and the ``ik5r verilog`` verb; ``ik`` is the IK core.
-BLOCKS = ("atan2", "rotate", "sqrt", "acos", "ik")
-#: The IK core's architectures (the arithmetic blocks have :data:`ARCHS`).
-CORE_ARCHS = ("pipelined", "compact")
+# BLOCKS: the names :func:`generate` and the ``ik5r verilog`` verb accept (``ik`` is the IK core);
+# CORE_ARCHS the IK core's architectures, ARCHS the arithmetic blocks' (all in .modes).
 
 
 def archs_of(block: str) -> tuple[str, ...]:
@@ -42,7 +41,7 @@ def resolve_arch(block: str, arch: str) -> str:
     archs = archs_of(block)
     if arch in archs:
         return arch
-    if arch in ("iterative", "compact"):
+    if arch in (Arch.ITERATIVE, CoreArch.COMPACT):
         return archs[1]
     raise ValueError(f"{block}: arch must be one of {archs}, got {arch!r}")
 

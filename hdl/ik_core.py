@@ -39,8 +39,7 @@ from .sqrt import add_isqrt, fit
 
 __all__ = ["IKCore", "CORE_ARCHS"]
 
-#: Architectures of the core.
-CORE_ARCHS = ("pipelined", "compact")
+from .modes import CORE_ARCHS  # noqa: E402 (the core's architectures, defined once)
 
 #: Stash distances up to this many stages use a register chain instead of a RAM ring buffer.
 _REGISTER_DELAY_MAX = 4

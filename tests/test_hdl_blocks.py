@@ -28,13 +28,13 @@ from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.acos import Acos
 from ik5r.hdl.common import OUTPUT_FIFO_LATENCY, add_sub, ecp5_add_sub, ecp5_add_sub_verilog
 from ik5r.hdl.cordic import Atan2, Rotate
+from ik5r.hdl.modes import ARCHS
 from ik5r.hdl.sqrt import Sqrt
 from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
 from ik5r.hdl.tb.runner import PRIMITIVE_MODELS
 from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
 
 CONFIGS = ("q18", "q32")
-ARCHS = ("pipelined", "iterative")
 HDL_DIR = Path(__file__).resolve().parents[1] / "hdl"
 
 

@@ -1,5 +1,5 @@
-"""The layers of ik5r, asserted from the import graph (every ``import`` of every module, also the
-ones inside functions, read with ``ast``; nothing is imported to find them).
+"""The layers of ik5r, asserted from the import graph (:mod:`ik5r.sources`: every ``import`` of
+every module, also the ones inside functions, read with ``ast``; nothing is imported to find them).
 
     tools     ik5r.cli, commands, synth, sweep, bench, results, report, demo; the testbenches
               (ik5r.hdl.tb), which check the HDL against the firmware model
@@ -13,12 +13,10 @@ of the one IK, side by side: neither imports the other (the fixed-point words th
 
 from __future__ import annotations
 
-import ast
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-#: Import name -> source folder (pyproject.toml's package-dir).
-PACKAGES = {"ik5r": ROOT / "src" / "ik5r", "ik5r.firmware": ROOT / "firmware_model", "ik5r.hdl": ROOT / "hdl"}
+from ik5r.sources import all_modules, closure, imports_of
+
 CORE = {"ik5r", "ik5r.fxconfig", "ik5r.arm", "ik5r.reference", "ik5r.status", "ik5r.csvio",
         "ik5r.errors", "ik5r.fixedpoint", "ik5r.data"}
 #: What each layer may import (besides third-party packages).
@@ -37,37 +35,8 @@ def layer_of(module: str) -> str:
     return "tools"
 
 
-def modules() -> dict[str, Path]:
-    """Every module of the installed packages, by import name."""
-    found = {}
-    for package, folder in PACKAGES.items():
-        for path in folder.rglob("*.py"):
-            parts = path.relative_to(folder).with_suffix("").parts
-            found[".".join((package, *parts)).removesuffix(".__init__")] = path
-    return found
-
-
-def imports_of(module: str, path: Path) -> set[str]:
-    """The ik5r modules ``module`` imports (absolute and relative, at any depth of the file)."""
-    is_package = path.name == "__init__.py"
-    out = set()
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
-        if isinstance(node, ast.Import):
-            out.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = module.split(".")[: len(module.split(".")) - node.level + is_package]
-                target = ".".join(base + ([node.module] if node.module else []))
-            else:
-                target = node.module
-            out.add(target)
-            # ``from ik5r import status``: the submodule, when it is one.
-            out.update(f"{target}.{alias.name}" for alias in node.names)
-    return {name for name in out if name == "ik5r" or name.startswith("ik5r.")}
-
-
 def violations(mods: dict[str, Path] | None = None) -> list[str]:
-    mods = modules() if mods is None else mods
+    mods = all_modules() if mods is None else mods
     bad = []
     for module, path in sorted(mods.items()):
         for target in sorted(imports_of(module, path)):
@@ -80,7 +49,7 @@ def violations(mods: dict[str, Path] | None = None) -> list[str]:
 
 
 def test_the_graph_is_read():
-    mods = modules()
+    mods = all_modules()
     assert {"ik5r.fxconfig", "ik5r.firmware.model", "ik5r.hdl.ik_core", "ik5r.hdl.tb.runner",
             "ik5r.commands.solve", "ik5r.fixedpoint"} <= set(mods)
     assert "ik5r.fixedpoint" in imports_of("ik5r.hdl.ik_core", mods["ik5r.hdl.ik_core"])
@@ -93,7 +62,7 @@ def test_a_violation_is_found(tmp_path):
     core.write_text("def f():\n    from .commands import solve\n")
     hdl = tmp_path / "ik_core.py"
     hdl.write_text("from ik5r.firmware import model\n")
-    mods = {**modules(), "ik5r.status": core, "ik5r.hdl.ik_core": hdl}
+    mods = {**all_modules(), "ik5r.status": core, "ik5r.hdl.ik_core": hdl}
     assert violations(mods) == [
         f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware (firmware)",
         f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware.model (firmware)",
@@ -103,3 +72,34 @@ def test_a_violation_is_found(tmp_path):
 
 def test_lower_layers_never_import_higher_ones():
     assert violations() == []
+
+
+def test_cache_key_closures_follow_the_imports():
+    """The sweep's cache keys hash these closures: what the Verilog and the error figures come from."""
+    mods = all_modules()
+    verilog = set(closure(["ik5r.hdl.generate", "ik5r.synth"]))
+    assert {mods[m] for m in ("ik5r.hdl.ik_core", "ik5r.hdl.cordic", "ik5r.hdl.common", "ik5r.status",
+                              "ik5r.fixedpoint", "ik5r.fxconfig", "ik5r.arm", "ik5r.hdl")} <= verilog
+    assert mods["ik5r.firmware.model"] not in verilog and mods["ik5r.hdl.tb.runner"] not in verilog
+    errors = set(closure(["ik5r.report.quantisation"]))
+    assert {mods[m] for m in ("ik5r.firmware.vector", "ik5r.reference", "ik5r.status")} <= errors
+
+
+def test_hardware_choices_are_named_once():
+    """No module but ``ik5r.hdl.modes`` spells out a list of architectures, DSP mappings or blocks."""
+    import ast
+
+    from ik5r.hdl import modes
+
+    lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
+                                            modes.DSPS, modes.PRODUCTS, modes.BLOCKS)}
+    found = []
+    for module, path in all_modules().items():
+        if module == "ik5r.hdl.modes":
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and len(node.elts) > 1 and all(
+                    isinstance(e, ast.Constant) and isinstance(e.value, str) for e in node.elts):
+                if frozenset(e.value for e in node.elts) in lists:
+                    found.append(f"{path}:{node.lineno}")
+    assert found == []

@@ -24,7 +24,6 @@ from .portmap import load_portmap
 
 ROOT = Path(__file__).resolve().parents[2]
 SIMULATORS = ("icarus", "verilator")
-ARCHS = ("pipelined", "iterative")
 DEFAULT_TAG_WIDTH = 8
 
 

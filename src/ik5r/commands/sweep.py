@@ -72,6 +72,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from ik5r.errors import InputError
     from ik5r.hdl.generate import BLOCKS
+    from ik5r.hdl.modes import ARCH_NAMES, ARCHS
     from ik5r.sweep import DEFAULT_WIDTHS, run_sweep
     from ik5r.synth import SynthOptions
 
@@ -79,9 +80,9 @@ def run(args) -> int:
     for block in blocks:
         if block not in BLOCKS:
             raise InputError("--blocks", f"block {block!r} not available (have {', '.join(BLOCKS)})")
-    archs = args.archs or (["compact"] if blocks == ["ik"] else ["pipelined", "iterative"])
+    archs = args.archs or (["compact"] if blocks == ["ik"] else list(ARCHS))
     for arch in archs:
-        if arch not in ("pipelined", "iterative", "compact"):
+        if arch not in ARCH_NAMES:
             raise InputError("--archs", f"must be pipelined, iterative or compact, got {arch!r}")
     widths = args.widths or list(DEFAULT_WIDTHS)
     for w in widths:
