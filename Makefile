@@ -4,6 +4,8 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ik5r-installed
 CONFIG ?= q32w
+# pytest-xdist workers of `make test` (auto: one per CPU); 0 runs the suite in one process.
+TEST_JOBS ?= auto
 export PYTHONDONTWRITEBYTECODE := 1
 
 .PHONY: demo test test-slow bench verilog report synth sweep results simulator clean
@@ -28,10 +30,10 @@ demo: $(STAMP) simulator
 	$(PY) -m ik5r.demo --config $(CONFIG)
 
 test: $(STAMP) simulator
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_JOBS)
 
 test-slow: $(STAMP) simulator
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -n $(TEST_JOBS) -m slow
 
 bench: $(STAMP) simulator
 	$(PY) -m ik5r.bench

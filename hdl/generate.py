@@ -162,4 +162,4 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     text = verilog.convert(component, name=name, emit_src=False, strip_internal_attrs=True)
     if f"{ECP5_ADD_SUB_MODULE} #(" in text:
         text += ecp5_add_sub_verilog()
-    return verilog_header(component, block, arch, constants, name, header_options) + text, pmap
+    return verilog_header(pmap, constants, header_options) + text, pmap

@@ -1,6 +1,6 @@
 """The header comment of every generated Verilog file: what the file is and where it came from.
 
-``verilog_header(component, block, arch, constants, name)`` gives ``//`` lines naming the module,
+``verilog_header(portmap, constants)`` gives ``//`` lines naming the module,
 the config (name and a hash of its numbers and of the arm), the word and internal formats, the
 latency, the error bound the model guarantees, the tool versions (Amaranth, the Yosys that wrote
 the Verilog) and the source commit (``git``; ``unknown`` outside a checkout). The text has no
@@ -125,19 +125,20 @@ def _error_lines(block: str, constants: Constants) -> list[str]:
     return lines
 
 
-def verilog_header(component, block: str, arch: str, constants: Constants, name: str,
-                   options: dict | None = None) -> str:
-    """The header comment (see the module docstring), ending in :data:`HEADER_END`."""
+def verilog_header(portmap: dict, constants: Constants, options: dict | None = None) -> str:
+    """The header comment (see the module docstring) of the Verilog whose port map (from
+    ``ik5r.hdl.generate.portmap``) is ``portmap``, built with ``options``; ends in :data:`HEADER_END`."""
     c = constants.cfg
     tools = tool_versions()
+    block, arch = portmap["block"], portmap["arch"]
     lines = [
-        f"{name}: ik5r generated Verilog, do not edit (ik5r verilog --block {block} --arch {arch}"
-        f" --config {c.name})",
-        f"block {block}, arch {arch}, tag_width {component.tag_width}, options "
+        f"{portmap['module']}: ik5r generated Verilog, do not edit (ik5r verilog --block {block} "
+        f"--arch {arch} --config {c.name})",
+        f"block {block}, arch {arch}, tag_width {portmap['tag_width']}, options "
         f"{json.dumps(options or {}, sort_keys=True)}",
         f"config: {c.name} (numbers and arm: sha256 {config_hash(constants)})",
         *_format_lines(block, constants),
-        f"latency: {component.latency} cycles; cycles per result: {component.cycles_per_result}",
+        f"latency: {portmap['latency_cycles']} cycles; cycles per result: {portmap['cycles_per_result']}",
         *_error_lines(block, constants),
         f"tools: amaranth {tools['amaranth']}; yosys {tools['yosys']}",
         f"source: {source_commit()}",

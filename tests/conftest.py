@@ -1,4 +1,15 @@
-"""Shared fixture of the cocotb test modules (tests/test_cocotb_*.py)."""
+"""Shared fixture of the cocotb test modules (tests/test_cocotb_*.py), and the order of the run.
+
+Two ways to run the suite, the same tests either way:
+
+* ``pytest`` (one process): each cocotb module starts all its selected cases in a thread pool of
+  ``IK5R_SIM_WORKERS`` (default 2) simulator subprocesses, Verilator builds first.
+* ``pytest -n N`` (pytest-xdist, what ``make test`` does): each case is a test like any other,
+  run where xdist sends it, one simulator per worker (no thread pool: N workers are N busy
+  processes); the heaviest tests are collected first so that the long poles start at once and
+  the light tests fill in around them. Simulator builds are serialised across workers by a lock
+  file (``ik5r.hdl.tb.runner``), generated Verilog is shared through ``build/verilog-cache``.
+"""
 
 from __future__ import annotations
 
@@ -12,14 +23,56 @@ from ik5r.hdl.tb.runner import simulator_missing
 WORKERS = int(os.environ.get("IK5R_SIM_WORKERS", "2"))
 
 
+def _under_xdist(config) -> bool:
+    return getattr(config, "workerinput", None) is not None or (
+        config.pluginmanager.hasplugin("xdist") and getattr(config.option, "numprocesses", None))
+
+
+def _case_weight(item) -> int:
+    """A rough rank of a test's cost (larger runs first under xdist; ties keep collection order).
+    Simulations of the pipelined IK core and Verilator builds are the long poles, then the other
+    cocotb cases, then the tests that convert or simulate the IK core in Amaranth."""
+    name = item.nodeid
+    if item.get_closest_marker("sim") is not None and hasattr(item, "callspec"):
+        params = item.callspec.params
+        weight = 50
+        weight += 40 if params.get("sim") == "verilator" else 0
+        weight += 40 if "ik-" in name and params.get("arch") == "pipelined" else 0
+        weight += 10 if params.get("dsp") == "ecp5" else 0
+        return weight
+    if any(part in name for part in ("test_ik_core.py", "test_verilator_lint", "test_verilog_deterministic[ik]")):
+        return 40
+    return 0
+
+
+def pytest_collection_modifyitems(config, items):
+    if _under_xdist(config):
+        items.sort(key=_case_weight, reverse=True)      # stable: ties keep collection order
+
+
 @pytest.fixture(scope="module")
 def sim_pool(request):
-    """Starts every selected case of the requesting module in a thread pool (each case is a
-    simulator subprocess), Verilator builds first (the long poles); ``sim_pool(key)`` is the
-    result of a case, and fails (never skips) when its simulator is not installed. The
-    module names its case parameters in ``CASE_KEYS`` (the simulator last) and runs a case with
-    ``run_case(*key)``. A case whose simulator is missing is not started: its test fails."""
+    """``sim_pool(key)`` is the result of a case of the requesting module, and fails (never
+    skips) when its simulator is not installed. The module names its case parameters in
+    ``CASE_KEYS`` (the simulator last) and runs a case with ``run_case(*key)``.
+
+    One process: every selected case of the module starts in a thread pool (each case is a
+    simulator subprocess), Verilator builds first (the long poles); a case whose simulator is
+    missing is not started. Under xdist: a case runs when its test asks for it."""
     mod = request.module
+
+    def missing_fails(key):
+        missing = simulator_missing(key[-1])
+        if missing:
+            pytest.fail(f"{missing} (CI installs both simulators)", pytrace=False)
+
+    if _under_xdist(request.config):
+        def run(key):
+            missing_fails(key)
+            return mod.run_case(*key)
+
+        yield run
+        return
     selected = []
     for item in request.session.items:
         if item.module is mod and hasattr(item, "callspec"):
@@ -31,9 +84,7 @@ def sim_pool(request):
         futures = {key: ex.submit(mod.run_case, *key) for key in selected}
 
         def result(key):
-            missing = simulator_missing(key[-1])
-            if missing:
-                pytest.fail(f"{missing} (CI installs both simulators)", pytrace=False)
+            missing_fails(key)
             return futures[key].result()
 
         yield result

@@ -44,12 +44,13 @@ def test_header_names_config_formats_latency_bound_tools_commit(sqrt_q32w):
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 def test_ik_core_header_names_the_internal_format():
+    from ik5r.hdl.generate import portmap
     from ik5r.hdl.ik_core import IKCore
 
     # The header of the core as generate() writes it, without converting the core (~30 s).
     k = constants(load_config("q32w"))
     core = IKCore(constants=k, arch="compact")
-    text = verilog_header(core, "ik", "compact", k, "ik5r_ik_compact")
+    text = verilog_header(portmap(core, "ik", "compact", k), k)
     i = k.cfg.internal()
     assert (f"internal format (IK): {i.width}-bit words; fraction bits: length {i.frac_length}, "
             f"unit {i.frac_unit}, angle {i.frac_angle}; CORDIC {i.iterations} iterations") in text
