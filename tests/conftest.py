@@ -46,8 +46,17 @@ def _case_weight(item) -> int:
 
 
 def pytest_collection_modifyitems(config, items):
-    if _under_xdist(config):
-        items.sort(key=_case_weight, reverse=True)      # stable: ties keep collection order
+    """Heaviest first (stable: ties keep collection order). xdist's ``--dist load
+    --maxschedchunk 1`` (``make test``) hands worker i the items 2i and 2i + 1 first, then one
+    at a time as workers free up: the first 2N items are paired heavy with lighter, so that the N
+    heaviest start at once, one on each worker."""
+    if not _under_xdist(config):
+        return
+    items.sort(key=_case_weight, reverse=True)
+    workers = int(getattr(config, "workerinput", {}).get("workercount", 0))
+    head = items[:2 * workers]
+    if workers and len(head) == 2 * workers:
+        items[:2 * workers] = [item for i in range(workers) for item in (head[i], head[-1 - i])]
 
 
 @pytest.fixture(scope="module")
