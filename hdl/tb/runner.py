@@ -15,6 +15,7 @@ import functools
 import hashlib
 import json
 import os
+import platform
 import shutil
 import threading
 import time
@@ -92,7 +93,8 @@ def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> 
 
     key = hashlib.sha256(json.dumps(
         [block, arch, tag_width, sorted(options.items()), k.cfg.name, config_hash(k),
-         _generator_sources_hash(), tool_versions()], default=str).encode()).hexdigest()[:24]
+         _generator_sources_hash(), tool_versions(), platform.python_version()],
+        default=str).encode()).hexdigest()[:24]
     body_path, map_path = VERILOG_CACHE / f"{key}.v", VERILOG_CACHE / f"{key}.json"
     if body_path.is_file() and map_path.is_file():
         pmap = json.loads(map_path.read_text())
