@@ -5,6 +5,8 @@ generates the block's Verilog and port map (``hdl/generate.py``), wraps it (:mod
 builds it under ``build/sim/<block>_<arch>_<config>_<sim>/`` with ``timescale=("1ns", "1ps")`` (a
 build is reused while its sources and options are unchanged), runs :mod:`.stream_tb` and returns
 the merged result JSON. ``WAVES=1`` (or ``waves=True``) records FST waves and prints where.
+The Verilog comes through :func:`generate_cached` (one conversion per design, shared by the tests);
+builds are serialised across threads and processes (:func:`_build_lock`).
 """
 
 from __future__ import annotations
@@ -85,9 +87,10 @@ def _generator_sources_hash() -> str:
 def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> tuple[str, dict]:
     """``ik5r.hdl.generate.generate(block, arch, k, tag_width, **options)``, the body and port map
     kept in :data:`VERILOG_CACHE` under a key of everything they depend on: the arguments, the
-    config's name and numbers and the arm, the files of the generator's import closure and the
-    tool versions. A hit gets a fresh header (this checkout's commit). Converting an IK core takes
-    tens of seconds; the testbenches and the lint test share one conversion."""
+    config's name and numbers and the arm, the files of the generator's import closure, the tool
+    and Python versions. A hit gets a fresh header (this checkout's commit). Converting an IK core
+    takes tens of seconds; the testbenches and the lint test share one conversion. ``make clean``
+    empties the cache (entries of older sources are not pruned)."""
     from ik5r.hdl.generate import generate
     from ik5r.hdl.provenance import config_hash, strip_header, tool_versions, verilog_header
 
