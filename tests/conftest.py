@@ -7,8 +7,9 @@ Two ways to run the suite, the same tests either way:
 * ``pytest -n N`` (pytest-xdist, what ``make test`` does): each case is a test like any other,
   run where xdist sends it, one simulator per worker (no thread pool: N workers are N busy
   processes); the heaviest tests are collected first so that the long poles start at once and
-  the light tests fill in around them. Simulator builds are serialised across workers by a lock
-  file (``ik5r.hdl.tb.runner``), generated Verilog is shared through ``build/verilog-cache``.
+  the light tests fill in around them. Each worker's simulator builds use one make job
+  (``IK5R_BUILD_JOBS``, ``ik5r.hdl.tb.runner``), generated Verilog is shared through
+  ``build/verilog-cache``.
 """
 
 from __future__ import annotations
@@ -43,6 +44,14 @@ def _case_weight(item) -> int:
     if any(part in name for part in ("test_ik_core.py", "test_verilator_lint", "test_verilog_deterministic[ik]")):
         return 40
     return 0
+
+
+def pytest_configure(config):
+    # An xdist worker is one of N busy processes: its simulator builds get one make job each and
+    # run beside the other workers' (ik5r.hdl.tb.runner._build_lock), rather than all cores each,
+    # one at a time, the other workers waiting.
+    if getattr(config, "workerinput", None) is not None:
+        os.environ.setdefault("IK5R_BUILD_JOBS", "1")
 
 
 def pytest_collection_modifyitems(config, items):

@@ -6,7 +6,7 @@ builds it under ``build/sim/<block>_<arch>_<config>_<sim>/`` with ``timescale=("
 build is reused while its sources and options are unchanged), runs :mod:`.stream_tb` and returns
 the merged result JSON. ``WAVES=1`` (or ``waves=True``) records FST waves and prints where.
 The Verilog comes through :func:`generate_cached` (one conversion per design, shared by the tests);
-builds are serialised across threads and processes (:func:`_build_lock`).
+builds are serialised across threads and processes, or run one make job each (:func:`_build_lock`).
 """
 
 from __future__ import annotations
@@ -190,8 +190,18 @@ _BUILD_LOCK = threading.Lock()
 
 @contextlib.contextmanager
 def _build_lock():
-    """One simulator build at a time on this machine's checkout: across the threads of this
-    process and across processes (``pytest -n``'s workers), by a lock file under build/sim/."""
+    """One simulator build at a time in this process (its threads share MAKEFLAGS), and, unless
+    ``IK5R_BUILD_JOBS`` is set, on this machine's checkout (a lock file under build/sim/: each
+    build's make uses every core). ``IK5R_BUILD_JOBS=n`` (``pytest -n``'s workers: 1) gives each
+    build n make jobs and lets the processes build side by side, none waiting idle for another."""
+    jobs = os.environ.get("IK5R_BUILD_JOBS")
+    if jobs:
+        import cocotb_tools.runner
+
+        with _BUILD_LOCK:
+            cocotb_tools.runner.MAX_PARALLEL_BUILD_JOBS = int(jobs)
+            yield
+        return
     path = ROOT / "build" / "sim" / ".build.lock"
     path.parent.mkdir(parents=True, exist_ok=True)
     with _BUILD_LOCK, open(path, "w") as handle:
