@@ -4,6 +4,9 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ik5r-installed
 CONFIG ?= q32w
+# pytest-xdist workers of `make test` (auto: one per CPU); 0 runs the suite in one process. Tests
+# go out one at a time, heaviest first (tests/conftest.py), so the long simulations start at once.
+TEST_JOBS ?= auto
 export PYTHONDONTWRITEBYTECODE := 1
 
 .PHONY: demo test test-slow bench verilog report synth sweep results simulator riscv firmware clean
@@ -46,10 +49,10 @@ demo: $(STAMP) simulator
 	$(PY) -m ik5r.demo --config $(CONFIG)
 
 test: $(STAMP) simulator riscv
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1
 
 test-slow: $(STAMP) simulator riscv
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1 -m slow
 
 bench: $(STAMP) simulator
 	$(PY) -m ik5r.bench

@@ -7,7 +7,9 @@ Two steps:
 1. **collect** (skipped with ``--no-collect``): the measurements of this machine's ``build/`` are
    copied into ``docs/results/records/``: each ``build/synth/*/result.json`` (``ik5r synth``, a
    shipped config, nextpnr seed 1, whose Verilog is what this checkout generates) as
-   ``synth/<module>_<config>_<target>-<device>.json`` with the SHA-256 of that Verilog, the sweep's
+   ``synth/<module>_<config>_<target>-<device>.json`` with the SHA-256 of that Verilog (of its
+   body: the text after the header comment, whose commit line changes with every commit; see
+   ``ik5r.hdl.provenance``), the sweep's
    ``sweep.json`` and plots (``ik5r sweep``), and ``bench.json`` / ``bench.md`` (``make bench``).
    A record is replaced only by a newer measurement of the same design point.
 2. **render**: the text between the ``<!-- results:begin -->`` and ``<!-- results:end -->``
@@ -21,7 +23,6 @@ each one can be traced to the JSON record it came from.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -61,7 +62,10 @@ class VerilogOfCheckout:
         return self._texts[key]
 
     def sha256(self, r: dict) -> str:
-        return hashlib.sha256(self.text(r).encode()).hexdigest()
+        """SHA-256 of the Verilog's body (without the header comment): the records made before
+        the header existed hashed the same bytes, and a new commit does not make them stale."""
+        from ik5r.hdl.provenance import body_sha256
+        return body_sha256(self.text(r))
 
 
 def _record_name(r: dict) -> str:
@@ -71,6 +75,8 @@ def _record_name(r: dict) -> str:
 def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: VerilogOfCheckout) -> list[str]:
     """Copy this machine's measurements into ``records`` (see the module docstring); returns what
     was written."""
+    from ik5r.hdl.provenance import body_sha256
+
     written = []
     synth_dir = records / "synth"
     for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
@@ -81,7 +87,7 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
         if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or not placed:
             continue
         design = path.parent / "design.v"
-        if not design.exists() or design.read_text() != verilog.text(r):
+        if not design.exists() or body_sha256(design.read_text()) != verilog.sha256(r):
             continue
         record = {k: v for k, v in r.items() if k not in LOCAL_KEYS}
         record["verilog_sha256"] = verilog.sha256(r)

@@ -111,15 +111,20 @@ def _package_dir(module: str) -> Path:
 
 
 def error_sources_hash() -> str:
-    fw, pkg = _package_dir("ik5r.firmware"), _package_dir("ik5r")
-    files = [fw / "vector.py", pkg / "reference.py", pkg / "fxconfig.py", pkg / "arm.py",
-             pkg / "report" / "quantisation.py", pkg / "sweep_error.py", *sorted((pkg / "data").glob("*.toml"))]
-    return _source_hash([f for f in files if f.is_file()])
+    """Hash of every source the error figures come from: the import closure of the quantisation
+    report (:mod:`ik5r.sources`) and the arm data."""
+    from .sources import closure_hash
+    return closure_hash(["ik5r.report.quantisation", "ik5r.sweep_error"],
+                        sorted((_package_dir("ik5r") / "data").glob("*.toml")))
 
 
 def hdl_sources_hash() -> str:
-    hdl, pkg = _package_dir("ik5r.hdl"), _package_dir("ik5r")
-    return _source_hash(sorted(hdl.glob("*.py")) + [pkg / "fxconfig.py", pkg / "synth.py"])
+    """Hash of every source the Verilog and its synthesis come from: the import closure of
+    ``ik5r.hdl.generate`` and ``ik5r.synth`` (the firmware model, status bits, fixed point, config,
+    arm, ... as the modules import them) and the arm data."""
+    from .sources import closure_hash
+    return closure_hash(["ik5r.hdl.generate", "ik5r.synth"],
+                        sorted((_package_dir("ik5r") / "data").glob("*.toml")))
 
 
 def _key(*parts) -> str:

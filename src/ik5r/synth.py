@@ -286,6 +286,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     ``log(message)`` receives progress lines (default: silent).
     """
     from .hdl.generate import generate, resolve_arch
+    from .hdl.provenance import strip_header
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
@@ -306,7 +307,9 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
-    key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
+    # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.
+    body = strip_header(text)
+    key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
     # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
     # shipped q32) give the same Verilog and share one run.
     folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
@@ -335,7 +338,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     folder.mkdir(parents=True, exist_ok=True)
     # A run stopped during nextpnr resumes after Yosys: the netlist is kept with a marker holding
     # the hash of everything it depends on (written only once Yosys has finished).
-    yosys_key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), opts.target)
+    yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
     marker = folder / "yosys.done"
     (folder / "report.json").unlink(missing_ok=True)
     if marker.is_file() and marker.read_text().strip() == yosys_key and not force:

@@ -93,16 +93,17 @@ def register(subparsers) -> None:
 def _check(args) -> tuple[list[str], list[str], list[int]]:
     from ik5r.errors import InputError
     from ik5r.hdl.generate import BLOCKS
+    from ik5r.hdl.modes import ARCH_NAMES, ARCHS
     from ik5r.sweep import DEFAULT_WIDTHS
 
     blocks = args.blocks or (["ik"] if "ik" in BLOCKS else ["atan2"])
     for block in blocks:
         if block not in BLOCKS:
             raise InputError("--blocks", f"block {block!r} not available (have {', '.join(BLOCKS)})")
-    archs = args.archs or (["compact"] if blocks == ["ik"] else ["pipelined", "iterative"])
+    archs = args.archs or (["compact"] if blocks == ["ik"] else list(ARCHS))
     for arch in archs:
-        if arch not in ("pipelined", "iterative", "compact"):
-            raise InputError("--arch", f"must be pipelined, iterative or compact, got {arch!r}")
+        if arch not in ARCH_NAMES:
+            raise InputError("--arch", f"must be one of {', '.join(ARCH_NAMES)}, got {arch!r}")
     widths = args.widths or list(DEFAULT_WIDTHS)
     for w in widths:
         if not 10 <= w <= 32:

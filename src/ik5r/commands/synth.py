@@ -15,9 +15,10 @@ import time
 from pathlib import Path
 
 from ik5r.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, DSPS
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "cpu", "all")
-ARCH_CHOICES = ("pipelined", "iterative", "compact", "all")
+ARCH_CHOICES = (*ARCH_NAMES, "all")
 
 
 def register(subparsers) -> None:
@@ -48,7 +49,7 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
-    parser.add_argument("--dsp", choices=("generic", "ecp5"), default=None,
+    parser.add_argument("--dsp", choices=DSPS, default=None,
                         help="primitives: ECP5 MULT18X18D instances with their input and output "
                              "registers and CCU2C add/sub chains, or generic operators mapped by "
                              "Yosys (default: ecp5 on ECP5, generic on iCE40)")
