@@ -97,14 +97,6 @@ def _config_key(cfg: FixedConfig) -> str:
 
 # --- cache keys ----------------------------------------------------------------------------------
 
-def _source_hash(paths) -> str:
-    h = hashlib.sha256()
-    for path in sorted(paths):
-        h.update(path.name.encode())
-        h.update(path.read_bytes())
-    return h.hexdigest()[:16]
-
-
 def _package_dir(module: str) -> Path:
     import importlib
     return Path(importlib.import_module(module).__file__).parent

@@ -13,10 +13,11 @@ import time
 from pathlib import Path
 
 from ..fxconfig import FixedConfig, parse_config
+from ..hdl.modes import Block
 from .html import Section, esc, para, table
 from .provenance import config_hash
 
-BLOCK_ORDER = ("ik", "atan2", "rotate", "sqrt", "acos")
+BLOCK_ORDER = (Block.IK, Block.ATAN2, Block.ROTATE, Block.SQRT, Block.ACOS)
 
 
 def records_dir() -> Path:
