@@ -164,7 +164,7 @@ class Asm:
     # -- CORDIC --
     def atan2_body(self) -> list:
         w = self.ki.cfg.width
-        return ([I(cop=K_COARSE)] + [I(cop=K_NORM8)] * ((w - 1) // 8) + [I(cop=K_NORM1)] * 7
+        return ([I(cop=K_COARSE, ci=self.ki.cfg.iterations)] + [I(cop=K_NORM8)] * ((w - 1) // 8) + [I(cop=K_NORM1)] * 7
                 + [I(cop=K_VEC, ci=i) for i in range(self.ki.cfg.iterations)])
 
     def atan2_angle(self, zero_status=0) -> list:
@@ -181,8 +181,8 @@ class Asm:
         ki = self.ki
         c = ki.cfg
         code = [I(cop=K_LDZA, **operand(angle)), I(cop=K_LDX, **operand(x)), I(cop=K_LDY, **operand(y)),
-                alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT),
-                alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT)]
+                alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations),
+                alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations)]
         gain = Const(ki.inv_gain)
         for src, name in ((CX, "rot_gx"), (CY, "rot_gy")):
             code += self.products([(src, c.width + 1, gain, ki.inv_gain.bit_length() + 1, False, 0)])
@@ -300,7 +300,7 @@ def ik_program(k: Constants) -> Program:
     code = []
     for index, name in enumerate(INPUT_WORDS):
         code += [I(io=IO_IN, iw=index, bsel=B_IN, alu=A_LD), st(name)]
-    code += [I(io=IO_FLAGS)]
+    code += [I(io=IO_FLAGS, iw=len(INPUT_WORDS))]
 
     # Joint 1: rho = sat(isqrt(px^2 + py^2)) beside theta1 = atan2(py, px), or atan2(ay, ax) when
     # rho = 0 (F: the radicand is not zero).
