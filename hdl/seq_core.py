@@ -6,8 +6,9 @@
 FPGAs with few pins). The instruction set and its clock-exact reference are :mod:`.seq_isa`.
 
 Pipeline: the program counter addresses the instruction ROM (block RAM, registered), whose output
-addresses the data memory and the CORDIC step-angle ROM (registered) in the clock before the
-instruction executes from its own register, so every unit reads registers only. A wait on a word
+addresses the data memory and the CORDIC step-angle ROM; their outputs are registered again, and
+the instruction executes from its own register two clocks after the read (``READ_AHEAD``), so
+every unit reads registers only (a block RAM's clock-to-output is ~6 ns on an ECP5). A wait on a word
 port (no input word, output not taken) holds every register, including the RAM outputs.
 """
 
@@ -86,9 +87,12 @@ class SeqEngine(wiring.Component):
         m.submodules.rom = rom = Memory(shape=unsigned(iw_bits), depth=len(words), init=words)
         rom_rd = rom.read_port()
         m.d.comb += [rom_rd.addr.eq(pc_next), rom_rd.en.eq(~stall)]
+        # Two instruction registers: ``fetched`` (the memory and step-angle ROM are read for
+        # it), then ``exe`` (it executes, with the read data registered).
+        fetched = Signal(iw_bits)
         exe = Signal(iw_bits)
         with m.If(~stall):
-            m.d.sync += exe.eq(Mux(started, rom_rd.data, 0))
+            m.d.sync += [fetched.eq(Mux(started, rom_rd.data, 0)), exe.eq(fetched)]
 
         def fetch(name):
             lo, n = layout[name]
@@ -104,8 +108,12 @@ class SeqEngine(wiring.Component):
         mem_wr = mem.write_port()
         m.submodules.atan = atan = Memory(shape=signed(w.z), depth=len(prog.atan), init=prog.atan)
         atan_rd = atan.read_port()
+        mem_q = Signal(mem_shape, name="mem_q")
+        step = Signal(signed(w.z), name="step")
         m.d.comb += [mem_rd.addr.eq(fetch("rd")), mem_rd.en.eq(~stall),
                      atan_rd.addr.eq(fetch("ci")), atan_rd.en.eq(~stall)]
+        with m.If(~stall):
+            m.d.sync += [mem_q.eq(mem_rd.data), step.eq(atan_rd.data)]
 
         io = f("io")
         reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
@@ -118,8 +126,8 @@ class SeqEngine(wiring.Component):
         in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
         bus = Signal(signed(w.acc), name="bus")
         with m.Switch(f("bsel")):
-            for index, value in enumerate([mem_rd.data, in_word, regs["cx"], regs["cy"], regs["cz"],
-                                           regs["root"], regs["rem"]]):
+            for index, value in enumerate([mem_q, in_word, regs["cx"], regs["cy"], regs["cz"],
+                                           regs["root"], regs["rem"], acc]):
                 with m.Case(index):
                     m.d.comb += bus.eq(value)
         sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
@@ -127,7 +135,7 @@ class SeqEngine(wiring.Component):
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
         self._alu(m, f, acc, bus, cond, regs, run, w)
-        self._cordic(m, f, bus, cond, atan_rd.data, regs, run, w)
+        self._cordic(m, f, bus, cond, step, regs, run, w)
         self._multiplier(m, f, bus, regs, run, w)
         self._sqrt(m, f, acc, regs, run, w)
         m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
@@ -350,30 +358,65 @@ class SequencedIKCore(wiring.Component):
 
 
 class SerialIK(wiring.Component):
-    """The sequenced IK engine with a word-serial stream on each side, for small FPGAs.
+    """The sequenced IK engine with a narrow word-serial stream on each side, for small FPGAs.
 
-    ``i``: 12 words per pose, one per transfer, each ``max(W, 3 + tag_width)`` bits: px, py, pz,
-    ax, ay, az, nx, ny, ox, oy, q5_default (signed words as in ``IKCore``; nz, oz are not used by
-    the IK and not sent), then the flags word has_roll | shoulder_back << 1 | elbow_down << 2 |
-    tag << 3. ``o``: 6 words per pose, ``max(W, 5 + tag_width)`` bits: q1..q5, then status |
+    ``i``: per pose 12 words, each sent as ``ceil(max(W, 3 + tag_width) / beat_bits)`` beats of
+    ``beat_bits`` bits, least significant beat first: px, py, pz, ax, ay, az, nx, ny, ox, oy,
+    q5_default (signed words as in ``IKCore``; nz, oz are not used by the IK and not sent), then
+    the flags word has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3. ``o``: per pose
+    6 words, ``ceil(max(W, 5 + tag_width) / beat_bits)`` beats each: q1..q5, then status |
     tag << 5. Function: ``model.ik_solve`` bit for bit. Throughput: one pose per
-    ``cycles_per_result`` clocks when the words come and go without waiting.
+    ``cycles_per_result`` clocks when beats come and go every clock; one pose in flight.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16):
         _check_tag(tag_width, 26)
-        self._engine = SeqEngine(constants=constants, tag_width=tag_width)
-        self.constants, self.tag_width = constants, tag_width
-        self.cycles_per_result = self._engine.cycles
+        if isinstance(beat_bits, bool) or not isinstance(beat_bits, int) or not 1 <= beat_bits <= 32:
+            raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
+        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width)
+        self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
+        self.arch = "compact"
+        self.in_beats = -(-e.in_bits // beat_bits)
+        self.out_beats = -(-e.out_bits // beat_bits)
+        # Each input word waits for its beats, except the first: its beats arrive while the
+        # previous pose is computed. Each output word holds the engine for its beats.
+        self.latency = e.cycles + 12 * (self.in_beats - 1) + 6 * (self.out_beats - 1)
+        self.cycles_per_result = self.latency - (self.in_beats - 1)
+        self.capacity = 1
+        self.options = {"serial": beat_bits}
+        self.in_fields = {"beat": (unsigned(beat_bits), None, "input word beat, LSB first")}
+        self.out_fields = {"beat": (unsigned(beat_bits), None, "output word beat, LSB first")}
         super().__init__({
-            "i": In(stream.Signature(unsigned(self._engine.in_bits))),
-            "o": Out(stream.Signature(unsigned(self._engine.out_bits))),
+            "i": In(stream.Signature(unsigned(beat_bits))),
+            "o": Out(stream.Signature(unsigned(beat_bits))),
         })
 
     def elaborate(self, platform):
         m = Module()
         m.submodules.engine = e = self._engine
-        m.d.comb += [e.in_valid.eq(self.i.valid), e.in_data.eq(self.i.payload),
-                     self.i.ready.eq(e.in_ready), self.o.valid.eq(e.out_valid),
-                     self.o.payload.eq(e.out_data), e.out_ready.eq(self.o.ready)]
+        b = self.beat_bits
+        # Input: beats into a shift register; the word is offered to the engine once complete,
+        # and the next word's first beat may arrive in the clock the engine takes it.
+        word = Signal(self.in_beats * b)
+        count = Signal(range(self.in_beats))
+        have = Signal()
+        m.d.comb += [self.i.ready.eq(~have | e.in_take), e.in_valid.eq(have),
+                     e.in_data.eq(word[:e.in_bits])]
+        with m.If(e.in_take):
+            m.d.sync += have.eq(0)
+        with m.If(self.i.valid & self.i.ready):
+            m.d.sync += word.eq(Cat(word[b:], self.i.payload))
+            with m.If(count == self.in_beats - 1):
+                m.d.sync += [count.eq(0), have.eq(1)]
+            with m.Else():
+                m.d.sync += count.eq(count + 1)
+        # Output: the engine holds its word while the beats leave; it moves on after the last.
+        out_count = Signal(range(self.out_beats))
+        padded = Cat(e.out_data, Const(0, self.out_beats * b - e.out_bits))
+        last = out_count == self.out_beats - 1
+        m.d.comb += [self.o.valid.eq(e.out_valid), e.out_ready.eq(self.o.ready & last),
+                     self.o.payload.eq(select([padded[j * b:(j + 1) * b] for j in range(self.out_beats)],
+                                              out_count))]
+        with m.If(self.o.valid & self.o.ready):
+            m.d.sync += out_count.eq(Mux(last, 0, out_count + 1))
         return m

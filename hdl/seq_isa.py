@@ -11,7 +11,7 @@ branches: selections are conditional ALU and CORDIC operations), so a pose takes
 program's length in clocks, plus any wait on the word ports.
 
 :func:`run` executes a :class:`Program` clock by clock, exactly as the hardware does (the memory
-read of an instruction happens in the clock before it, the multiplier's two pipeline registers),
+read of an instruction happens two clocks before it, the multiplier's two pipeline registers),
 so it checks a program against ``model.ik_solve`` in milliseconds, before any HDL simulation.
 """
 
@@ -21,8 +21,9 @@ from dataclasses import dataclass, field
 
 # --- field values --------------------------------------------------------------------------------
 
-#: B-bus sources (``bsel``): memory word, input word (<< guard), CORDIC x / y / z, root, remainder.
-B_MEM, B_IN, B_CX, B_CY, B_CZ, B_ROOT, B_REM = range(7)
+#: B-bus sources (``bsel``): memory word, input word (<< guard), CORDIC x / y / z, root,
+#: remainder, the accumulator itself.
+B_MEM, B_IN, B_CX, B_CY, B_CZ, B_ROOT, B_REM, B_ACC = range(8)
 
 #: ALU operations (``alu``).
 (A_NOP, A_LD, A_ADD, A_SUB, A_NEG, A_CMPGT, A_CMPLT, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW,
@@ -60,6 +61,9 @@ UNIT_FIELDS = {
     "io": ("io", "iw"),
 }
 
+#: Clocks between an instruction's memory read and its execution: a store is seen by
+#: instructions at least READ_AHEAD + 1 after it.
+READ_AHEAD = 2
 LIMB = 15          # unsigned limb bits; the top limb of an operand is 16 bits, signed
 INPUT_WORDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "q5d")
 
@@ -143,7 +147,7 @@ class Machine:
         sel = ins.get("bsel", 0)
         if sel == B_IN:
             return inputs[ins["iw"]] << w.guard
-        return (mem_word, None, self.cx, self.cy, self.cz, self.root, self.rem)[sel]
+        return (mem_word, None, self.cx, self.cy, self.cz, self.root, self.rem, self.acc)[sel]
 
     def step(self, ins, mem_word, inputs, outputs):
         """One clock of ``ins`` (``mem_word``: the memory word read for it)."""
@@ -272,11 +276,12 @@ def run(prog: Program, inputs: list[int]) -> dict:
     m = Machine(prog)
     outputs = {}
     code = prog.code
-    read = m.mem[code[0].get("rd", 0)]
+    # The memory read of instruction n happens two clocks ahead, in the clock of instruction
+    # n - 2, before that instruction's write (see READ_AHEAD).
+    reads = [m.mem[ins.get("rd", 0)] for ins in code[:READ_AHEAD]]
     for n, ins in enumerate(code):
-        word = read
-        # The read for the next instruction happens in this clock, before this one's write.
-        if n + 1 < len(code):
-            read = m.mem[code[n + 1].get("rd", 0)]
+        word = reads.pop(0)
+        if n + READ_AHEAD < len(code):
+            reads.append(m.mem[code[n + READ_AHEAD].get("rd", 0)])
         m.step(ins, word, inputs, outputs)
     return outputs

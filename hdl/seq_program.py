@@ -14,10 +14,10 @@ from ik5r.fxconfig import Constants
 
 from .cordic import atan2_widths, rotate_z_bound
 from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_NOP, A_SATI, A_SATW,
-                      A_SHR1, A_SHR4, A_SHR16, A_SUB, B_CX, B_CY, B_CZ, B_IN, B_MEM, B_REM, B_ROOT,
+                      A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_IN, B_MEM, B_REM, B_ROOT,
                       C_BACK, C_DOWN, C_F, C_ONE, C_ROLL, C_ZERO, FIELDS, INPUT_WORDS, IO_FLAGS,
                       IO_IN, IO_OUT, IO_STATUS, K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA,
-                      K_NORM1, K_NORM8, K_QROT, K_ROT, K_VEC, LIMB, Q_LOAD, Q_STEP, Program, Widths)
+                      K_NORM1, K_NORM8, K_QROT, K_ROT, K_VEC, LIMB, Q_LOAD, READ_AHEAD, Q_STEP, Program, Widths)
 
 __all__ = ["ik_program", "Asm"]
 
@@ -36,7 +36,8 @@ class Bus:
         self.sel = sel
 
 
-CX, CY, CZ, ROOT, REM = Bus(B_CX), Bus(B_CY), Bus(B_CZ), Bus(B_ROOT), Bus(B_REM)
+CX, CY, CZ, ROOT, REM, ACC = (Bus(B_CX), Bus(B_CY), Bus(B_CZ), Bus(B_ROOT), Bus(B_REM),
+                              Bus(B_ACC))
 F, NOT_F = (C_F, 0), (C_F, 1)
 
 
@@ -152,13 +153,12 @@ class Asm:
         return slots
 
     def mul_const(self, m, bits: int) -> list:
-        """acc = mul_const(acc, m) for |acc| < 2**(bits - 1); uses variable ``mc_t``."""
+        """acc = mul_const(acc, m) for |acc| < 2**(bits - 1)."""
         if m.mant < 0:
             raise ValueError("negative constant multiplier")
         code = self.round_shift(m.pre)
         op_bits = max(2, bits - m.pre + 1)
-        code += [st("mc_t")]
-        code += self.products([("mc_t", op_bits, Const(m.mant), m.mant.bit_length() + 1, False, 0)])
+        code += self.products([(ACC, op_bits, Const(m.mant), m.mant.bit_length() + 1, False, 0)])
         return code + self.round_shift(m.post)
 
     # -- CORDIC --
@@ -184,10 +184,12 @@ class Asm:
                 alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations),
                 alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations)]
         gain = Const(ki.inv_gain)
-        for src, name in ((CX, "rot_gx"), (CY, "rot_gy")):
+        for src, load in ((CX, K_LDX), (CY, K_LDY)):
             code += self.products([(src, c.width + 1, gain, ki.inv_gain.bit_length() + 1, False, 0)])
-            code += self.round_shift(ki.inv_gain_frac - c.guard_bits) + [st(name)]
-        code += [I(cop=K_LDX, **operand("rot_gx")), I(), I(cop=K_LDY, **operand("rot_gy"))]
+            code += self.round_shift(ki.inv_gain_frac - c.guard_bits)
+            if load == K_LDX:
+                code += [st("rot_gx")]
+        code += [I(cop=K_LDY, bsel=B_ACC), I(cop=K_LDX, **operand("rot_gx"))]
         code += [I(cop=K_ROT, ci=i) for i in range(c.iterations)]
         for src, dest in ((CX, dest_x), (CY, dest_y)):
             code += [alu(A_LD, src)] + self.round_shift(c.guard_bits)
@@ -268,11 +270,12 @@ def _fold(code: list) -> list:
 
 
 def _hazards(code: list) -> list:
-    """A clock between a store and a read of the same word (the read happens a clock ahead)."""
+    """No-ops between a store and a read of the same word less than READ_AHEAD + 1 clocks later
+    (the read happens READ_AHEAD clocks ahead of its instruction)."""
     out = []
     for ins in code:
-        prev = out[-1] if out else {}
-        if prev.get("wr") and _reads_mem(ins) and ins.get("rd") == prev.get("wa"):
+        while _reads_mem(ins) and any(prev.get("wr") and prev.get("wa") == ins.get("rd")
+                                      for prev in out[-READ_AHEAD:]):
             if any(o.get("pick") for o in out[-2:]):
                 raise ValueError(f"store/read hazard inside a product at {ins}")
             out.append({})
