@@ -53,7 +53,8 @@ class SeqEngine(wiring.Component):
     flags word has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3) and takes it in a clock
     with ``in_valid`` high (``in_take``). Output: ``out_valid`` with word ``out_index`` (0..4:
     q1..q5, 5: status | tag << 5) in ``out_data``, held until ``out_ready``. One pose takes
-    ``cycles`` clocks when neither port waits.
+    ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
+    first instruction is about to execute.
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0):
@@ -67,7 +68,7 @@ class SeqEngine(wiring.Component):
         self.out_bits = max(w.word, STATUS_BITS + tag_width)
         super().__init__({
             "in_index": Out(unsigned(4)), "in_valid": In(1), "in_data": In(unsigned(self.in_bits)),
-            "in_take": Out(1), "in_ready": Out(1),
+            "in_take": Out(1), "in_ready": Out(1), "booted": Out(1),
             "out_valid": Out(1), "out_ready": In(1), "out_index": Out(unsigned(3)),
             "out_data": Out(unsigned(self.out_bits)),
         })
@@ -80,7 +81,7 @@ class SeqEngine(wiring.Component):
         # ``started`` is low in the first clock after power-up or reset, when the ROM's output
         # is not yet instruction 0: the program counter stays at 0 and a no-op executes.
         started = Signal()
-        m.d.sync += started.eq(1)
+        m.d.sync += [started.eq(1), self.booted.eq(started)]
         pc = Signal(range(len(words)))
         pc_next = Mux(stall | ~started, pc, Mux(pc == len(words) - 1, 0, pc + 1))
         m.d.sync += pc.eq(pc_next)
@@ -329,8 +330,9 @@ class SequencedIKCore(wiring.Component):
         w = e.widths
         held = Signal(self.i.payload.shape())
         full = Signal()
-        m.d.comb += self.i.ready.eq(~full)
-        with m.If(self.i.valid & ~full):
+        # Taken once the engine has booted, so the latency from any input transfer is `latency`.
+        m.d.comb += self.i.ready.eq(~full & e.booted)
+        with m.If(self.i.valid & self.i.ready):
             m.d.sync += [held.eq(self.i.payload), full.eq(1)]
         with m.If(e.in_take & (e.in_index == len(X.INPUT_WORDS))):
             m.d.sync += full.eq(0)
