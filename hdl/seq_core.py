@@ -49,7 +49,7 @@ def _pack(prog: X.Program):
 class SeqEngine(wiring.Component):
     """The sequenced IK engine (see the module docstring), with word ports.
 
-    Input: the program asks for word ``in_index`` (0..10: :data:`~.seq_isa.INPUT_WORDS`, 11: the
+    Input: the program asks for word ``in_index`` (the instruction executing next; 0..10: :data:`~.seq_isa.INPUT_WORDS`, 11: the
     flags word has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3) and takes it in a clock
     with ``in_valid`` high (``in_take``). Output: ``out_valid`` with word ``out_index`` (0..4:
     q1..q5, 5: status | tag << 5) in ``out_data``, held until ``out_ready``. One pose takes
@@ -103,6 +103,25 @@ class SeqEngine(wiring.Component):
             lo, n = layout[name]
             return exe[lo:lo + n]
 
+        def pre(name):
+            lo, n = layout[name]
+            return fetched[lo:lo + n]
+
+        # Controls of the wide datapaths decoded a clock early, from registers (their fan-out
+        # to 80-bit muxes and adders was the slowest path).
+        alu_op, bsel = pre("alu"), pre("bsel")
+        decoded = {
+            "sub": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPGT) | (alu_op == X.A_CMPLT),
+            "carry": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPLT),
+            "left_zero": (alu_op == X.A_NEG) | (alu_op == X.A_MLD),
+            "right_product": (alu_op == X.A_MLD) | (alu_op == X.A_MACC),
+            "right_acc": alu_op == X.A_NEG,
+            **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
+        }
+        dec = {name: Signal(name=f"dec_{name}") for name in decoded}
+        with m.If(~stall):
+            m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
+
         mem_shape = signed(w.mem)
         m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init)
         mem_rd = mem.read_port(transparent_for=())
@@ -126,30 +145,32 @@ class SeqEngine(wiring.Component):
         regs = self._registers(w)
         in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
         bus = Signal(signed(w.acc), name="bus")
-        with m.Switch(f("bsel")):
-            for index, value in enumerate([mem_q, in_word, regs["cx"], regs["cy"], regs["cz"],
-                                           regs["root"], regs["rem"], acc]):
-                with m.Case(index):
-                    m.d.comb += bus.eq(value)
+        options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
+        # One-hot AND-OR (the select is decoded ahead): one LUT level per few sources.
+        terms = [Mux(dec[f"bus{index}"], value, 0) for index, value in enumerate(options)]
+        total_bus = terms[0]
+        for term in terms[1:]:
+            total_bus = total_bus | term
+        m.d.comb += bus.eq(total_bus)
         sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
         cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
-        self._alu(m, f, acc, bus, cond, regs, run, w)
+        self._alu(m, f, dec, acc, bus, cond, regs, run, w)
         self._cordic(m, f, bus, cond, step, regs, run, w)
         self._multiplier(m, f, bus, regs, run, w)
         self._sqrt(m, f, acc, regs, run, w)
         m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
 
         # Word ports.
-        m.d.comb += [self.in_index.eq(f("iw")), self.in_take.eq(reading & run),
+        m.d.comb += [self.in_index.eq(Mux(stall, f("iw"), pre("iw"))), self.in_take.eq(reading & run),
                      self.in_ready.eq(reading),
                      self.out_valid.eq(writing), self.out_index.eq(Mux(io == X.IO_STATUS, 5, f("iw"))),
                      self.out_data.eq(Mux(io == X.IO_STATUS, Cat(regs["status"], regs["tag"]),
                                           acc[:w.word]))]
         with m.If(run & (io == X.IO_FLAGS)):
             m.d.sync += [regs["roll"].eq(self.in_data[0]), regs["back"].eq(self.in_data[1]),
-                         regs["down"].eq(self.in_data[2]), regs["status"].eq(0)]
+                         regs["down"].eq(self.in_data[2])]
             if w.tag:
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
         return m
@@ -169,19 +190,15 @@ class SeqEngine(wiring.Component):
             "rem": Signal(w.radicand // 2 + 2, name="rem"),
         }
 
-    def _alu(self, m, f, acc, bus, cond, regs, run, w):
+    def _alu(self, m, f, dec, acc, bus, cond, regs, run, w):
         op = f("alu")
         prod = regs["prod"]
         product = select([prod.shift_left(s) for s in self.prog.shifts], f("sh")).as_signed() \
             if len(self.prog.shifts) > 1 else prod.shift_left(self.prog.shifts[0])
-        is_product = (op == X.A_MLD) | (op == X.A_MACC)
-        negate = op == X.A_NEG
-        subtract = (op == X.A_SUB) | negate | (op == X.A_CMPGT) | (op == X.A_CMPLT)
-        carry = (op == X.A_SUB) | negate | (op == X.A_CMPLT)
-        left = Mux(negate | (op == X.A_MLD), 0, acc)
-        right = Mux(is_product, product, Mux(negate, acc, bus))
+        left = Mux(dec["left_zero"], 0, acc)
+        right = Mux(dec["right_product"], product, Mux(dec["right_acc"], acc, bus))
         total = Signal(signed(w.acc), name="alu_sum")
-        m.d.comb += total.eq(left + Mux(subtract, ~right, right) + carry)
+        m.d.comb += total.eq(left + Mux(dec["sub"], ~right, right) + dec["carry"])
         sat_i, clip_i = saturate(acc, w.internal)
         sat_w, clip_w = saturate(acc, w.word)
         shifted = {X.A_SHR1: acc.shift_right(1), X.A_SHR4: acc.shift_right(4),
@@ -214,8 +231,10 @@ class SeqEngine(wiring.Component):
                         m.d.sync += regs["flag"].eq(result)
                 with m.Case(X.A_SETF):
                     m.d.sync += regs["flag"].eq(cond)
-            with m.If(event):
-                m.d.sync += regs["status"].eq(regs["status"] | f("stat"))
+            # Status bits reach the register a clock after their event.
+            pending = Signal(STATUS_BITS, name="status_pending")
+            m.d.sync += [pending.eq(Mux(event, f("stat"), 0)),
+                         regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
 
     def _cordic(self, m, f, bus, cond, step, regs, run, w):
         op = f("cop")
@@ -297,7 +316,7 @@ class SequencedIKCore(wiring.Component):
     """The IK core (payloads of :class:`~ik5r.hdl.ik_core.IKCore`) on the sequenced engine.
 
     Function: ``model.ik_solve`` bit for bit (q1..q5, status, tag), formats as ``IKCore``.
-    Latency: ``latency`` = the program's length + 1 clocks from an input transfer into an idle
+    Latency: ``latency`` = the program's length + 2 clocks from an input transfer into an idle
     core to its result on ``o``. Throughput: one pose per ``cycles_per_result`` (the program's
     length) clocks: the next pose is taken into the input register while one is computed, and a
     result waits in the output register (the engine waits at its first output word while a
@@ -316,7 +335,7 @@ class SequencedIKCore(wiring.Component):
             out_fields["tag"] = (unsigned(tag_width), 0, "i.tag of the same item")
         self.in_fields, self.out_fields = in_fields, out_fields
         self.cycles_per_result = self._engine.cycles
-        self.latency = self._engine.cycles + 1
+        self.latency = self._engine.cycles + 2
         self.capacity = 3
         self.options = {}
         super().__init__({
@@ -340,7 +359,12 @@ class SequencedIKCore(wiring.Component):
         flags = Cat(held.has_roll, held.shoulder_back, held.elbow_down,
                     held.tag if self.tag_width else Const(0, 0))
         words = [Value.cast(getattr(held, name)).as_unsigned() for name in names] + [flags]
-        m.d.comb += [e.in_valid.eq(full), e.in_data.eq(select(words, e.in_index))]
+        # The word the engine executes next, registered (off the engine's critical paths); valid
+        # a clock after the input register is.
+        in_q = Signal(e.in_bits)
+        full_q = Signal()
+        m.d.sync += [in_q.eq(select(words, e.in_index)), full_q.eq(full)]
+        m.d.comb += [e.in_valid.eq(full_q), e.in_data.eq(in_q)]
 
         out = Signal(self.o.payload.shape())
         valid = Signal()

@@ -133,6 +133,7 @@ class Machine:
         self.acc = self.cx = self.cy = self.cz = 0
         self.f = self.zero = self.back = self.down = self.roll = 0
         self.status = self.tag = 0
+        self.pending = 0        # status bits of the previous instruction, ORed in one clock later
         self.ma = self.mb = self.la = self.lb = self.prod = 0
         self.rad = self.root = self.rem = 0
 
@@ -176,8 +177,9 @@ class Machine:
                    A_MLD: self.prod << shift, A_MACC: acc + (self.prod << shift)}[op]
         if not fits(acc, w.acc):
             raise OverflowError(f"accumulator overflow {acc} at {ins}")
-        if event:
-            self.status |= ins.get("stat", 0)
+        # Status bits reach the register one clock after their event (a register off the
+        # compare's carry chain).
+        status, self.pending = self.status | self.pending, ins.get("stat", 0) if event else 0
         # Memory write and word output take the accumulator before this instruction.
         if ins.get("wr"):
             if not fits(self.acc, w.mem):
@@ -192,11 +194,11 @@ class Machine:
             flags = inputs[len(INPUT_WORDS)]
             self.roll, self.back, self.down = flags & 1, (flags >> 1) & 1, (flags >> 2) & 1
             self.tag = flags >> 3
-            self.status = 0
+            status = 0
         self._cordic(ins, b, cond)
         self._multiply(ins, b)
         self._sqrt(ins)
-        self.acc, self.f = acc, f
+        self.acc, self.f, self.status = acc, f, status
 
     def _cordic(self, ins, b, cond):
         w, op = self.w, ins.get("cop", 0)
