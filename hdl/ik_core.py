@@ -745,6 +745,8 @@ class IKCore(StreamBlock):
       clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
       (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
       rounding, saturation) keep their own registers, each used for one clock per pose.
+      ``hdl.generate`` names this elaboration ``staged``: its ``compact`` IK core is the much
+      smaller sequenced engine, :class:`~ik5r.hdl.seq_core.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,

@@ -49,9 +49,9 @@ def _pack(prog: X.Program):
 class SeqEngine(wiring.Component):
     """The sequenced IK engine (see the module docstring), with word ports.
 
-    Input: the program asks for word ``in_index`` (the instruction executing next; 0..10: :data:`~.seq_isa.INPUT_WORDS`, 11: the
-    flags word has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3) and takes it in a clock
-    with ``in_valid`` high (``in_take``). Output: ``out_valid`` with word ``out_index`` (0..4:
+    Input: the program asks for word ``in_index`` (of the instruction executing next; 0..10:
+    :data:`~.seq_isa.INPUT_WORDS`, 11: the flags word has_roll | shoulder_back << 1 |
+    elbow_down << 2 | tag << 3) and takes it in a clock with ``in_valid`` high (``in_take``). Output: ``out_valid`` with word ``out_index`` (0..4:
     q1..q5, 5: status | tag << 5) in ``out_data``, held until ``out_ready``. One pose takes
     ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
     first instruction is about to execute.
@@ -206,31 +206,31 @@ class SeqEngine(wiring.Component):
         event = Signal(name="alu_event")
         m.d.comb += event.eq(cond)
         with m.If(run):
-            with m.Switch(op):
-                with m.Case(X.A_LD):
-                    with m.If(cond):
-                        m.d.sync += acc.eq(bus)
-                with m.Case(X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC):
-                    with m.If(cond):
-                        m.d.sync += acc.eq(total)
-                with m.Case(X.A_SHR1, X.A_SHR4, X.A_SHR16):
-                    with m.If(cond):
-                        m.d.sync += acc.eq(Mux(op == X.A_SHR1, shifted[X.A_SHR1],
-                                               Mux(op == X.A_SHR4, shifted[X.A_SHR4],
-                                                   shifted[X.A_SHR16])))
-                with m.Case(X.A_SATI):
-                    m.d.sync += acc.eq(sat_i)
-                    m.d.comb += event.eq(cond & clip_i)
-                with m.Case(X.A_SATW):
-                    m.d.sync += acc.eq(sat_w)
-                    m.d.comb += event.eq(cond & clip_w)
-                with m.Case(X.A_CMPGT, X.A_CMPLT):
-                    result = Mux(op == X.A_CMPGT, ~total[-1], total[-1])
-                    m.d.comb += event.eq(cond & result)
-                    with m.If(cond):
-                        m.d.sync += regs["flag"].eq(result)
-                with m.Case(X.A_SETF):
-                    m.d.sync += regs["flag"].eq(cond)
+            with m.If(op == X.A_LD):
+                with m.If(cond):
+                    m.d.sync += acc.eq(bus)
+            with m.Elif((op == X.A_ADD) | (op == X.A_SUB) | (op == X.A_NEG) | (op == X.A_MLD)
+                        | (op == X.A_MACC)):
+                with m.If(cond):
+                    m.d.sync += acc.eq(total)
+            with m.Elif((op == X.A_SHR1) | (op == X.A_SHR4) | (op == X.A_SHR16)):
+                with m.If(cond):
+                    m.d.sync += acc.eq(Mux(op == X.A_SHR1, shifted[X.A_SHR1],
+                                           Mux(op == X.A_SHR4, shifted[X.A_SHR4],
+                                               shifted[X.A_SHR16])))
+            with m.Elif(op == X.A_SATI):
+                m.d.sync += acc.eq(sat_i)
+                m.d.comb += event.eq(cond & clip_i)
+            with m.Elif(op == X.A_SATW):
+                m.d.sync += acc.eq(sat_w)
+                m.d.comb += event.eq(cond & clip_w)
+            with m.Elif((op == X.A_CMPGT) | (op == X.A_CMPLT)):
+                result = Mux(op == X.A_CMPGT, ~total[-1], total[-1])
+                m.d.comb += event.eq(cond & result)
+                with m.If(cond):
+                    m.d.sync += regs["flag"].eq(result)
+            with m.Elif(op == X.A_SETF):
+                m.d.sync += regs["flag"].eq(cond)
             # Status bits reach the register a clock after their event.
             pending = Signal(STATUS_BITS, name="status_pending")
             m.d.sync += [pending.eq(Mux(event, f("stat"), 0)),
@@ -253,27 +253,27 @@ class SeqEngine(wiring.Component):
         fits1 = v[top - 1:] == 0
         go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
         with m.If(run):
-            with m.Switch(op):
-                with m.Case(X.K_LDX, X.K_LDXG):
-                    with m.If(cond):
-                        m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
-                        with m.If(op == X.K_LDXG):
-                            m.d.sync += z.eq(0)
-                with m.Case(X.K_LDY, X.K_LDYG):
-                    with m.If(cond):
-                        m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
-                with m.Case(X.K_LDZA):
-                    with m.If(cond):
-                        m.d.sync += z.eq(bus.shift_left(w.angle_guard))
-                with m.Case(X.K_NORM8):
-                    with m.If(fits8):
-                        m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
-                with m.Case(X.K_NORM1):
-                    with m.If(fits1):
-                        m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
-                with m.Case(X.K_COARSE, X.K_QROT, X.K_VEC, X.K_ROT):
-                    with m.If(go):
-                        m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
+            with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
+                with m.If(cond):
+                    m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
+                    with m.If(op == X.K_LDXG):
+                        m.d.sync += z.eq(0)
+            with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
+                with m.If(cond):
+                    m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
+            with m.Elif(op == X.K_LDZA):
+                with m.If(cond):
+                    m.d.sync += z.eq(bus.shift_left(w.angle_guard))
+            with m.Elif(op == X.K_NORM8):
+                with m.If(fits8):
+                    m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
+            with m.Elif(op == X.K_NORM1):
+                with m.If(fits1):
+                    m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
+            with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
+                        | (op == X.K_ROT)):
+                with m.If(go):
+                    m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
             with m.If(op == X.K_COARSE):
                 m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
 
@@ -370,14 +370,13 @@ class SequencedIKCore(wiring.Component):
         valid = Signal()
         m.d.comb += [self.o.payload.eq(out), self.o.valid.eq(valid), e.out_ready.eq(~valid)]
         with m.If(e.out_valid & ~valid):
-            with m.Switch(e.out_index):
-                for j in range(5):
-                    with m.Case(j):
-                        m.d.sync += getattr(out, f"q{j + 1}").eq(e.out_data[:w.word])
-                with m.Case(5):
-                    m.d.sync += [out.status.eq(e.out_data[:STATUS_BITS]), valid.eq(1)]
-                    if self.tag_width:
-                        m.d.sync += out.tag.eq(e.out_data[STATUS_BITS:STATUS_BITS + self.tag_width])
+            for j in range(5):
+                with m.If(e.out_index == j):
+                    m.d.sync += getattr(out, f"q{j + 1}").eq(e.out_data[:w.word])
+            with m.If(e.out_index == 5):
+                m.d.sync += [out.status.eq(e.out_data[:STATUS_BITS]), valid.eq(1)]
+                if self.tag_width:
+                    m.d.sync += out.tag.eq(e.out_data[STATUS_BITS:STATUS_BITS + self.tag_width])
         with m.If(valid & self.o.ready):
             m.d.sync += valid.eq(0)
         return m

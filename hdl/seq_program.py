@@ -15,9 +15,10 @@ from ik5r.fxconfig import Constants
 from .cordic import atan2_widths, rotate_z_bound
 from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_NOP, A_SATI, A_SATW,
                       A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_IN, B_MEM, B_REM, B_ROOT,
-                      C_BACK, C_DOWN, C_F, C_ONE, C_ROLL, C_ZERO, FIELDS, INPUT_WORDS, IO_FLAGS,
+                      C_BACK, C_DOWN, C_F, C_ROLL, C_ZERO, INPUT_WORDS, IO_FLAGS,
                       IO_IN, IO_OUT, IO_STATUS, K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA,
-                      K_NORM1, K_NORM8, K_QROT, K_ROT, K_VEC, LIMB, Q_LOAD, READ_AHEAD, Q_STEP, Program, Widths)
+                      K_NORM1, K_NORM8, K_QROT, K_ROT, K_VEC, LIMB, Q_LOAD, Q_STEP, READ_AHEAD,
+                      Program, Widths)
 
 __all__ = ["ik_program", "Asm"]
 
@@ -164,7 +165,8 @@ class Asm:
     # -- CORDIC --
     def atan2_body(self) -> list:
         w = self.ki.cfg.width
-        return ([I(cop=K_COARSE, ci=self.ki.cfg.iterations)] + [I(cop=K_NORM8)] * ((w - 1) // 8) + [I(cop=K_NORM1)] * 7
+        return ([I(cop=K_COARSE, ci=self.ki.cfg.iterations)] + [I(cop=K_NORM8)] * ((w - 1) // 8)
+                + [I(cop=K_NORM1)] * 7
                 + [I(cop=K_VEC, ci=i) for i in range(self.ki.cfg.iterations)])
 
     def atan2_angle(self, zero_status=0) -> list:
@@ -298,7 +300,7 @@ def ik_program(k: Constants) -> Program:
     a = Asm(k)
     ki = k.internal
     c = ki.cfg
-    wi, fu, g = c.width, c.frac_unit, k.cfg.internal_guard_bits
+    wi, fu = c.width, c.frac_unit
     radicand = 2 * wi
     code = []
     for index, name in enumerate(INPUT_WORDS):
@@ -393,7 +395,7 @@ def elbow(a: Asm) -> list:
     """xw, yw, the law of cosines clipped to the annulus, 1 -+ c3 and c3 (model.ik_solve)."""
     ki = a.ki
     c = ki.cfg
-    wi, fu = c.width, c.frac_unit
+    wi = c.width
     code = [alu(A_LD, "xa"), alu(A_SUB, "offx"), alu(A_SATI, stat=S.SATURATED), st("xw"),
             alu(A_LD, Const(ki.d1_l)), alu(A_SUB, "pz"), alu(A_SUB, "offy"),
             alu(A_SATI, stat=S.SATURATED), st("yw"), alu(A_LD, Const(-ki.links_sq_l2))]
