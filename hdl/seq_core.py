@@ -118,6 +118,13 @@ class SeqEngine(wiring.Component):
             "right_acc": alu_op == X.A_NEG,
             **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
         }
+        cop = pre("cop")
+        quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
+        decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
+        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters.
+        shift = Signal(range(len(prog.atan)), name="cordic_shift")
+        with m.If(~stall):
+            m.d.sync += shift.eq(Mux(quarter, 0, pre("ci")))
         dec = {name: Signal(name=f"dec_{name}") for name in decoded}
         with m.If(~stall):
             m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
@@ -157,8 +164,8 @@ class SeqEngine(wiring.Component):
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
         self._alu(m, f, dec, acc, bus, cond, regs, run, w)
-        self._cordic(m, f, bus, cond, step, regs, run, w)
-        self._multiplier(m, f, bus, regs, run, w)
+        self._cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
+        self._multiplier(m, f, pre("sh"), bus, regs, run, w)
         self._sqrt(m, f, acc, regs, run, w)
         m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
 
@@ -185,16 +192,14 @@ class SeqEngine(wiring.Component):
             "cz": Signal(signed(w.z), name="cz"),
             "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
             "la": Signal(signed(16), name="la"), "lb": Signal(signed(16), name="lb"),
-            "prod": Signal(signed(32), name="prod"),
+            "prod": Signal(signed(w.acc), name="prod"),
             "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
             "rem": Signal(w.radicand // 2 + 2, name="rem"),
         }
 
     def _alu(self, m, f, dec, acc, bus, cond, regs, run, w):
         op = f("alu")
-        prod = regs["prod"]
-        product = select([prod.shift_left(s) for s in self.prog.shifts], f("sh")).as_signed() \
-            if len(self.prog.shifts) > 1 else prod.shift_left(self.prog.shifts[0])
+        product = regs["prod"]
         left = Mux(dec["left_zero"], 0, acc)
         right = Mux(dec["right_product"], product, Mux(dec["right_acc"], acc, bus))
         total = Signal(signed(w.acc), name="alu_sum")
@@ -236,13 +241,11 @@ class SeqEngine(wiring.Component):
             m.d.sync += [pending.eq(Mux(event, f("stat"), 0)),
                          regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
 
-    def _cordic(self, m, f, bus, cond, step, regs, run, w):
+    def _cordic(self, m, f, dec, shift, bus, cond, step, regs, run, w):
         op = f("cop")
         x, y, z = regs["cx"], regs["cy"], regs["cz"]
-        quarter = (op == X.K_COARSE) | (op == X.K_QROT)
-        vectoring = (op == X.K_VEC) | (op == X.K_COARSE)
-        ccw = Mux(vectoring, y[-1], ~z[-1])
-        shift = Mux(quarter, 0, f("ci"))
+        quarter = dec["quarter"]
+        ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
         x_next = add_sub(Mux(quarter, 0, x), asr(y, shift), ccw)
         y_next = add_sub(Mux(quarter, 0, y), asr(x, shift), ~ccw)
         z_next = add_sub(z, step, ccw)
@@ -277,14 +280,19 @@ class SeqEngine(wiring.Component):
             with m.If(op == X.K_COARSE):
                 m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
 
-    def _multiplier(self, m, f, bus, regs, run, w):
+    def _multiplier(self, m, f, next_shift, bus, regs, run, w):
         def limb(reg, index, top):
             options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
                        for i in range(w.limbs)]
             return select(options, index).as_signed()
 
         with m.If(run):
-            m.d.sync += regs["prod"].eq(regs["la"] * regs["lb"])
+            # The product register holds the limb product already shifted to its weight, by
+            # the shift of the instruction that adds it (the next one to execute).
+            product = regs["la"] * regs["lb"]
+            shifts = self.prog.shifts
+            m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
+                                        if len(shifts) > 1 else product.shift_left(shifts[0]))
             with m.If(f("pick")):
                 m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"))),
                              regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb")))]
