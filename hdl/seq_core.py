@@ -286,10 +286,11 @@ class SeqEngine(wiring.Component):
                        for i in range(w.limbs)]
             return select(options, index).as_signed()
 
+        product = Signal(signed(32), name="limb_product")     # the one multiplier
+        m.d.comb += product.eq(regs["la"] * regs["lb"])
         with m.If(run):
             # The product register holds the limb product already shifted to its weight, by
             # the shift of the instruction that adds it (the next one to execute).
-            product = regs["la"] * regs["lb"]
             shifts = self.prog.shifts
             m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
                                         if len(shifts) > 1 else product.shift_left(shifts[0]))
