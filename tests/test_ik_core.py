@@ -7,7 +7,9 @@ degenerate approaches, full-scale and most negative words), for both architectur
 q32. The pipelined core runs at full rate (exact latency, one pose per clock), then with random
 input gaps and output back-pressure (order, no loss, output held stable), then with the output held
 until it is full (exactly its capacity taken, nothing lost, full rate again once released); the
-compact core with back-pressure too.
+staged elaboration (``IKCore(arch="compact")``, ``generate`` arch ``staged``; slow set) with
+back-pressure too. The ``compact`` arch of ``generate`` (the sequenced engine) is tested in
+tests/test_seq_core.py.
 """
 
 from __future__ import annotations
@@ -86,8 +88,11 @@ def test_pipelined(cfg):
     check_output_held(dut, (items * repeats)[:dut.capacity + 40], (expected * repeats)[:dut.capacity + 40])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cfg", CONFIGS)
-def test_compact(cfg):
+def test_staged(cfg):
+    """IKCore's one-register-set-per-stage elaboration (``generate`` arch ``staged``; the
+    ``compact`` arch is the sequenced engine, tests/test_seq_core.py)."""
     k = _k(cfg)
     # One pose per `latency` cycles (~1000 cycles/s in Amaranth's simulator): the directed set and
     # fewer random poses (the pipelined test runs 200 through the same expressions).
@@ -104,8 +109,9 @@ def test_compact(cfg):
     compare(items[:12], expected[:12], outputs)
 
 
-def test_compact_internal_format():
-    """The compact core on q32w's internal format: every eighth directed pose and a few random
+@pytest.mark.slow
+def test_staged_internal_format():
+    """The staged core on q32w's internal format: every eighth directed pose and a few random
     ones (the pipelined test runs them all through the same expressions)."""
     k = _k("q32w")
     poses = concat(directed_poses(k)[::8], random_poses(k, 1, seed=4))
@@ -148,14 +154,15 @@ def test_constructor_validation():
     gc.collect()   # the half-built components warn here (filtered), not in a later test
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cfg", CONFIGS)
-def test_compact_shares_its_units(cfg):
-    """The compact core's structure: every CORDIC step on one shared unit (one step counter and
+def test_staged_shares_its_units(cfg):
+    """The staged core's structure: every CORDIC step on one shared unit (one step counter and
     one register set for all eight), the two square roots digit-serial, each multiplier stepped
     over its partial products; the pipelined core unrolls them all."""
     k = _k(cfg)
     # Through the Verilog cache: the lint test and the testbenches convert the same designs.
-    compact, _ = generate_cached("ik", "compact", k, 0)
+    compact, _ = generate_cached("ik", "staged", k, 0)
     steps = set(re.findall(r"^\s*reg [^;]*?(\w+_step)\b", compact, re.M))
     assert [s for s in steps if "cordic" in s or "_it" in s] == ["unit_cordic_step"]
     assert len([s for s in steps if s.endswith("_digit_step")]) == 2
