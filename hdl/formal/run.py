@@ -18,7 +18,8 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import asdict, dataclass
+import re
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from amaranth.back import rtlil
@@ -54,6 +55,7 @@ class Result:
     status: str          # PASS (proved; bmc: to depth), FAIL (counterexample), ERROR
     seconds: float
     detail: str = ""
+    failed: list = field(default_factory=list)   # names of the failed assertions (FAIL)
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
@@ -104,15 +106,19 @@ def _solver_shim(workdir: Path) -> str:
 
 
 def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str | None = None,
-          depth: int | None = None, workdir: Path | None = None) -> Result:
+          depth: int | None = None, workdir: Path | None = None, method: str | None = None) -> Result:
     """Run the job of one property group of one component: ``control`` by k-induction
-    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by BMC (2 x latency + 4)."""
+    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by BMC (2 x latency + 4).
+    ``method`` ("k-induction" or "bmc") overrides; a BMC of ``control`` defaults to latency + 8
+    cycles (long enough for an item to reach the output: the self-test's counterexamples)."""
     start = time.monotonic()
     top = harness(block, arch, config, (check,), mutation)
     latency, capacity = top.dut.latency, top.dut.capacity
-    mode = "prove" if check == "control" else "bmc"
+    method = method or ("k-induction" if check == "control" else "bmc")
+    mode = {"k-induction": "prove", "bmc": "bmc"}[method]
     if depth is None:
-        depth = INDUCTION_DEPTH if mode == "prove" else 2 * latency + 4
+        depth = INDUCTION_DEPTH if mode == "prove" else \
+            (2 * latency + 4 if check == "order" else latency + 8)
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     scratch = None
@@ -131,12 +137,12 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
                               capture_output=True, text=True)
         status = _status(workdir / "contract", proc)
         detail = "" if status == "PASS" else _detail(proc.stdout)
+        failed = _failed_assertions(proc.stdout) if status == "FAIL" else []
     finally:
         if scratch is not None:
             scratch.cleanup()
-    method = "k-induction" if mode == "prove" else "bmc"
     return Result(block, arch, check, config, mutation, latency, capacity, method, depth, status,
-                  round(time.monotonic() - start, 1), detail)
+                  round(time.monotonic() - start, 1), detail, failed)
 
 
 def _status(jobdir: Path, proc) -> str:
@@ -152,6 +158,19 @@ def _detail(log: str) -> str:
     """The failed assertions (or the last lines) of an sby log."""
     lines = [line for line in log.splitlines() if "Assert failed" in line or "failed assertion" in line]
     return "\n".join(lines[-4:] or log.splitlines()[-6:])
+
+
+def _failed_assertions(log: str) -> list:
+    """The names (the message of each ``Assert`` in :mod:`.contract`) of the failed assertions,
+    from the source locations SymbiYosys reports."""
+    names = set()
+    for path, line in set(re.findall(r"failed assertion \S+ at (\S+\.py):(\d+)", log)):
+        try:
+            text = Path(path).read_text().splitlines()[int(line) - 1]
+        except (OSError, IndexError):
+            continue
+        names.update(re.findall(r'"(\w+)"', text) or [f"{Path(path).name}:{line}"])
+    return sorted(names)
 
 
 def main(argv=None) -> int:
