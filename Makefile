@@ -6,7 +6,7 @@ STAMP := $(VENV)/.ik5r-installed
 CONFIG ?= q32w
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: demo test test-slow bench verilog report synth sweep results simulator clean
+.PHONY: demo test test-slow formal bench verilog report synth sweep results simulator clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -32,6 +32,10 @@ test: $(STAMP) simulator
 
 test-slow: $(STAMP) simulator
 	$(PY) -m pytest -q -m slow
+
+# The stream contract of every block and IK core, proved with SymbiYosys (hdl/formal).
+formal: $(STAMP)
+	$(PY) -m ik5r.hdl.formal --json build/formal.json
 
 bench: $(STAMP) simulator
 	$(PY) -m ik5r.bench

@@ -67,7 +67,7 @@ def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
 
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
-INDUCTION_DEPTH = 4
+INDUCTION_DEPTH = 2
 
 
 #: Yosys commands after ``prep``. ``control``: the read registers are taken out of the memories
@@ -203,6 +203,7 @@ def main(argv=None) -> int:
                   f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s"
                   + (f"\n  {result.detail}" if result.detail else ""), flush=True)
     if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=2) + "\n")
     expected = "FAIL" if args.mutation else "PASS"
     return 0 if all(r.status == expected for r in results) else 1
