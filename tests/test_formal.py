@@ -2,9 +2,13 @@
 
 Every block (atan2, rotate, sqrt, acos; pipelined and iterative) and both IK cores (pipelined,
 compact): the ``control`` group (hold, conservation, reset, credits) proved by k-induction on the
-real component with its data abstracted. The self-test: each injected fault (a broken hold, a lost
-item, a changed held payload) must make the proof fail with a counterexample. The jobs run two at
-a time (each is a solver subprocess), started when the first test of this module is reached.
+real component with its data abstracted; the ``order`` group (two marked items) by BMC from reset,
+to 2 x latency + 4 cycles where one item is in flight (iterative blocks, compact core: the blocks
+in the default run, the core in the slow set) and to latency + 8 for the pipelined builds (slow
+set). The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must
+make the proof fail with a counterexample on the assertion it breaks. The jobs of the selected
+tests run two at a time (each is a solver subprocess), started when the first test of this module
+is reached.
 """
 
 from __future__ import annotations
@@ -25,22 +29,47 @@ MUTANTS = [(mutation, block, arch) for mutation in MUTATIONS
            for block, arch in (("sqrt", "pipelined"), ("sqrt", "iterative"))]
 
 
+#: Jobs left to the slow set (minutes each): see the module docstring.
+SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined"), ("order", "ik", "compact")} | {
+    ("order", block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos")}
+
+
+def _param(check, block, arch):
+    marks = (pytest.mark.slow,) if (check, block, arch) in SLOW else ()
+    return pytest.param(check, block, arch, id=f"{check}-{block}-{arch}", marks=marks)
+
+
+PROOFS = [_param(check, block, arch) for check in ("control", "order") for block, arch in JOBS]
+
+
 @pytest.fixture(scope="module")
-def proofs():
+def proofs(request):
+    """Starts the proof jobs of this module's selected tests in a pool of two."""
+    selected = []
+    for item in request.session.items:
+        if item.module is request.module and hasattr(item, "callspec"):
+            params = item.callspec.params
+            key = (params.get("check", "control"), params["block"], params["arch"],
+                   params.get("mutation"))
+            if key not in selected:
+                selected.append(key)
     with ThreadPoolExecutor(max_workers=2) as pool:
-        futures = {("control", block, arch, None): pool.submit(prove, block, arch, "control")
-                   for block, arch in JOBS}
-        futures.update({("control", block, arch, mutation): pool.submit(
-            prove, block, arch, "control", mutation=mutation, method="bmc")
-            for mutation, block, arch in MUTANTS})
+        futures = {key: pool.submit(prove, key[1], key[2], key[0], mutation=key[3],
+                                    method="bmc" if key[3] else None)
+                   for key in selected}
         yield lambda key: futures[key].result()
 
 
-@pytest.mark.parametrize("block,arch", JOBS, ids=[f"{b}-{a}" for b, a in JOBS])
-def test_control_proved_by_induction(proofs, block, arch):
-    r = proofs(("control", block, arch, None))
+@pytest.mark.parametrize("check,block,arch", PROOFS)
+def test_contract_proved(proofs, check, block, arch):
+    r = proofs((check, block, arch, None))
     assert r.status == "PASS", r.detail
-    assert r.method == "k-induction" and r.config == "q18"
+    assert r.config == "q18"
+    if check == "control":
+        assert r.method == "k-induction"
+    else:
+        assert r.method == "bmc"
+        assert r.depth == (2 * r.latency + 4 if r.capacity == 1 else r.latency + 8)
 
 
 @pytest.mark.parametrize("mutation,block,arch", MUTANTS, ids=[f"{m}-{b}-{a}" for m, b, a in MUTANTS])

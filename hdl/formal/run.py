@@ -116,15 +116,18 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     """Run the job of one property group of one component: ``control`` by k-induction
     (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by BMC (2 x latency + 4).
     ``method`` ("k-induction" or "bmc") overrides; a BMC of ``control`` defaults to latency + 8
-    cycles (long enough for an item to reach the output: the self-test's counterexamples)."""
+    cycles (long enough for an item to reach the output: the self-test's counterexamples).
+    ``order`` of a pipelined build (an output FIFO of ``capacity`` items) defaults to latency + 8
+    too: deeper, the solver's cost grows past minutes (it must track both marks through the
+    FIFO's pointers); one item in flight (iterative, compact): 2 x latency + 4."""
     start = time.monotonic()
     top = harness(block, arch, config, (check,), mutation)
     latency, capacity = top.dut.latency, top.dut.capacity
     method = method or ("k-induction" if check == "control" else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
     if depth is None:
-        depth = INDUCTION_DEPTH if mode == "prove" else \
-            (2 * latency + 4 if check == "order" else latency + 8)
+        deep = check == "order" and capacity == 1
+        depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if deep else latency + 8)
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     scratch = None
