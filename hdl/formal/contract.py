@@ -151,6 +151,13 @@ class StreamContract(Elaboratable):
         self.i_payload = Signal(dut.i.payload.shape(), name="env_i_payload")
         self.o_ready = Signal(name="env_o_ready")
         self.glitch = Signal(name="env_glitch")
+        #: Source line of each assertion -> its name (how SymbiYosys names a failed one).
+        self.assert_names = {}
+
+    def _assert(self, test, name: str):
+        check = Assert(test, name, src_loc_at=1)
+        self.assert_names[check.src_loc[1]] = name
+        return check
 
     @property
     def ports(self):
@@ -203,8 +210,8 @@ class StreamContract(Elaboratable):
             m.d.comb += flipped.eq(o_payload.as_value() ^ stalled)
             o_payload = flipped
         with m.If(stalled):
-            m.d.comb += Assert(o_valid, "hold_valid")
-            m.d.comb += Assert(o_payload.as_value() == held.as_value(), "hold_payload")
+            m.d.comb += self._assert(o_valid, "hold_valid")
+            m.d.comb += self._assert(o_payload.as_value() == held.as_value(), "hold_payload")
 
     def _conservation(self, m, inner, taken_in, taken_out, past_rst):
         """Items inside, counted at the ports, against the component's occupancy."""
@@ -221,12 +228,12 @@ class StreamContract(Elaboratable):
             fifo, _ = inner._named_submodules[f"{name}_output_fifo"]
             occupancy = occupancy + fifo.level + _find_signal(inner, f"{name}_fifo_write")
         m.d.comb += [
-            Assert(inside <= capacity, "capacity"),
-            Assert(inside == occupancy, "conservation"),
-            Assert(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
+            self._assert(inside <= capacity, "capacity"),
+            self._assert(inside == occupancy, "conservation"),
+            self._assert(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
         ]
         with m.If(past_rst):
-            m.d.comb += Assert(~self.dut.o.valid & (inside == 0), "reset_empties")
+            m.d.comb += self._assert(~self.dut.o.valid & (inside == 0), "reset_empties")
         return inside
 
     def _segment_counts(self, m, stages, taken_in):
@@ -246,7 +253,7 @@ class StreamContract(Elaboratable):
                 m.d.sync += count.eq(count + 1)
             with m.Elif(part[-1] & ~entering):
                 m.d.sync += count.eq(count - 1)
-            m.d.comb += Assert(count == sum(part), "segment_count")
+            m.d.comb += self._assert(count == sum(part), "segment_count")
             counts.append(count)
         return sum(counts)
 
@@ -257,12 +264,12 @@ class StreamContract(Elaboratable):
         fifo, _ = inner._named_submodules[f"{name}_output_fifo"]
         capacity = self.dut.capacity
         m.d.comb += [
-            Assert(credits + inside == capacity, "credits"),
-            Assert(self.dut.i.ready == (credits != 0), "ready_is_credit"),
-            Assert(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
+            self._assert(credits + inside == capacity, "credits"),
+            self._assert(self.dut.i.ready == (credits != 0), "ready_is_credit"),
+            self._assert(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
             # SyncFIFOBuffered's own invariant: its output register is empty only while at
             # most one item is queued behind it (it is refilled the cycle after).
-            Assert(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
+            self._assert(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
         ]
 
     def _marks(self, m, rst, taken_in, taken_out, o_valid, o_tag):
@@ -279,14 +286,14 @@ class StreamContract(Elaboratable):
             m.d.sync += [got_a.eq(got_a | (o_tag == 1)), got_b.eq(got_b | (o_tag == 2))]
         with m.If(o_valid):
             m.d.comb += [
-                Assert(o_tag != 3, "mark_invented"),
-                Assert((o_tag != 1) | (sent_a & ~got_a), "mark_a_once"),
-                Assert((o_tag != 2) | (sent_b & ~got_b), "mark_b_once"),
-                Assert((o_tag != 2) | got_a, "order"),
+                self._assert(o_tag != 3, "mark_invented"),
+                self._assert((o_tag != 1) | (sent_a & ~got_a), "mark_a_once"),
+                self._assert((o_tag != 2) | (sent_b & ~got_b), "mark_b_once"),
+                self._assert((o_tag != 2) | got_a, "order"),
             ]
         waiting = Signal(range(self.dut.latency + 1))
         with m.If(sent_a & ~got_a & ~o_valid & ~rst):
             m.d.sync += waiting.eq(waiting + 1)
         with m.Else():
             m.d.sync += waiting.eq(0)
-        m.d.comb += Assert(waiting < self.dut.latency, "a_not_lost")
+        m.d.comb += self._assert(waiting < self.dut.latency, "a_not_lost")

@@ -148,7 +148,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
                               capture_output=True, text=True)
         status = _status(workdir / "contract", proc)
         detail = "" if status == "PASS" else _detail(proc.stdout)
-        failed = _failed_assertions(proc.stdout) if status == "FAIL" else []
+        failed = _failed_assertions(proc.stdout, top.assert_names) if status == "FAIL" else []
     finally:
         if scratch is not None:
             scratch.cleanup()
@@ -171,17 +171,12 @@ def _detail(log: str) -> str:
     return "\n".join(lines[-4:] or log.splitlines()[-6:])
 
 
-def _failed_assertions(log: str) -> list:
-    """The names (the message of each ``Assert`` in :mod:`.contract`) of the failed assertions,
+def _failed_assertions(log: str, names: dict) -> list:
+    """The names of the failed assertions (``names``: source line -> name, from the harness),
     from the source locations SymbiYosys reports."""
-    names = set()
-    for path, line in set(re.findall(r"failed assertion \S+ at (\S+\.py):(\d+)", log)):
-        try:
-            text = Path(path).read_text().splitlines()[int(line) - 1]
-        except (OSError, IndexError):
-            continue
-        names.update(re.findall(r'"(\w+)"', text) or [f"{Path(path).name}:{line}"])
-    return sorted(names)
+    found = set(re.findall(r"failed assertion \S+ at (\S+\.py):(\d+)", log))
+    return sorted({names.get(int(line), f"{Path(path).name}:{line}") if Path(path).name == "contract.py"
+                   else f"{Path(path).name}:{line}" for path, line in found})
 
 
 def main(argv=None) -> int:
