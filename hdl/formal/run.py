@@ -58,6 +58,7 @@ class Result:
     seconds: float
     detail: str = ""
     failed: list = field(default_factory=list)   # names of the failed assertions (FAIL)
+    process_seconds: int | None = None   # CPU time of SymbiYosys's processes (its summary)
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
@@ -149,11 +150,12 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
         status = _status(workdir / "contract", proc)
         detail = "" if status == "PASS" else _detail(proc.stdout)
         failed = _failed_assertions(proc.stdout, top.assert_names) if status == "FAIL" else []
+        cpu = re.search(r"Elapsed process time \[H:MM:SS \(secs\)\]: \S+ \((\d+)\)", proc.stdout)
     finally:
         if scratch is not None:
             scratch.cleanup()
     return Result(block, arch, check, config, mutation, latency, capacity, method, depth, status,
-                  round(time.monotonic() - start, 1), detail, failed)
+                  round(time.monotonic() - start, 1), detail, failed, int(cpu.group(1)) if cpu else None)
 
 
 def _status(jobdir: Path, proc) -> str:
@@ -202,7 +204,8 @@ def main(argv=None) -> int:
             result = future.result()
             results.append(result)
             print(f"{result.block:6} {result.arch:10} {result.check:8} {result.config} latency {result.latency:4} "
-                  f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s"
+                  f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s "
+                  f"(solver CPU {result.process_seconds} s)"
                   + (f"\n  {result.detail}" if result.detail else ""), flush=True)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
