@@ -26,8 +26,9 @@ pytestmark = pytest.mark.formal
 #: The assertions a fault may break first (a counterexample stops at the first failing cycle;
 #: the component popping its output while o.ready is low breaks the hold and, in the same cycle,
 #: the count of items inside).
-BROKEN = {"ready_glitch": {"hold_valid", "hold_payload", "conservation", "credits"},
-          "drop_input": {"conservation", "segment_count", "credits"},
+BROKEN = {"ready_glitch": {"hold_valid", "hold_payload", "conservation", "segment_count",
+                            "credits", "capacity"},
+          "drop_input": {"conservation", "segment_count", "credits", "capacity"},
           "payload_flip": {"hold_payload"}}
 MUTANTS = [(mutation, block, arch) for mutation in MUTATIONS
            for block, arch in (("sqrt", "pipelined"), ("sqrt", "iterative"))]
