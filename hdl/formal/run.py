@@ -58,7 +58,7 @@ class Result:
     seconds: float
     detail: str = ""
     failed: list = field(default_factory=list)   # names of the failed assertions (FAIL)
-    process_seconds: int | None = None   # CPU time of SymbiYosys's processes (its summary)
+    process_seconds: int | None = None   # "Elapsed process time" of the SymbiYosys summary
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
@@ -205,7 +205,7 @@ def main(argv=None) -> int:
             results.append(result)
             print(f"{result.block:6} {result.arch:10} {result.check:8} {result.config} latency {result.latency:4} "
                   f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s "
-                  f"(solver CPU {result.process_seconds} s)"
+                  f"(SymbiYosys process time {result.process_seconds} s)"
                   + (f"\n  {result.detail}" if result.detail else ""), flush=True)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
