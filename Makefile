@@ -9,7 +9,7 @@ CONFIG ?= q32w
 TEST_JOBS ?= auto
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: demo test test-slow bench verilog report synth sweep results simulator riscv firmware clean
+.PHONY: demo test test-slow formal bench verilog report synth sweep results simulator riscv firmware clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -53,6 +53,10 @@ test: $(STAMP) simulator riscv
 
 test-slow: $(STAMP) simulator riscv
 	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1 -m slow
+
+# The stream contract of every block and IK core, proved with SymbiYosys (hdl/formal).
+formal: $(STAMP)
+	$(PY) -m ik5r.hdl.formal --json build/formal.json
 
 bench: $(STAMP) simulator
 	$(PY) -m ik5r.bench

@@ -283,11 +283,12 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
               waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
-              cflags: str = "-O1", dsp: str = "generic") -> dict:
+              cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None) -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
     ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
-    with their models in ``hdl/sim/``."""
+    with their models in ``hdl/sim/``. ``fault`` (testbench self-test): corrupt the stream
+    monitor's view (:class:`~ik5r.hdl.tb.stream_tb.Monitor`); the run must then fail."""
     from ik5r.hdl.generate import resolve_arch
 
     arch = resolve_arch(block, arch)
@@ -312,7 +313,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
         (work / name).unlink(missing_ok=True)
     job = {"portmap": str(jpath), "block": block, "arch": arch, "config": config, "seed": seed,
            "work_dir": str(work),
-           "stream": {"vectors": stream_vectors, "reset": reset} if stream_vectors else None,
+           "stream": dict({"vectors": stream_vectors, "reset": reset}, **({"fault": fault} if fault else {}))
+           if stream_vectors else None,
            "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
            if bulk_vectors else None}
     t0 = time.perf_counter()
@@ -362,4 +364,5 @@ def _merge(parts: dict) -> dict:
     return {"vectors": vectors, "mismatches": mism, "first_mismatch": first, "field_mismatches": fields,
             "tag_errors": sum(p.get("tag_errors", 0) for p in parts.values()),
             "stale_outputs": sum(p.get("stale_outputs", 0) for p in parts.values()),
+            "hold_violations": sum(p.get("hold_violations", 0) for p in parts.values()),
             "max_error_lsb": mx, "rms_error_lsb": (sq / n) ** 0.5 if n else None}
