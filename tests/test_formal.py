@@ -35,7 +35,7 @@ MUTANTS = [(mutation, block, arch) for mutation in MUTATIONS
 
 
 #: Jobs left to the slow set (minutes each): see the module docstring.
-SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined"), ("order", "ik", "compact")}
+SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined"), ("order", "ik", "staged")}
 
 
 def _param(check, block, arch):
