@@ -43,6 +43,9 @@ def resolve_arch(block: str, arch: str) -> str:
         return archs[1]
     raise ValueError(f"{block}: arch must be one of {archs}, got {arch!r}")
 
+#: The IK core's former compact arch (one register set per stage), available by name only.
+STAGED = "staged"
+
 #: Version of the port-map JSON layout.
 PORTMAP_VERSION = 1
 
@@ -72,8 +75,17 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
         from .acos import Acos
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == "ik":
+        if arch == "compact":
+            from .seq_core import SequencedIKCore, SerialIK
+            serial = options.pop("serial", None)
+            if serial:
+                return SerialIK(constants=constants, tag_width=tag_width, beat_bits=serial, **options)
+            return SequencedIKCore(constants=constants, tag_width=tag_width, **options)
         from .ik_core import IKCore
-        return IKCore(constants=constants, arch=arch, tag_width=tag_width, **options)
+        # "staged": the one-register-set-per-stage elaboration of the pipelined core's stage list
+        # (IKCore's own "compact" arch), before the sequenced engine.
+        return IKCore(constants=constants, arch="compact" if arch == STAGED else arch,
+                      tag_width=tag_width, **options)
     raise ValueError(f"block must be one of {BLOCKS}, got {block!r}")
 
 
@@ -151,7 +163,7 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     ``options`` go to the block's constructor (``magnitude=False`` for atan2, ``frac=`` or
     ``radicand_bits=`` for sqrt) and into the module name when given.
     """
-    if arch not in archs_of(block):
+    if arch not in archs_of(block) and not (block == "ik" and arch == STAGED):
         raise ValueError(f"{block}: arch must be one of {archs_of(block)}, got {arch!r}")
     name = module_name(block, arch, **options)
     component = build(block, arch, constants, tag_width, **options)

@@ -37,7 +37,7 @@ from .common import Datapath, StreamBlock, add_products, drop, rshift_round, sat
 from .cordic import Rotate, add_atan2
 from .sqrt import add_isqrt, fit
 
-__all__ = ["IKCore", "CORE_ARCHS"]
+__all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
 
 #: Architectures of the core.
 CORE_ARCHS = ("pipelined", "compact")
@@ -667,6 +667,32 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     return dp
 
 
+def core_fields(constants: Constants) -> tuple[dict, dict]:
+    """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out."""
+    c = constants.cfg
+    word = signed(c.width)
+    bit = unsigned(1)
+    fl, fu, fa = c.frac_length, c.frac_unit, c.frac_angle
+    in_fields = {
+        "px": (word, fl, "tool point x, cm"), "py": (word, fl, "tool point y, cm"),
+        "pz": (word, fl, "tool point z, cm"),
+        "ax": (word, fu, "approach x"), "ay": (word, fu, "approach y"),
+        "az": (word, fu, "approach z"),
+        "nx": (word, fu, "normal x (read if has_roll)"), "ny": (word, fu, "normal y"),
+        "nz": (word, fu, "normal z (unused)"),
+        "ox": (word, fu, "orientation x (read if has_roll)"), "oy": (word, fu, "orientation y"),
+        "oz": (word, fu, "orientation z (unused)"),
+        "has_roll": (bit, 0, "q5 from n, o (else q5_default)"),
+        "q5_default": (word, fa, "q5 without roll, rad"),
+        "shoulder_back": (bit, 0, "branch: tool point behind joint 1 (q1 + pi)"),
+        "elbow_down": (bit, 0, "branch: q3 = -acos(c3)"),
+    }
+    out_fields = {f"q{j}": (word, fa, f"joint {j} angle, rad, in [-pi, pi]")
+                  for j in range(1, 6)}
+    out_fields["status"] = (unsigned(STATUS_BITS), 0, "ik5r.status bits")
+    return in_fields, out_fields
+
+
 class IKCore(StreamBlock):
     """The fixed-point inverse kinematics of the 5R arm, bit-exact to ``model.ik_solve``.
 
@@ -719,6 +745,8 @@ class IKCore(StreamBlock):
       clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
       (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
       rounding, saturation) keep their own registers, each used for one clock per pose.
+      ``hdl.generate`` names this elaboration ``staged``: its ``compact`` IK core is the much
+      smaller sequenced engine, :class:`~ik5r.hdl.seq_core.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
@@ -728,27 +756,7 @@ class IKCore(StreamBlock):
         dp = in_fields = out_fields = None
         self._builder = _Builder()
         if isinstance(constants, Constants):
-            c = constants.cfg
-            word = signed(c.width)
-            bit = unsigned(1)
-            fl, fu, fa = c.frac_length, c.frac_unit, c.frac_angle
-            in_fields = {
-                "px": (word, fl, "tool point x, cm"), "py": (word, fl, "tool point y, cm"),
-                "pz": (word, fl, "tool point z, cm"),
-                "ax": (word, fu, "approach x"), "ay": (word, fu, "approach y"),
-                "az": (word, fu, "approach z"),
-                "nx": (word, fu, "normal x (read if has_roll)"), "ny": (word, fu, "normal y"),
-                "nz": (word, fu, "normal z (unused)"),
-                "ox": (word, fu, "orientation x (read if has_roll)"), "oy": (word, fu, "orientation y"),
-                "oz": (word, fu, "orientation z (unused)"),
-                "has_roll": (bit, 0, "q5 from n, o (else q5_default)"),
-                "q5_default": (word, fa, "q5 without roll, rad"),
-                "shoulder_back": (bit, 0, "branch: tool point behind joint 1 (q1 + pi)"),
-                "elbow_down": (bit, 0, "branch: q3 = -acos(c3)"),
-            }
-            out_fields = {f"q{j}": (word, fa, f"joint {j} angle, rad, in [-pi, pi]")
-                          for j in range(1, 6)}
-            out_fields["status"] = (unsigned(STATUS_BITS), 0, "ik5r.status bits")
+            in_fields, out_fields = core_fields(constants)
             dp = _core_datapath(constants, self._builder, bool(tag_width), arch == "compact")
         self.options = {}
         super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",

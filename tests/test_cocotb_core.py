@@ -9,7 +9,8 @@ unreachable, invalid and full-scale cases); every output bit (q1..q5, status) an
 order and loss.
 
 The core is large (q32 pipelined: ~250 stages) and Icarus runs it at tens of cycles per second, so
-the default run keeps to: pipelined q18 on Icarus, compact q18 on Verilator, the pipelined core of
+the default run keeps to: pipelined q18 on Icarus, compact (the sequenced engine) q18 on Icarus
+and q32w on Verilator, the pipelined core of
 q32w (the default config: 38-bit internal format) on Verilator, and the ECP5 variant (MULT18X18D
 and CCU2C chains) of the q32 pipelined core on Icarus. The ECP5 variant of q32w is in the slow set:
 every carry cell simulated makes its Verilator build ~8 minutes and its run ~60 poses/s.
@@ -34,7 +35,10 @@ CONFIGS = ("q18", "q32", "q32w")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
 CASE_KEYS = ("arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
-DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("iterative", "q18", "generic", "verilator"),
+# "iterative" = the compact arch = the sequenced engine (hdl/seq_core.py): q18 on Icarus, the
+# default config q32w on Verilator.
+DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("iterative", "q18", "generic", "icarus"),
+           ("iterative", "q32w", "generic", "verilator"),
            ("pipelined", "q32", "ecp5", "icarus"), ("pipelined", "q32w", "generic", "verilator")}
 
 

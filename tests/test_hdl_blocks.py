@@ -297,11 +297,13 @@ def test_verilator_lint(cfg, tmp_path):
     variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
     # The ECP5 variants, with the model of the primitive they instantiate (linted with them).
     variants += [(block, {"dsp": "ecp5"}) for block in ("atan2", "rotate", "acos", "ik")]
+    variants += [("ik", {"serial": 16})]       # the compact core's word-serial wrapper
     if k.cfg.internal_guard_bits:
         # Only the IK core has an internal format; its blocks are the word config's.
         variants = [(block, options) for block, options in variants if block == "ik"]
     for block, options in variants:
-        for arch in archs_of(block) if "dsp" not in options else ("pipelined",):
+        archs = ("pipelined",) if "dsp" in options else ("compact",) if "serial" in options else archs_of(block)
+        for arch in archs:
             text, pmap = generate(block, arch, k, 2 if arch == "pipelined" else 0, **options)
             source = tmp_path / f"{pmap['module']}.v"
             source.write_text(text)

@@ -86,8 +86,11 @@ def test_pipelined(cfg):
     check_output_held(dut, (items * repeats)[:dut.capacity + 40], (expected * repeats)[:dut.capacity + 40])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cfg", CONFIGS)
-def test_compact(cfg):
+def test_staged(cfg):
+    """IKCore's one-register-set-per-stage elaboration (``generate`` arch ``staged``; the
+    ``compact`` arch is the sequenced engine, tests/test_seq_core.py)."""
     k = _k(cfg)
     # One pose per `latency` cycles (~1000 cycles/s in Amaranth's simulator): the directed set and
     # fewer random poses (the pipelined test runs 200 through the same expressions).
@@ -104,8 +107,9 @@ def test_compact(cfg):
     compare(items[:12], expected[:12], outputs)
 
 
-def test_compact_internal_format():
-    """The compact core on q32w's internal format: every eighth directed pose and a few random
+@pytest.mark.slow
+def test_staged_internal_format():
+    """The staged core on q32w's internal format: every eighth directed pose and a few random
     ones (the pipelined test runs them all through the same expressions)."""
     k = _k("q32w")
     poses = concat(directed_poses(k)[::8], random_poses(k, 1, seed=4))
@@ -148,13 +152,14 @@ def test_constructor_validation():
     gc.collect()   # the half-built components warn here (filtered), not in a later test
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("cfg", CONFIGS)
-def test_compact_shares_its_units(cfg):
-    """The compact core's structure: every CORDIC step on one shared unit (one step counter and
+def test_staged_shares_its_units(cfg):
+    """The staged core's structure: every CORDIC step on one shared unit (one step counter and
     one register set for all eight), the two square roots digit-serial, each multiplier stepped
     over its partial products; the pipelined core unrolls them all."""
     k = _k(cfg)
-    compact, _ = generate("ik", "compact", k)
+    compact, _ = generate("ik", "staged", k)
     steps = set(re.findall(r"^\s*reg [^;]*?(\w+_step)\b", compact, re.M))
     assert [s for s in steps if "cordic" in s or "_it" in s] == ["unit_cordic_step"]
     assert len([s for s in steps if s.endswith("_digit_step")]) == 2

@@ -48,9 +48,12 @@ class VerilogOfCheckout:
         from ik5r.hdl.generate import generate
 
         dsp = r.get("dsp", "generic")
-        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0))
+        serial = r.get("serial")
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial)
         if key not in self._texts:
             options = {} if dsp == "generic" else {"dsp": dsp}
+            if serial:
+                options["serial"] = serial
             self._texts[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
                                         r.get("tag_width", 0), **options)[0]
         return self._texts[key]
@@ -118,8 +121,9 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
     lines = ["| block | arch | primitives | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
-        lines.append(f"| {r['block']} | {r['arch']} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']} "
-                     f"speed {r.get('speed_grade', '–')} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
+        arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
+        lines.append(f"| {r['block']} | {arch} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']}"
+                     f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")

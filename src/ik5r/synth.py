@@ -177,8 +177,13 @@ def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None) -> fl
     return seconds
 
 
+#: Beat width of the compact IK core's word-serial wrapper in iCE40 runs.
+ICE40_BEAT_BITS = 16
+
+
 def _yosys_script(target: str, module: str) -> str:
-    synth = TARGETS[target]["yosys"]
+    # iCE40: -dsp maps the multipliers to SB_MAC16 (without it Yosys builds them from LUTs).
+    synth = TARGETS[target]["yosys"] + (" -dsp" if target == "ice40" else "")
     return (f"read_verilog -sv design.v\n"
             f"{synth} -top {module} -json netlist.json\n"
             f"tee -q -o stat.json stat -json\n")
@@ -294,7 +299,12 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     t0 = time.perf_counter()
     # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
     dsp = opts.dsp if arch == "pipelined" else "generic"
-    text, pmap = generate(block, arch, k, opts.tag_width, **({} if dsp == "generic" else {"dsp": dsp}))
+    options = {} if dsp == "generic" else {"dsp": dsp}
+    if block == "ik" and arch == "compact" and opts.target == "ice40":
+        # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
+        # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
+        options["serial"] = ICE40_BEAT_BITS
+    text, pmap = generate(block, arch, k, opts.tag_width, **options)
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
     tools = tool_versions(opts.target)
@@ -379,6 +389,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     cpr = pmap["cycles_per_result"]
     result = {
         "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
+        "serial": options.get("serial"),
         "config": cfg.name,
         "width": cfg.width,
         "iterations": cfg.iterations, "config_toml": cfg.to_toml(),

@@ -1,0 +1,169 @@
+"""The sequenced IK engine (the IK core's ``compact`` arch: hdl/seq_isa.py, seq_program.py,
+seq_core.py) against the bit-accurate model (``model.solve_batch``).
+
+Three levels: the program on the clock-exact reference interpreter (every directed pose and
+hundreds of random ones per config, in seconds), the Amaranth simulation of the engine in its
+struct-stream shell (``SequencedIKCore``: exact latency and one pose per program length at full
+rate; random input gaps and output back-pressure; the output held), and the word-serial wrapper
+(``SerialIK``) with random gaps on both sides. cocotb runs of the Verilog are in
+tests/test_cocotb_core.py (arch ``iterative`` = ``compact``).
+"""
+
+from __future__ import annotations
+
+import random
+import re
+
+import pytest
+from amaranth.sim import Simulator
+
+from ik5r.firmware import model
+from ik5r.firmware.vectors import concat, directed_poses, random_poses
+from ik5r.fxconfig import constants, load_config
+from ik5r.hdl import seq_isa
+from ik5r.hdl.generate import generate
+from ik5r.hdl.seq_core import SequencedIKCore, SerialIK
+from ik5r.hdl.seq_program import ik_program
+from ik5r.hdl.tb.amaranth_stream import compare, run_stream
+from ik5r.hdl.tb.blocks import ik_outputs
+
+from test_ik_core import expected_of, inputs_of, with_tags
+
+TAG_WIDTH = 6
+WORD_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "q5_default")
+
+
+def _k(name):
+    return constants(load_config(name))
+
+
+def _engine_words(fields, i, tag):
+    words = [int(fields[name][i]) for name in WORD_FIELDS]
+    flags = (int(fields["has_roll"][i]) | int(fields["shoulder_back"][i]) << 1
+             | int(fields["elbow_down"][i]) << 2 | tag << 3)
+    return words + [flags]
+
+
+@pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))
+def test_program_on_interpreter(cfg):
+    """Every directed pose and 200 random ones (all branches, with and without n, o)."""
+    k = _k(cfg)
+    prog = ik_program(k)
+    poses = concat(directed_poses(k), random_poses(k, 25, seed=11))
+    expected = ik_outputs(k, poses, model.solve_batch)
+    fields = poses.fields()
+    bad = []
+    for i in range(len(poses)):
+        out = seq_isa.run(prog, _engine_words(fields, i, i % 64))
+        got = {f"q{j + 1}": out[j] for j in range(5)}
+        got["status"] = out["status"]
+        want = {name: int(expected[name][i]) for name in got}
+        if got != want or out["tag"] != i % 64:
+            bad.append((i, want, got))
+    assert not bad, f"{len(bad)} of {len(poses)} mismatch, first {bad[0]}"
+
+
+def test_program_is_short_and_shared():
+    """One program per config; the q32w pose within 800 clocks; units used side by side."""
+    k = _k("q32w")
+    prog = ik_program(k)
+    assert len(prog.code) <= 800
+    both = [ins for ins in prog.code if ins.get("cop") and (ins.get("alu") or ins.get("pick"))]
+    assert len(both) > 100       # CORDIC micro-rotations beside products and glue
+    assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
+
+
+@pytest.mark.parametrize("cfg", ("q18", "q32w"))
+def test_core_full_rate_and_stalls(cfg):
+    k = _k(cfg)
+    poses = concat(directed_poses(k)[::12 if cfg == "q18" else 24], random_poses(k, 1, seed=2)[:2])
+    items = inputs_of(poses, TAG_WIDTH)
+    expected = with_tags(items, expected_of(k, poses))
+    dut = SequencedIKCore(constants=k, tag_width=TAG_WIDTH)
+    outputs, accepted, produced = run_stream(dut, items)
+    compare(items, expected, outputs)
+    # Into an idle core: exactly `latency`; then one pose per program length.
+    assert accepted[0] == 2                              # the engine boots in two clocks
+    assert produced[0] - accepted[0] == dut.latency
+    assert all(b - a == dut.cycles_per_result for a, b in zip(produced, produced[1:]))
+    sub = slice(0, 4)
+    outputs, _, _ = run_stream(dut, items[sub], stall_seed=9, long_stall=True)
+    compare(items[sub], expected[sub], outputs)
+
+
+def test_core_output_held():
+    """The output held long after the core is full: three poses taken (input register, engine,
+    output register), none lost, duplicated or reordered; the rest flows once released."""
+    k = _k("q18")
+    poses = random_poses(k, 1, seed=5)[:5]
+    items = inputs_of(poses, TAG_WIDTH)
+    expected = with_tags(items, expected_of(k, poses))
+    dut = SequencedIKCore(constants=k, tag_width=TAG_WIDTH)
+    hold = 5 * dut.latency
+    outputs, accepted, produced = run_stream(dut, items, hold_output=hold)
+    compare(items, expected, outputs)
+    assert sum(a < hold for a in accepted) == dut.capacity
+    assert produced[0] == hold
+
+
+@pytest.mark.parametrize("stalls", (False, True))
+def test_serial_wrapper(stalls):
+    k = _k("q18")
+    poses = concat(directed_poses(k)[::20], random_poses(k, 1, seed=7)[:2])
+    expected = ik_outputs(k, poses, model.solve_batch)
+    fields = poses.fields()
+    dut = SerialIK(constants=k, tag_width=4, beat_bits=8)
+    eng, b = dut._engine, dut.beat_bits
+    beats = []
+    for i in range(len(poses)):
+        for word in _engine_words(fields, i, i % 16):
+            word &= (1 << eng.in_bits) - 1
+            beats += [(word >> (b * j)) & ((1 << b) - 1) for j in range(dut.in_beats)]
+    received = []
+    last_cycle = []
+
+    async def bench(ctx):
+        rng = random.Random(3)
+        index = cycle = 0
+        while len(received) < len(poses) * 6 * dut.out_beats:
+            assert cycle < 2 * dut.cycles_per_result * (len(poses) + 2), "timeout"
+            offer = index < len(beats) and (not stalls or rng.random() > 0.3)
+            take = not stalls or rng.random() > 0.4
+            ctx.set(dut.i.valid, offer)
+            if offer:
+                ctx.set(dut.i.payload, beats[index])
+            ctx.set(dut.o.ready, take)
+            _, _, ready, valid, payload = await ctx.tick().sample(dut.i.ready, dut.o.valid, dut.o.payload)
+            index += offer and ready
+            if valid and take:
+                received.append(payload)
+            cycle += 1
+        last_cycle.append(cycle)
+
+    sim = Simulator(dut)
+    sim.add_clock(1e-8)
+    sim.add_testbench(bench)
+    sim.run()
+    width = k.cfg.width
+    for i in range(len(poses)):
+        words = [sum(received[(6 * i + w) * dut.out_beats + j] << (b * j) for j in range(dut.out_beats))
+                 for w in range(6)]
+        got = {f"q{j + 1}": seq_isa.wrap_signed(words[j], width) for j in range(5)}
+        got["status"], tag = words[5] & 31, words[5] >> 5
+        assert got == {name: int(expected[name][i]) for name in got} and tag == i % 16, f"pose {i}"
+    if not stalls:
+        # Beats every clock: one pose per cycles_per_result clocks, + the clock after power-up
+        # (the first pose waits for its first word's beats too).
+        assert last_cycle[0] == len(poses) * dut.cycles_per_result + dut.in_beats
+
+
+def test_compact_verilog_structure():
+    """The generated compact core: one multiplier, the program in a ROM; the wrapper's ports."""
+    k = _k("q32w")
+    text, pmap = generate("ik", "compact", k)
+    assert len(re.findall(r"[\w)] \* [\w$(]", text)) == 1
+    assert pmap["cycles_per_result"] == len(ik_program(k).code)
+    serial, smap = generate("ik", "compact", k, serial=16)
+    widths = {p["name"]: p["width"] for p in smap["ports"]}
+    assert widths["i__payload"] == widths["o__payload"] == 16
+    assert sum(widths.values()) <= 39         # the UP5K's SG48 package
