@@ -3,6 +3,11 @@
 Input columns q1..q5 (radians, any order, extra columns ignored); output columns
 px,py,pz (cm), nx,ny,nz, ox,oy,oz, ax,ay,az (the tool frame), floats at repr precision, one line
 per input record. A non-finite joint value gives NaN outputs on that line.
+
+The file is streamed in chunks (memory does not grow with its length). A malformed record stops
+the run with exit 2 and ``FILE:LINE: message`` (``--on-error fail``, the default); with
+``--on-error skip`` it is reported so on stderr, left out, and the run exits 3. The output file is
+written atomically: after a failure there is none.
 """
 
 from __future__ import annotations
@@ -18,7 +23,15 @@ def register(subparsers) -> None:
                         help="output CSV (default: standard output)")
     parser.add_argument("--arm", metavar="ARM.toml", default=None,
                         help="arm description TOML (default: the arm of record, Hu et al.)")
+    add_on_error(parser)
     parser.set_defaults(run=run)
+
+
+def add_on_error(parser) -> None:
+    """``--on-error fail|skip``, shared with ``ik5r solve``."""
+    parser.add_argument("--on-error", choices=("fail", "skip"), default="fail",
+                        help="malformed record: stop with exit 2 (fail, the default), or report it as "
+                             "FILE:LINE on stderr, write every good record and exit 3 (skip)")
 
 
 def run(args) -> int:
@@ -26,9 +39,11 @@ def run(args) -> int:
     from ik5r.arm import load_arm
 
     arm = load_arm(args.arm)
-    table = csvio.read_table(args.joints, csvio.JOINT_COLUMNS)
-    q = table.matrix(csvio.JOINT_COLUMNS)
-    with np.errstate(invalid="ignore"):
-        pose = reference.fk_pose(arm, q)
-    csvio.write_table(args.output, csvio.POSE_COLUMNS, [pose[:, j] for j in range(12)])
-    return 0
+    with csvio.Writer(args.output, csvio.POSE_COLUMNS) as out, \
+            csvio.Reader(args.joints, csvio.JOINT_COLUMNS, on_error=args.on_error) as reader:
+        for table in reader.chunks():
+            q = table.matrix(csvio.JOINT_COLUMNS)
+            with np.errstate(invalid="ignore"):
+                pose = reference.fk_pose(arm, q)
+            out.write([pose[:, j] for j in range(12)])
+    return 3 if reader.skipped else 0
