@@ -40,6 +40,15 @@ def describe(bits: int) -> str:
     return "+".join(name for bit, name in NAMES.items() if bits & bit) or "ok"
 
 
+def describe_all(bits) -> list[str]:
+    """:func:`describe` of every element of an integer array (each distinct value once)."""
+    import numpy as np
+
+    values, inverse = np.unique(np.asarray(bits, dtype=np.int64), return_inverse=True)
+    names = np.array([describe(v) for v in values.tolist()], dtype=object)
+    return names[inverse.reshape(-1)].tolist()
+
+
 def status_class(bits: int) -> str:
     """What happened, comparable between the float and the fixed-point layers: ``invalid`` when
     that bit is set (whatever else), else :func:`describe` without ``saturated`` and

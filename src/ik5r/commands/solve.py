@@ -150,10 +150,10 @@ def _solve_chunk(table, arm, cfg, solve, args) -> list:
             rows, branch = np.arange(count), res.choose(near)
         q = res.q[rows, branch]
         status = res.status[rows, branch]
-        return [table.records[rows], branch, *(q[:, j] for j in range(5)), [st.describe(s) for s in status],
+        return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
                 *_residuals(arm, q, p[rows], a[rows])]
     rows, branch, q, q_raw, status = _fixed_chunk(solve, cfg, res, p, a, n, o, near, args.all)
-    return [table.records[rows], branch, *(q[:, j] for j in range(5)), [st.describe(s) for s in status],
+    return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
             *_residuals(arm, q, p[rows], a[rows]), *(q_raw[:, j] for j in range(5)), status]
 
 
