@@ -90,9 +90,11 @@ def test_directed_status_classes_agree(name):
             "invalid"} <= seen
 
 
-def test_directed_status_hdl_core():
-    """The HDL core (Amaranth simulation, q18, pipelined) on the cases' words: the model's bits,
-    so the float's class."""
+@pytest.mark.parametrize("arch", ["pipelined", pytest.param("compact", marks=pytest.mark.slow)])
+def test_directed_status_hdl_core(arch):
+    """The HDL core (Amaranth simulation, q18, both archs) on the cases' words: the model's bits,
+    so the float's class. (The compact core takes one pose per latency: in the slow set; the
+    default run checks it bit-exact to the model on ``directed_poses``, which holds these cases.)"""
     from ik5r.hdl.ik_core import IKCore
     from ik5r.hdl.tb.amaranth_stream import run_stream
 
@@ -110,7 +112,7 @@ def test_directed_status_hdl_core():
             items.append(item)
             expected.append(int(model.solve_batch(k, *(v[b:b + 1] for v in args))[1][0]))
             classes.append((layer_classes["float"][b], int(input_status[b])))
-    outputs, _, _ = run_stream(IKCore(constants=k, arch="pipelined"), items)
+    outputs, _, _ = run_stream(IKCore(constants=k, arch=arch), items)
     got = [int(out["status"]) for out in outputs]
     assert got == expected
     hdl_classes = [st.status_class(input_bits or bits) for bits, (_, input_bits) in zip(got, classes)]
