@@ -442,7 +442,7 @@ static int64_t to_internal(int32_t word)
 }
 
 /* ---- orientation checks (model.check_word, beyond, frame_is_bad, off_plane): products of
- * check words (the top 18 bits of a unit word, floored) in int64_t, below 2^36. ---- */
+ * check words (the top 17 bits of a unit word, floored) in int64_t, below 2^34. ---- */
 
 static int beyond(int64_t value, int64_t centre, int64_t tolerance)
 {

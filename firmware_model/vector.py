@@ -534,13 +534,13 @@ def _beyond(value, centre, k: Constants):
 
 
 def _off_plane(ax, ay, c1_u, s1_u, ki: Constants):
-    """model.off_plane: ay c1 - ax s1 on check words (products < 2**36) beyond the tolerance."""
+    """model.off_plane: ay c1 - ax s1 on check words (products < 2**34) beyond the tolerance."""
     shift = ki.check_shift
     return _beyond((ay >> shift) * (c1_u >> shift) - (ax >> shift) * (s1_u >> shift), 0, ki)
 
 
 def _frame_is_bad(n_u, o_u, a_u, k: Constants):
-    """model.frame_is_bad on (N, 3) word arrays (products of check words < 2**36)."""
+    """model.frame_is_bad on (N, 3) word arrays (products of check words < 2**34)."""
     shift = k.check_shift
     n = [n_u[:, i] >> shift for i in range(3)]
     o = [o_u[:, i] >> shift for i in range(3)]

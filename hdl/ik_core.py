@@ -421,7 +421,7 @@ def _add_c3_complements(el: Datapath, k: Constants, limit: int, *, registered: b
 
 
 # --- orientation checks (model.frame_is_bad, model.off_plane) -----------------------------------
-# Products of check words (the top 18 bits of a unit word: one 18 x 18 multiplier each), computed
+# Products of check words (the top 17 bits of a unit word: one 17 x 17 partial product each), computed
 # beside the dot products: 15 for the n, o, a frame (n.n, o.o, n.o, n x o), 2 for the approach's
 # component normal to the arm's plane (ay c1 - ax s1). Keys ``ck*``.
 

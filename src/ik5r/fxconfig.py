@@ -32,9 +32,9 @@ INV_GAIN_FRAC = 31
 #: Width of the mantissa of a constant multiplier (fits a signed 32-bit word) in every word config;
 #: an internal format wider than 32 bits uses width - 1 (``Constants.const_mant_bits``).
 CONST_MANT_BITS = 31
-#: Width of the check words of the orientation checks (``Constants.check_shift``): one 18 x 18
+#: Width of the check words of the orientation checks (``Constants.check_shift``): one 17 x 17
 #: product each, whatever the word width.
-CHECK_BITS = 18
+CHECK_BITS = 17
 
 
 @dataclass(frozen=True)
@@ -272,7 +272,8 @@ class Constants:
         # unreachable; between that and +-2 a2 a3 it is clipped (straight or folded elbow).
         set_(self, "reach_limit_l2", WideInt(_q(2 * a.a[1] * a.a[2] * (1 + c.reach_tol), 2 * fl)))
         # Orientation checks on check words: the top CHECK_BITS bits of a unit word (floor), so
-        # that each product is one 18 x 18 multiplier; products in Q(2 check_frac).
+        # that each product is one 17 x 17 signed product (one DSP, also as a MULT18X18D); products
+        # in Q(2 check_frac).
         set_(self, "check_shift", max(0, w - CHECK_BITS))
         set_(self, "check_frac", fu - self.check_shift)
         set_(self, "check_one_c2", 1 << (2 * self.check_frac))
