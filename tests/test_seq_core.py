@@ -30,7 +30,7 @@ from ik5r.hdl.tb.blocks import ik_outputs
 from test_ik_core import expected_of, inputs_of, with_tags
 
 TAG_WIDTH = 6
-WORD_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "q5_default")
+WORD_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "q5_default")
 
 
 def _k(name):
