@@ -22,7 +22,7 @@ from ik5r.firmware.vectors import concat, directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl import seq_isa
 from ik5r.hdl.generate import generate
-from ik5r.hdl.seq_core import SequencedIKCore, SerialIK
+from ik5r.hdl.seq_core import STATUS_BITS, SequencedIKCore, SerialIK
 from ik5r.hdl.seq_program import ik_program
 from ik5r.hdl.tb.amaranth_stream import compare, run_stream
 from ik5r.hdl.tb.blocks import ik_outputs
@@ -149,7 +149,7 @@ def test_serial_wrapper(stalls):
         words = [sum(received[(6 * i + w) * dut.out_beats + j] << (b * j) for j in range(dut.out_beats))
                  for w in range(6)]
         got = {f"q{j + 1}": seq_isa.wrap_signed(words[j], width) for j in range(5)}
-        got["status"], tag = words[5] & 31, words[5] >> 5
+        got["status"], tag = words[5] & ((1 << STATUS_BITS) - 1), words[5] >> STATUS_BITS
         assert got == {name: int(expected[name][i]) for name in got} and tag == i % 16, f"pose {i}"
     if not stalls:
         # Beats every clock: one pose per cycles_per_result clocks, + the clock after power-up
