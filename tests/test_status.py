@@ -90,12 +90,12 @@ def test_directed_status_classes_agree(name):
             "invalid"} <= seen
 
 
-@pytest.mark.parametrize("arch", ["pipelined", pytest.param("compact", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("arch", ["pipelined", "compact", pytest.param("staged", marks=pytest.mark.slow)])
 def test_directed_status_hdl_core(arch):
-    """The HDL core (Amaranth simulation, q18, both archs) on the cases' words: the model's bits,
-    so the float's class. (The compact core takes one pose per latency: in the slow set; the
-    default run checks it bit-exact to the model on ``directed_poses``, which holds these cases.)"""
-    from ik5r.hdl.ik_core import IKCore
+    """The HDL core (Amaranth simulation, q18, ``hdl.generate``'s archs: pipelined, compact = the
+    sequenced engine, staged) on the cases' words: the model's bits, so the float's class. (The
+    staged core takes one pose per latency: in the slow set.)"""
+    from ik5r.hdl.generate import build
     from ik5r.hdl.tb.amaranth_stream import run_stream
 
     table = status_table("q18")
@@ -112,7 +112,7 @@ def test_directed_status_hdl_core(arch):
             items.append(item)
             expected.append(int(model.solve_batch(k, *(v[b:b + 1] for v in args))[1][0]))
             classes.append((layer_classes["float"][b], int(input_status[b])))
-    outputs, _, _ = run_stream(IKCore(constants=k, arch=arch), items)
+    outputs, _, _ = run_stream(build("ik", arch, k), items)
     got = [int(out["status"]) for out in outputs]
     assert got == expected
     hdl_classes = [st.status_class(input_bits or bits) for bits, (_, input_bits) in zip(got, classes)]
