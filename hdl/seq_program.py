@@ -4,7 +4,7 @@ The program follows ``firmware_model/model.py`` step by step (the same order of 
 saturations and status bits), in the units of :mod:`.seq_isa`. Work on independent units runs
 side by side (:meth:`Asm.par`): while a CORDIC runs its micro-rotations, the multiplier, the
 accumulator and the square root work on the next step's products, so a q32w pose takes about
-700 clocks on one CORDIC unit, one 16 x 16 multiplier and one digit-serial square root.
+700 clocks on one CORDIC unit, one 17 x 17 multiplier and one digit-serial square root.
 """
 
 from __future__ import annotations
