@@ -56,7 +56,8 @@ class SeqEngine(wiring.Component):
     :data:`~.seq_isa.INPUT_WORDS`, 13: the flags word has_roll | shoulder_back << 1 |
     elbow_down << 2 | tag << 3) and takes it in a clock with ``in_valid`` high (``in_take``).
     Output: ``out_valid`` with word ``out_index`` (0..4: q1..q5, 5: status | tag << 6, status
-    the :data:`STATUS_BITS` bits of :mod:`ik5r.status`) in ``out_data``, held until ``out_ready``. One pose takes
+    the :data:`STATUS_BITS` bits of :mod:`ik5r.status`) in ``out_data``, held until
+    ``out_ready``. One pose takes
     ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
     first instruction is about to execute.
     """
@@ -111,27 +112,7 @@ class SeqEngine(wiring.Component):
             lo, n = layout[name]
             return fetched[lo:lo + n]
 
-        # Controls of the wide datapaths decoded a clock early, from registers (their fan-out
-        # to 80-bit muxes and adders was the slowest path).
-        alu_op, bsel = pre("alu"), pre("bsel")
-        decoded = {
-            "sub": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPGT) | (alu_op == X.A_CMPLT),
-            "carry": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPLT),
-            "left_zero": (alu_op == X.A_NEG) | (alu_op == X.A_MLD),
-            "right_product": (alu_op == X.A_MLD) | (alu_op == X.A_MACC),
-            "right_acc": alu_op == X.A_NEG,
-            **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
-        }
-        cop = pre("cop")
-        quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
-        decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
-        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters.
-        shift = Signal(range(len(prog.atan)), name="cordic_shift")
-        with m.If(~stall):
-            m.d.sync += shift.eq(Mux(quarter, 0, pre("ci")))
-        dec = {name: Signal(name=f"dec_{name}") for name in decoded}
-        with m.If(~stall):
-            m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
+        dec, shift = self._decode(m, pre, stall)
 
         mem_shape = signed(w.mem)
         m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init)
@@ -173,7 +154,37 @@ class SeqEngine(wiring.Component):
         self._sqrt(m, f, acc, regs, run, w)
         m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
 
-        # Word ports.
+        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
+        return m
+
+    def _decode(self, m, pre, stall):
+        """Decoded controls registered beside ``exe`` (from ``pre``: the fetched instruction)."""
+        # Controls of the wide datapaths decoded a clock early, from registers (their fan-out
+        # to 80-bit muxes and adders was the slowest path).
+        alu_op, bsel = pre("alu"), pre("bsel")
+        decoded = {
+            "sub": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPGT) | (alu_op == X.A_CMPLT),
+            "carry": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPLT),
+            "left_zero": (alu_op == X.A_NEG) | (alu_op == X.A_MLD),
+            "right_product": (alu_op == X.A_MLD) | (alu_op == X.A_MACC),
+            "right_acc": alu_op == X.A_NEG,
+            **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
+        }
+        cop = pre("cop")
+        quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
+        decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
+        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters.
+        shift = Signal(range(len(self.prog.atan)), name="cordic_shift")
+        with m.If(~stall):
+            m.d.sync += shift.eq(Mux(quarter, 0, pre("ci")))
+        dec = {name: Signal(name=f"dec_{name}") for name in decoded}
+        with m.If(~stall):
+            m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
+        return dec, shift
+
+    def _ports(self, m, f, pre, stall, reading, writing, acc, regs, run, w):
+        """The word ports and the flags word."""
+        io = f("io")
         m.d.comb += [self.in_index.eq(Mux(stall, f("iw"), pre("iw"))), self.in_take.eq(reading & run),
                      self.in_ready.eq(reading),
                      self.out_valid.eq(writing), self.out_index.eq(Mux(io == X.IO_STATUS, 5, f("iw"))),
@@ -184,7 +195,6 @@ class SeqEngine(wiring.Component):
                          regs["down"].eq(self.in_data[2])]
             if w.tag:
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
-        return m
 
     @staticmethod
     def _registers(w):

@@ -7,7 +7,9 @@ degenerate approaches, full-scale and most negative words), for both architectur
 q32. The pipelined core runs at full rate (exact latency, one pose per clock), then with random
 input gaps and output back-pressure (order, no loss, output held stable), then with the output held
 until it is full (exactly its capacity taken, nothing lost, full rate again once released); the
-compact core with back-pressure too.
+staged elaboration (``IKCore(arch="compact")``, ``generate`` arch ``staged``; slow set) with
+back-pressure too. The ``compact`` arch of ``generate`` (the sequenced engine) is tested in
+tests/test_seq_core.py.
 """
 
 from __future__ import annotations

@@ -109,10 +109,11 @@ def test_program_is_short_and_shared():
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
 
 
-@pytest.mark.parametrize("cfg", ("q18", "q32w"))
+@pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))
 def test_core_full_rate_and_stalls(cfg):
     k = _k(cfg)
-    poses = concat(directed_poses(k)[::12 if cfg == "q18" else 24], random_poses(k, 1, seed=2)[:2])
+    step = {"q18": 12, "q32": 40, "q32w": 24}[cfg]
+    poses = concat(directed_poses(k)[::step], random_poses(k, 1, seed=2)[:2])
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))
     dut = SequencedIKCore(constants=k, tag_width=TAG_WIDTH)
