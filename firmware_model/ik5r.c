@@ -190,6 +190,7 @@ static const const_mul_t a3_from_u = {IK5R_IK_A3_FROM_U_PRE, IK5R_IK_A3_FROM_U_M
                                       IK5R_IK_A3_FROM_U_POST};
 static const wide_t links_sq_l2 = {IK5R_IK_LINKS_SQ_L2_HI, IK5R_IK_LINKS_SQ_L2_LO};
 static const wide_t twice_a2a3_l2 = {IK5R_IK_TWICE_A2A3_L2_HI, IK5R_IK_TWICE_A2A3_L2_LO};
+static const wide_t reach_limit_l2 = {IK5R_IK_REACH_LIMIT_L2_HI, IK5R_IK_REACH_LIMIT_L2_LO};
 
 /* ---- model.py, one function each ---------------------------------------------------------- */
 
@@ -440,6 +441,44 @@ static int64_t to_internal(int32_t word)
     return (int64_t)word * pow2(IK5R_INTERNAL_GUARD_BITS); /* word << guard, word may be negative */
 }
 
+/* ---- orientation checks (model.check_word, beyond, frame_is_bad, off_plane): products of
+ * check words (the top 17 bits of a unit word, floored) in int64_t, below 2^34. ---- */
+
+static int beyond(int64_t value, int64_t centre, int64_t tolerance)
+{
+    return value > centre + tolerance || value < centre - tolerance;
+}
+
+/* n, o, a (words) not a right-handed orthonormal frame within the orientation tolerance. */
+static int frame_is_bad(const int32_t n_u[3], const int32_t o_u[3], const int32_t a_u[3])
+{
+    const int64_t tol = IK5R_CHECK_TOL_C2, one = IK5R_CHECK_ONE_C2;
+    const int64_t scale = (int64_t)1 << IK5R_CHECK_FRAC;
+    int64_t n[3], o[3], a[3];
+    int i;
+
+    for (i = 0; i < 3; i++) {
+        n[i] = (int64_t)n_u[i] >> IK5R_CHECK_SHIFT;
+        o[i] = (int64_t)o_u[i] >> IK5R_CHECK_SHIFT;
+        a[i] = ((int64_t)a_u[i] >> IK5R_CHECK_SHIFT) * scale;
+    }
+    return beyond(n[0] * n[0] + n[1] * n[1] + n[2] * n[2], one, tol)
+        || beyond(o[0] * o[0] + o[1] * o[1] + o[2] * o[2], one, tol)
+        || beyond(n[0] * o[0] + n[1] * o[1] + n[2] * o[2], 0, tol)
+        || beyond(n[1] * o[2] - n[2] * o[1] - a[0], 0, tol)
+        || beyond(n[2] * o[0] - n[0] * o[2] - a[1], 0, tol)
+        || beyond(n[0] * o[1] - n[1] * o[0] - a[2], 0, tol);
+}
+
+/* The approach's component normal to the arm's plane, ay c1 - ax s1 (internal words), beyond
+ * the orientation tolerance. */
+static int off_plane(int64_t ax, int64_t ay, int64_t c1_u, int64_t s1_u)
+{
+    const int shift = IK5R_IK_CHECK_SHIFT;
+    return beyond((ay >> shift) * (c1_u >> shift) - (ax >> shift) * (s1_u >> shift), 0,
+                  IK5R_IK_CHECK_TOL_C2);
+}
+
 /* The fixed-point IK of one pose for one branch: q_a[5] and the status bits. n_u, o_u NULL:
  * q5 = q5_default_a (the model's Pose with n = o = None). Every quantity is in the internal
  * format (ik_format, IK5R_IK_* constants) until the joints are rounded back to words. */
@@ -485,6 +524,8 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
                           ik, &status);
     if (cordic_atan2(a_radial_u, az, ik, &pitch_a, &unused))
         status |= IK5R_STATUS_INVALID;
+    if (off_plane(ax, ay, c1_u, s1_u))
+        status |= IK5R_STATUS_BAD_ORIENTATION;
     phi_a = opposite(pitch_a, ik);
 
     /* Wrist centre (joint 4 axis) in the arm's plane: subtract R(phi) (a4, d5). */
@@ -492,15 +533,15 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
     xw_l = saturate(r_l - IK5R_IK_A1_L - off_x_l, ik, &status);
     yw_l = saturate(IK5R_IK_D1_L - pz - off_y_l, ik, &status);
 
-    /* Elbow: law of cosines in 128 bits, clipped to the reachable annulus. */
+    /* Elbow: law of cosines in 128 bits, clipped to the reachable annulus; unreachable only
+     * beyond it by more than the reach tolerance (else a straight or folded elbow). */
     num_l2 = wide_add(wide_sub(wide_mul(xw_l, xw_l), links_sq_l2), wide_mul(yw_l, yw_l));
-    if (wide_less(twice_a2a3_l2, num_l2)) {
+    if (wide_less(reach_limit_l2, num_l2) || wide_less(num_l2, wide_neg(reach_limit_l2)))
+        status |= IK5R_STATUS_UNREACHABLE;
+    if (wide_less(twice_a2a3_l2, num_l2))
         num_l2 = twice_a2a3_l2;
-        status |= IK5R_STATUS_UNREACHABLE;
-    } else if (wide_less(num_l2, wide_neg(twice_a2a3_l2))) {
+    else if (wide_less(num_l2, wide_neg(twice_a2a3_l2)))
         num_l2 = wide_neg(twice_a2a3_l2);
-        status |= IK5R_STATUS_UNREACHABLE;
-    }
     if (IK5R_INTERNAL_GUARD_BITS == 0) {
         int64_t c3 = mul_const(num_l2, &c3_from_l2, nearest);
         c3_u = c3 > IK5R_IK_ONE_U ? IK5R_IK_ONE_U : c3 < -IK5R_IK_ONE_U ? -IK5R_IK_ONE_U : c3;
@@ -543,6 +584,8 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
                                 ik, &status);
         if (cordic_atan2(s5_u, c5_u, ik, &q5_a, &unused))
             status |= IK5R_STATUS_INVALID;
+        if (frame_is_bad(n_u, o_u, a_u))
+            status |= IK5R_STATUS_BAD_ORIENTATION;
     } else {
         q5_a = to_internal(q5_default_a);
     }

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from ik5r.fixedpoint import mul_const, opposite, rshift_round, saturate, wrap_angle  # noqa: F401 (the C's helpers)
 from ik5r.fxconfig import Constants
-from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
+from ik5r.status import BAD_ORIENTATION, INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
 
 def _bit_length_ones_abs(x: int, y: int) -> int:
@@ -137,6 +137,38 @@ def cordic_acos(x_u: int, k: Constants) -> tuple[int, int, int]:
     return angle_a, sine_u, flags
 
 
+def check_word(value: int, k: Constants) -> int:
+    """The top bits of a unit word of format ``k`` (floor): the operand of an orientation check."""
+    return value >> k.check_shift
+
+
+def beyond(value: int, centre: int, k: Constants) -> bool:
+    """|value - centre| > the orientation tolerance (products of check words, Q(2 check_frac))."""
+    return value > centre + k.check_tol_c2 or value < centre - k.check_tol_c2
+
+
+def frame_is_bad(n_u, o_u, a_u, k: Constants) -> bool:
+    """n, o, a (words of format ``k``) not a right-handed orthonormal frame within the orientation
+    tolerance: |n.n - 1|, |o.o - 1|, |n.o| or a component of n x o - a above it."""
+    n = [check_word(v, k) for v in n_u]
+    o = [check_word(v, k) for v in o_u]
+    a = [check_word(v, k) << k.check_frac for v in a_u]
+    one = k.check_one_c2
+    nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
+    oo = o[0] * o[0] + o[1] * o[1] + o[2] * o[2]
+    no = n[0] * o[0] + n[1] * o[1] + n[2] * o[2]
+    cross = (n[1] * o[2] - n[2] * o[1], n[2] * o[0] - n[0] * o[2], n[0] * o[1] - n[1] * o[0])
+    return (beyond(nn, one, k) or beyond(oo, one, k) or beyond(no, 0, k)
+            or any(beyond(c - ai, 0, k) for c, ai in zip(cross, a)))
+
+
+def off_plane(ax: int, ay: int, c1_u: int, s1_u: int, ki: Constants) -> bool:
+    """The approach's component normal to the arm's plane, ay c1 - ax s1 (check words of the
+    internal format), beyond the orientation tolerance."""
+    normal = check_word(ay, ki) * check_word(c1_u, ki) - check_word(ax, ki) * check_word(s1_u, ki)
+    return beyond(normal, 0, ki)
+
+
 @dataclass(frozen=True)
 class Pose:
     """One pose in raw words: position (length format), approach a and optionally n, o (unit)."""
@@ -191,6 +223,8 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
     pitch_a, _, no_direction = cordic_atan2(a_radial_u, az, ki)
     if no_direction:
         status |= INVALID
+    if off_plane(ax, ay, c1_u, s1_u, ki):
+        status |= BAD_ORIENTATION
     phi_a = opposite(pitch_a, ki)
 
     # Wrist centre (joint 4 axis) in the arm's plane: subtract R(phi) (a4, d5).
@@ -203,11 +237,12 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
 
     # Elbow: law of cosines, clipped to the reachable annulus.
     # xw^2 + yw^2 reaches 2**(2 width - 1) (xw = yw = word_min): the C subtracts first, in 128 bits.
+    # Beyond the annulus by more than the reach tolerance: unreachable; within it: clipped only
+    # (a straight or folded elbow, flagged singular below).
     num_l2 = (xw_l * xw_l - ki.links_sq_l2) + yw_l * yw_l
-    if num_l2 > ki.twice_a2a3_l2:
-        num_l2, status = ki.twice_a2a3_l2, status | UNREACHABLE
-    elif num_l2 < -ki.twice_a2a3_l2:
-        num_l2, status = -ki.twice_a2a3_l2, status | UNREACHABLE
+    if num_l2 > ki.reach_limit_l2 or num_l2 < -ki.reach_limit_l2:
+        status |= UNREACHABLE
+    num_l2 = max(-ki.twice_a2a3_l2, min(ki.twice_a2a3_l2, num_l2))
     if guard == 0:
         c3_u = max(-ki.one_u, min(ki.one_u, mul_const(num_l2, ki.c3_from_l2, nearest)))
         elbow_a, s3_u, _ = cordic_acos(c3_u, ki)
@@ -241,6 +276,8 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
         q5_a, _, no_roll = cordic_atan2(s5_u, c5_u, ki)
         if no_roll:
             status |= INVALID
+        if frame_is_bad(pose.n_u, pose.o_u, pose.a_u, k):
+            status |= BAD_ORIENTATION
     else:
         q5_a = q5_default_a << guard
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ik5r.fxconfig import MAX_WIDTH, Constants
-from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
+from ik5r.status import BAD_ORIENTATION, INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
 I64 = np.int64
 U64 = np.uint64
@@ -458,6 +458,7 @@ def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_
     status |= sat
     pitch_a, no_direction = _atan2_angle(a_radial_u, az, ki)
     status |= np.where(no_direction, INVALID, 0)
+    status |= np.where(_off_plane(ax, ay, c1_u, s1_u, ki), BAD_ORIENTATION, 0)
     phi_a = opposite(pitch_a, ki)
 
     # Wrist centre: words, differences of three words < 2**(width + 1).
@@ -474,7 +475,8 @@ def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_
         # is the model's d_sq - links_sq exactly: xw^2 - links_sq in (-2**56, 2**62], + yw^2 <= 2**62
         # stays < 2**63 - links_sq (links_sq_l2 > 0).
         num_l2 = xw_l * xw_l - ki.links_sq_l2 + yw_l * yw_l
-        out_of_reach = (num_l2 > ki.twice_a2a3_l2) | (num_l2 < -ki.twice_a2a3_l2)
+        reach = int(ki.reach_limit_l2)
+        out_of_reach = (num_l2 > reach) | (num_l2 < -reach)
         num_l2 = np.clip(num_l2, -ki.twice_a2a3_l2, ki.twice_a2a3_l2)
         # |num_l2| <= twice_a2a3_l2: rshift by pre < 2**31 (ConstMul contract), product < 2**62.
         c3_u = np.clip(mul_const(num_l2, ki.c3_from_l2, nearest), -ki.one_u, ki.one_u)
@@ -486,7 +488,8 @@ def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_
         twice = wide_from(int(ki.twice_a2a3_l2))
         minus_twice = wide_sub(wide_from(0), twice)
         too_far, too_near = wide_less(twice, num_l2), wide_less(num_l2, minus_twice)
-        out_of_reach = too_far | too_near
+        reach = wide_from(int(ki.reach_limit_l2))
+        out_of_reach = wide_less(reach, num_l2) | wide_less(num_l2, wide_sub(wide_from(0), reach))
         num_l2 = tuple(np.where(too_far, t, np.where(too_near, m, v))
                        for t, m, v in zip(twice, minus_twice, num_l2))
         two_u = 2 * ki.one_u
@@ -513,6 +516,7 @@ def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_
     c5_u, sat_c = saturate(_dot_round(ox, s1_u, -oy, c1_u, fu, nearest, wide), ki)
     q5_a, no_roll = _atan2_angle(s5_u, c5_u, ki)
     roll_flags = sat_s | sat_c | np.where(no_roll, INVALID, 0)
+    roll_flags |= np.where(_frame_is_bad(n_u, o_u, a_u, k), BAD_ORIENTATION, 0)
     status |= np.where(roll, roll_flags, 0)
     q5_a = np.where(roll, q5_a, q5_default_a << guard)
 
@@ -523,6 +527,31 @@ def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_
         joints.append(joint_a)
         status |= sat
     return np.stack(joints, axis=1), status
+
+
+def _beyond(value, centre, k: Constants):
+    return (value > centre + k.check_tol_c2) | (value < centre - k.check_tol_c2)
+
+
+def _off_plane(ax, ay, c1_u, s1_u, ki: Constants):
+    """model.off_plane: ay c1 - ax s1 on check words (products < 2**34) beyond the tolerance."""
+    shift = ki.check_shift
+    return _beyond((ay >> shift) * (c1_u >> shift) - (ax >> shift) * (s1_u >> shift), 0, ki)
+
+
+def _frame_is_bad(n_u, o_u, a_u, k: Constants):
+    """model.frame_is_bad on (N, 3) word arrays (products of check words < 2**34)."""
+    shift = k.check_shift
+    n = [n_u[:, i] >> shift for i in range(3)]
+    o = [o_u[:, i] >> shift for i in range(3)]
+    a = [(a_u[:, i] >> shift) << k.check_frac for i in range(3)]
+    bad = _beyond(n[0] * n[0] + n[1] * n[1] + n[2] * n[2], k.check_one_c2, k)
+    bad |= _beyond(o[0] * o[0] + o[1] * o[1] + o[2] * o[2], k.check_one_c2, k)
+    bad |= _beyond(n[0] * o[0] + n[1] * o[1] + n[2] * o[2], 0, k)
+    bad |= _beyond(n[1] * o[2] - n[2] * o[1] - a[0], 0, k)
+    bad |= _beyond(n[2] * o[0] - n[0] * o[2] - a[1], 0, k)
+    bad |= _beyond(n[0] * o[1] - n[1] * o[0] - a[2], 0, k)
+    return bad
 
 
 def _atan2_angle(y, x, k: Constants):

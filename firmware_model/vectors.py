@@ -19,6 +19,7 @@ import numpy as np
 
 from ik5r import reference
 from ik5r.fxconfig import Constants, quantize
+from ik5r.status_cases import status_cases
 
 
 #: Field names of a pose (the IK core's input payload), in the order of :meth:`Poses.fields`.
@@ -95,7 +96,8 @@ def directed_poses(k: Constants) -> Poses:
     q = [0, -pi/2, 0, -pi/2, 0]; tool point on the base axis with vertical (q1 free) and horizontal
     approach; nothing at all; straight and folded elbow; unreachable (too far, too close);
     off-plane approaches; approach normal to the arm's plane and n, o with no in-plane component
-    (invalid); q5 defaults at the word limits; full-scale and most negative words."""
+    (invalid); the directed status cases of :mod:`ik5r.status_cases`; q5 defaults at the word
+    limits; full-scale and most negative words."""
     c = k.cfg
     lo, hi, one = k.word_min, k.word_max, k.one_u
     real, words = [], []    # (p, a, n, o, q5): cm / unit vectors / radians, and words
@@ -123,6 +125,9 @@ def directed_poses(k: Constants) -> Poses:
     add((12, 0, 8), (0.3, 0.9, -0.3), (0.2, 0.1, 0.9), (0.9, -0.3, 0.1))
     add((-7, -9, 3), (-0.5, -0.5, -0.7))
     add((12, 0, 8), (1, 0, 0), (0, 1, 0), (0, 1, 0))
+    # The directed status cases (ik5r.status_cases): every status class, compared with the float.
+    for _, _, (p, a, n, o) in status_cases(k.arm):
+        add(p, a, (0, 0, 0) if n is None else n, (0, 0, 0) if o is None else o)
     p1 = (1 << c.frac_length, 2 << c.frac_length, 3 << c.frac_length)
     words += [((0, 0, 0),) * 4 + (0,), (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), hi),
               (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), lo),

@@ -44,7 +44,7 @@ from .modes import CORE_ARCHS  # noqa: E402 (the core's architectures, defined o
 #: Stash distances up to this many stages use a register chain instead of a RAM ring buffer.
 _REGISTER_DELAY_MAX = 4
 
-STATUS_BITS = 5
+STATUS_BITS = 6
 
 
 def _flag(cond, bit: int):
@@ -419,6 +419,73 @@ def _add_c3_complements(el: Datapath, k: Constants, limit: int, *, registered: b
                    clip, registered=registered)
 
 
+# --- orientation checks (model.frame_is_bad, model.off_plane) -----------------------------------
+# Products of check words (the top 17 bits of a unit word: one 17 x 17 partial product each), computed
+# beside the dot products: 15 for the n, o, a frame (n.n, o.o, n.o, n x o), 2 for the approach's
+# component normal to the arm's plane (ay c1 - ax s1). Keys ``ck*``.
+
+_FRAME_PAIRS = (("nx", "nx"), ("ny", "ny"), ("nz", "nz"), ("ox", "ox"), ("oy", "oy"), ("oz", "oz"),
+                ("nx", "ox"), ("ny", "oy"), ("nz", "oz"), ("ny", "oz"), ("nz", "oy"), ("nz", "ox"),
+                ("nx", "oz"), ("nx", "oy"), ("ny", "ox"))
+
+
+def _orientation_specs(words: Constants) -> list:
+    """add_products specs of the checks' 17 products (``ck0`` .. ``ck16``)."""
+    ki = words.internal
+    frame_shift = words.cfg.internal_guard_bits + words.check_shift   # internal word -> its word's check word
+    plane_shift = ki.check_shift
+    frame = signed(ki.cfg.width - frame_shift)
+    plane = signed(ki.cfg.width - plane_shift)
+
+    def of(key, shift):
+        return lambda s: s[key].shift_right(shift)
+
+    specs = [(of(x, frame_shift), frame, (of(y, frame_shift), frame), f"ck{i}")
+             for i, (x, y) in enumerate(_FRAME_PAIRS)]
+    specs += [(of("ay", plane_shift), plane, (of("C1__x", plane_shift), plane), "ck15"),
+              (of("ax", plane_shift), plane, (of("C1__y", plane_shift), plane), "ck16")]
+    return specs
+
+
+def _orientation_operands(s, words: Constants) -> dict:
+    """The approach's check words (n x o is compared with them), kept beside the products."""
+    shift = words.cfg.internal_guard_bits + words.check_shift
+    return {f"cka{axis}": s[f"a{axis}"].shift_right(shift) for axis in "xyz"}
+
+
+def _orientation_sums(s) -> dict:
+    """First adder level: two-term sums and the cross product's differences."""
+    out = drop(s, *(f"ck{i}" for i in (0, 1, 3, 4, 6, 7, 9, 10, 11, 12, 13, 14, 15, 16)))
+    out.update(ckn=s["ck0"] + s["ck1"], cko=s["ck3"] + s["ck4"], ckno=s["ck6"] + s["ck7"],
+               ckcx=s["ck9"] - s["ck10"], ckcy=s["ck11"] - s["ck12"], ckcz=s["ck13"] - s["ck14"],
+               ckpl=s["ck15"] - s["ck16"])
+    return out
+
+
+def _orientation_terms(s, words: Constants) -> dict:
+    """Second adder level: the third terms of the dot products, n x o - a."""
+    frac = words.check_frac
+    out = drop(s, "ck2", "ck5", "ck8", "ckax", "ckay", "ckaz")
+    out.update(ckn=s["ckn"] + s["ck2"], cko=s["cko"] + s["ck5"], ckno=s["ckno"] + s["ck8"],
+               **{f"ckc{axis}": s[f"ckc{axis}"] - s[f"cka{axis}"].shift_left(frac) for axis in "xyz"})
+    return out
+
+
+def _orientation_flag(s, words: Constants):
+    """(state without the check keys, BAD_ORIENTATION status bits): off the plane, or (with roll)
+    a frame error beyond the tolerance."""
+    ki = words.internal
+
+    def beyond(value, centre, k):
+        return (value > centre + k.check_tol_c2) | (value < centre - k.check_tol_c2)
+
+    frame = (beyond(s["ckn"], words.check_one_c2, words) | beyond(s["cko"], words.check_one_c2, words)
+             | beyond(s["ckno"], 0, words)
+             | beyond(s["ckcx"], 0, words) | beyond(s["ckcy"], 0, words) | beyond(s["ckcz"], 0, words))
+    bad = beyond(s["ckpl"], 0, ki) | (s["roll"] & frame)
+    return drop(s, "ckn", "cko", "ckno", "ckcx", "ckcy", "ckcz", "ckpl"), _flag(bad, S.BAD_ORIENTATION)
+
+
 def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool) -> Datapath:
     """The IK on the internal format ``k = words.internal`` (the words themselves unless the config
     has ``ik.internal_guard_bits``); the inputs arrive shifted up (:meth:`IKCore._inputs`) and the
@@ -440,7 +507,7 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
         return out
 
     dp.add("select", select)
-    builder.stash(dp, "dz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "roll", "q5d", "back", "down",
+    builder.stash(dp, "dz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "roll", "q5d", "back", "down",
                   *(("tag",) if tag else ()))
 
     # ---- theta1 = atan2(py, px) || rho = sat(isqrt(px^2 + py^2)) (2W-bit radicand: the model's
@@ -476,28 +543,29 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     _append_chains(dp, "c1", _rotate_const_chain(k, "C1__", (k.one_u, 0), skewed=not compact))
 
     # ---- a_radial = a . (c1, s1); s5, c5 = n, o . (s1, -c1): six products, sums, rounding.
-    builder.unstash(dp, "ax", "ay", "nx", "ny", "ox", "oy", "roll")
+    builder.unstash(dp, "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "roll")
     c1_of, s1_of = (lambda s: s["C1__x"]), (lambda s: s["C1__y"])
-    add_products(dp, "dot", [
+    add_products(dp, "dot", _orientation_specs(words) + [
         (lambda s: s["ax"], word, (c1_of, word), "pa1"), (lambda s: s["ay"], word, (s1_of, word), "pa2"),
         (lambda s: s["nx"], word, (s1_of, word), "pn1"), (lambda s: s["ny"], word, (c1_of, word), "pn2"),
         (lambda s: s["ox"], word, (s1_of, word), "po1"), (lambda s: s["oy"], word, (c1_of, word), "po2"),
-    ], parallel=lambda s: {"st": s["st"] | _flag(s["C1__saturated"], S.SATURATED)},
-        drop_keys=("ax", "ay", "nx", "ny", "ox", "oy", "C1__x", "C1__y", "C1__saturated"))
-    dp.add("dot_sum", lambda s: dict(drop(s, "pa1", "pa2", "pn1", "pn2", "po1", "po2"),
+    ], parallel=lambda s: {"st": s["st"] | _flag(s["C1__saturated"], S.SATURATED),
+                           **_orientation_operands(s, words)},
+        drop_keys=("ax", "ay", "nx", "ny", "nz", "ox", "oy", "oz", "C1__x", "C1__y", "C1__saturated"))
+    dp.add("dot_sum", lambda s: dict(drop(_orientation_sums(s), "pa1", "pa2", "pn1", "pn2", "po1", "po2"),
                                      da=s["pa1"] + s["pa2"], dn=s["pn1"] - s["pn2"],
                                      do=s["po1"] - s["po2"]))
-    dp.add("dot_round", lambda s: dict(s, **{key: rshift_round(s[key], fu, nearest)
-                                             for key in ("da", "dn", "do")}))
-    builder.unstash(dp, "az")
+    dp.add("dot_round", lambda s: dict(_orientation_terms(s, words),
+                                       **{key: rshift_round(s[key], fu, nearest) for key in ("da", "dn", "do")}))
 
     def dot_saturate(s):
         a_rad, sat_a = saturate(s["da"], width)
         s5, sat_s = saturate(s["dn"], width)
         c5, sat_c = saturate(s["do"], width)
+        s, orientation = _orientation_flag(s, words)
         out = drop(s, "da", "dn", "do", "az")
         out.update({"PT__y": a_rad, "PT__x": s["az"], "Q5__y": s5, "Q5__x": c5,
-                    "st": s["st"] | _flag(sat_a | ((sat_s | sat_c) & s["roll"]), S.SATURATED)})
+                    "st": s["st"] | orientation | _flag(sat_a | ((sat_s | sat_c) & s["roll"]), S.SATURATED)})
         return out
 
     dp.add("dot_sat", dot_saturate)
@@ -545,12 +613,16 @@ def _core_datapath(words: Constants, builder: _Builder, tag: bool, compact: bool
     el.add("links", lambda s: dict(drop(s, "d2"), num=s["d2"] - k.links_sq_l2))
     limit = k.twice_a2a3_l2
 
+    reach_limit = k.reach_limit_l2      # beyond +-limit by the reach tolerance: unreachable
+
     def reach(s, flags):
         num, over, under = s["num"], flags["over"], flags["under"]
-        return dict(drop(s, "num"), unreach=over | under,
+        return dict(drop(s, "num"), unreach=flags["far_over"] | flags["far_under"],
                     numc=Mux(over, limit, Mux(under, -limit, num)))
 
-    _add_selecting(el, "reach", {"over": lambda s: s["num"] > limit, "under": lambda s: s["num"] < -limit},
+    _add_selecting(el, "reach", {"over": lambda s: s["num"] > limit, "under": lambda s: s["num"] < -limit,
+                                 "far_over": lambda s: s["num"] > reach_limit,
+                                 "far_under": lambda s: s["num"] < -reach_limit},
                    reach, registered=not compact)
     one = k.one_u
     if words.cfg.internal_guard_bits == 0:
@@ -678,9 +750,9 @@ def core_fields(constants: Constants) -> tuple[dict, dict]:
         "ax": (word, fu, "approach x"), "ay": (word, fu, "approach y"),
         "az": (word, fu, "approach z"),
         "nx": (word, fu, "normal x (read if has_roll)"), "ny": (word, fu, "normal y"),
-        "nz": (word, fu, "normal z (unused)"),
+        "nz": (word, fu, "normal z (orientation check)"),
         "ox": (word, fu, "orientation x (read if has_roll)"), "oy": (word, fu, "orientation y"),
-        "oz": (word, fu, "orientation z (unused)"),
+        "oz": (word, fu, "orientation z (orientation check)"),
         "has_roll": (bit, 0, "q5 from n, o (else q5_default)"),
         "q5_default": (word, fa, "q5 without roll, rad"),
         "shoulder_back": (bit, 0, "branch: tool point behind joint 1 (q1 + pi)"),
@@ -717,13 +789,14 @@ class IKCore(StreamBlock):
     Payloads (W = ``constants.cfg.width``; Q m.n: n fraction bits, m + n = W):
 
     * ``i.payload``: ``px``, ``py``, ``pz`` ``signed(W)`` Q.frac_length cm; ``ax``, ``ay``, ``az``,
-      ``nx``, ``ny``, ``nz``, ``ox``, ``oy``, ``oz`` ``signed(W)`` Q.frac_unit (nz, oz unused, as in
-      the model); ``has_roll``, ``shoulder_back``, ``elbow_down`` 1 bit; ``q5_default``
+      ``nx``, ``ny``, ``nz``, ``ox``, ``oy``, ``oz`` ``signed(W)`` Q.frac_unit (nz, oz only in the
+      orientation check); ``has_roll``, ``shoulder_back``, ``elbow_down`` 1 bit; ``q5_default``
       ``signed(W)`` Q.frac_angle rad; ``tag`` ``unsigned(tag_width)`` (only if ``tag_width``).
       Every word is accepted (full-scale and most negative inputs give the model's result).
     * ``o.payload``: ``q1`` .. ``q5`` ``signed(W)`` Q.frac_angle rad in [-pi, pi] (q5: the wrapped
-      default without roll); ``status`` ``unsigned(5)``, the bits of :mod:`ik5r.status`
-      (unreachable, singular_elbow, singular_base, saturated, invalid); ``tag``, the input's.
+      default without roll); ``status`` ``unsigned(6)``, the bits of :mod:`ik5r.status`
+      (unreachable, singular_elbow, singular_base, saturated, invalid, bad_orientation); ``tag``,
+      the input's.
 
     Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure),
     see ``latency`` (pipelined: q32w 323, q32 274, q18 190, of which 3 in the output FIFO and the
@@ -772,7 +845,7 @@ class IKCore(StreamBlock):
 
         return {"px": word(p.px), "py": word(p.py), "pz": word(p.pz), "ax": word(p.ax),
                 "ay": word(p.ay), "az": word(p.az), "nx": word(p.nx), "ny": word(p.ny),
-                "ox": word(p.ox), "oy": word(p.oy), "roll": p.has_roll, "q5d": word(p.q5_default),
+                "nz": word(p.nz), "ox": word(p.ox), "oy": word(p.oy), "oz": word(p.oz), "roll": p.has_roll, "q5d": word(p.q5_default),
                 "back": p.shoulder_back, "down": p.elbow_down}
 
     def _outputs(self, state):

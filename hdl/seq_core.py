@@ -19,7 +19,8 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from ik5r.fxconfig import Constants
+from ik5r import status as S
+from ik5r.fxconfig import CHECK_BITS, Constants
 
 from . import seq_isa as X
 from .common import add_sub, asr, saturate, select
@@ -27,7 +28,9 @@ from .seq_program import ik_program
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
 
-STATUS_BITS = 5
+STATUS_BITS = S.FIXED_BITS.bit_length()
+#: Multiplier operand bits: a 16-bit signed limb or a check word.
+_FACTOR_BITS = max(16, CHECK_BITS)
 
 
 def _pack(prog: X.Program):
@@ -49,11 +52,12 @@ def _pack(prog: X.Program):
 class SeqEngine(wiring.Component):
     """The sequenced IK engine (see the module docstring), with word ports.
 
-    Input: the program asks for word ``in_index`` (of the instruction executing next; 0..10:
-    :data:`~.seq_isa.INPUT_WORDS`, 11: the flags word has_roll | shoulder_back << 1 |
+    Input: the program asks for word ``in_index`` (of the instruction executing next; 0..12:
+    :data:`~.seq_isa.INPUT_WORDS`, 13: the flags word has_roll | shoulder_back << 1 |
     elbow_down << 2 | tag << 3) and takes it in a clock with ``in_valid`` high (``in_take``).
-    Output: ``out_valid`` with word ``out_index`` (0..4: q1..q5, 5: status | tag << 5) in
-    ``out_data``, held until ``out_ready``. One pose takes
+    Output: ``out_valid`` with word ``out_index`` (0..4: q1..q5, 5: status | tag << 6, status
+    the :data:`STATUS_BITS` bits of :mod:`ik5r.status`) in ``out_data``, held until
+    ``out_ready``. One pose takes
     ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
     first instruction is about to execute.
     """
@@ -201,7 +205,7 @@ class SeqEngine(wiring.Component):
             "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
             "cz": Signal(signed(w.z), name="cz"),
             "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
-            "la": Signal(signed(16), name="la"), "lb": Signal(signed(16), name="lb"),
+            "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(_FACTOR_BITS), name="lb"),
             "prod": Signal(signed(w.acc), name="prod"),
             "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
             "rem": Signal(w.radicand // 2 + 2, name="rem"),
@@ -291,12 +295,13 @@ class SeqEngine(wiring.Component):
                 m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
 
     def _multiplier(self, m, f, next_shift, bus, regs, run, w):
-        def limb(reg, index, top):
+        def limb(reg, index, top, check):
             options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
                        for i in range(w.limbs)]
-            return select(options, index).as_signed()
+            return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
+                       select(options, index).as_signed())
 
-        product = Signal(signed(32), name="limb_product")     # the one multiplier
+        product = Signal(signed(2 * _FACTOR_BITS), name="limb_product")     # the one multiplier
         m.d.comb += product.eq(regs["la"] * regs["lb"])
         with m.If(run):
             # The product register holds the limb product already shifted to its weight, by
@@ -305,8 +310,8 @@ class SeqEngine(wiring.Component):
             m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
                                         if len(shifts) > 1 else product.shift_left(shifts[0]))
             with m.If(f("pick")):
-                m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"))),
-                             regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb")))]
+                m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
+                             regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb")))]
             with m.If(f("mld") == 1):
                 m.d.sync += regs["ma"].eq(bus)
             with m.If(f("mld") == 2):
@@ -404,12 +409,12 @@ class SequencedIKCore(wiring.Component):
 class SerialIK(wiring.Component):
     """The sequenced IK engine with a narrow word-serial stream on each side, for small FPGAs.
 
-    ``i``: per pose 12 words, each sent as ``ceil(max(W, 3 + tag_width) / beat_bits)`` beats of
-    ``beat_bits`` bits, least significant beat first: px, py, pz, ax, ay, az, nx, ny, ox, oy,
-    q5_default (signed words as in ``IKCore``; nz, oz are not used by the IK and not sent), then
-    the flags word has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3. ``o``: per pose
-    6 words, ``ceil(max(W, 5 + tag_width) / beat_bits)`` beats each: q1..q5, then status |
-    tag << 5. Function: ``model.ik_solve`` bit for bit. Throughput: one pose per
+    ``i``: per pose 14 words, each sent as ``ceil(max(W, 3 + tag_width) / beat_bits)`` beats of
+    ``beat_bits`` bits, least significant beat first: px, py, pz, ax, ay, az, nx, ny, nz, ox, oy,
+    oz, q5_default (signed words as in ``IKCore``), then the flags word has_roll |
+    shoulder_back << 1 | elbow_down << 2 | tag << 3. ``o``: per pose 6 words,
+    ``ceil(max(W, 6 + tag_width) / beat_bits)`` beats each: q1..q5, then status | tag << 6.
+    Function: ``model.ik_solve`` bit for bit. Throughput: one pose per
     ``cycles_per_result`` clocks when beats come and go every clock; one pose in flight.
     """
 
@@ -424,7 +429,7 @@ class SerialIK(wiring.Component):
         self.out_beats = -(-e.out_bits // beat_bits)
         # Each input word waits for its beats, except the first: its beats arrive while the
         # previous pose is computed. Each output word holds the engine for its beats.
-        self.latency = e.cycles + 12 * (self.in_beats - 1) + 6 * (self.out_beats - 1)
+        self.latency = e.cycles + (len(X.INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
         self.cycles_per_result = self.latency - (self.in_beats - 1)
         self.capacity = 1
         self.options = {"serial": beat_bits}

@@ -5,7 +5,9 @@ An instruction is a dict of fields (absent = 0), one field group per unit, all a
 clock: the data memory (one read ``rd``, one write ``wa`` of the accumulator as it was before the
 instruction), the accumulator ALU (``alu``, condition ``ca/cai & cb/cbi``, status mask ``stat``),
 the CORDIC micro-rotation unit (``cop``, step ``ci``), the multiplier (``mld`` operand loads,
-``pick`` of one 16 x 16 limb product, two clocks later accumulated by ``MACC`` / ``MLD``), the
+``pick`` of one 16 x 16 limb product, or of a product of check words, the top
+:data:`~ik5r.fxconfig.CHECK_BITS` bits of an internal word, ``pwa`` / ``pwb``; two clocks later
+accumulated by ``MACC`` / ``MLD``), the
 digit-serial square root (``sq``) and the word ports (``io``). The program is straight-line (no
 branches: selections are conditional ALU and CORDIC operations), so a pose takes exactly the
 program's length in clocks, plus any wait on the word ports.
@@ -18,6 +20,8 @@ so it checks a program against ``model.ik_solve`` in milliseconds, before any HD
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+from ik5r.fxconfig import CHECK_BITS
 
 # --- field values --------------------------------------------------------------------------------
 
@@ -49,14 +53,14 @@ Q_NOP, Q_LOAD, Q_STEP = range(3)
 IO_NOP, IO_IN, IO_FLAGS, IO_OUT, IO_STATUS = range(5)
 
 FIELDS = ("rd", "bsel", "wr", "wa", "alu", "ca", "cai", "cb", "cbi", "stat", "sh", "cop", "ci",
-          "mld", "pick", "pa", "pb", "psa", "psb", "sq", "io", "iw")
+          "mld", "pick", "pa", "pb", "psa", "psb", "pwa", "pwb", "sq", "io", "iw")
 
 #: Fields owned by each unit (two instructions can be merged when their units are disjoint).
 UNIT_FIELDS = {
     "mem": ("rd", "bsel", "wr", "wa"),
     "alu": ("alu", "ca", "cai", "cb", "cbi", "stat", "sh"),
     "cordic": ("cop", "ci"),
-    "mul": ("mld", "pick", "pa", "pb", "psa", "psb"),
+    "mul": ("mld", "pick", "pa", "pb", "psa", "psb", "pwa", "pwb"),
     "sqrt": ("sq",),
     "io": ("io", "iw"),
 }
@@ -65,7 +69,7 @@ UNIT_FIELDS = {
 #: instructions at least READ_AHEAD + 1 after it.
 READ_AHEAD = 2
 LIMB = 15          # unsigned limb bits; the top limb of an operand is 16 bits, signed
-INPUT_WORDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "q5d")
+INPUT_WORDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "q5d")
 
 
 @dataclass
@@ -83,6 +87,7 @@ class Widths:
     radicand: int      # square root radicand register (even)
     cordic_guard: int
     angle_guard: int
+    check_lsb: int = 0  # a check word: operand bits [check_lsb, check_lsb + CHECK_BITS), signed
     tag: int = 0
 
     @property
@@ -113,6 +118,14 @@ def limb(value: int, index: int, top: bool) -> int:
         bits = (value >> (LIMB * index)) & 0xFFFF
         return bits - 0x10000 if bits & 0x8000 else bits
     return (value >> (LIMB * index)) & ((1 << LIMB) - 1)
+
+
+def check_word(value: int, lsb: int) -> int:
+    """The check word of an operand: its bits from ``lsb`` on (floor), CHECK_BITS bits, signed."""
+    word = value >> lsb
+    if not fits(word, CHECK_BITS):
+        raise OverflowError(f"check word overflow {word} of {value}")
+    return word
 
 
 def wrap_signed(value: int, bits: int) -> int:
@@ -244,8 +257,10 @@ class Machine:
         w = self.w
         self.prod = self.la * self.lb            # the product register: two clocks after a pick
         if ins.get("pick"):
-            self.la = limb(self.ma, ins.get("pa", 0), ins.get("psa", 0))
-            self.lb = limb(self.mb, ins.get("pb", 0), ins.get("psb", 0))
+            self.la = (check_word(self.ma, w.check_lsb) if ins.get("pwa")
+                       else limb(self.ma, ins.get("pa", 0), ins.get("psa", 0)))
+            self.lb = (check_word(self.mb, w.check_lsb) if ins.get("pwb")
+                       else limb(self.mb, ins.get("pb", 0), ins.get("psb", 0)))
         mld = ins.get("mld", 0)
         if mld:
             if not fits(b, w.operand):
@@ -272,7 +287,7 @@ class Machine:
 
 
 def run(prog: Program, inputs: list[int]) -> dict:
-    """One pose through ``prog``: ``inputs`` are the 11 words of :data:`INPUT_WORDS` and the flags
+    """One pose through ``prog``: ``inputs`` are the 13 words of :data:`INPUT_WORDS` and the flags
     word (has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3). Returns the output words
     (0..4: q1..q5) and ``status``, ``tag``."""
     m = Machine(prog)

@@ -4,13 +4,13 @@ The program follows ``firmware_model/model.py`` step by step (the same order of 
 saturations and status bits), in the units of :mod:`.seq_isa`. Work on independent units runs
 side by side (:meth:`Asm.par`): while a CORDIC runs its micro-rotations, the multiplier, the
 accumulator and the square root work on the next step's products, so a q32w pose takes about
-700 clocks on one CORDIC unit, one 16 x 16 multiplier and one digit-serial square root.
+700 clocks on one CORDIC unit, one 17 x 17 multiplier and one digit-serial square root.
 """
 
 from __future__ import annotations
 
 from ik5r import status as S
-from ik5r.fxconfig import Constants
+from ik5r.fxconfig import CHECK_BITS, Constants
 
 from .cordic import atan2_widths, rotate_z_bound
 from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_NOP, A_SATI, A_SATW,
@@ -28,6 +28,14 @@ class Const:
 
     def __init__(self, value: int):
         self.value = int(value)
+
+
+class Check:
+    """The check word of a variable (its top CHECK_BITS bits: ``model.check_word`` of the internal
+    format) as a multiplier operand: the variable is loaded, the pick takes the check word."""
+
+    def __init__(self, name: str):
+        self.name = name
 
 
 class Bus:
@@ -52,7 +60,16 @@ def operand(src) -> dict:
         return {"bsel": src.sel}
     if isinstance(src, Const):
         return {"rd": ("c", src.value)}
+    if isinstance(src, Check):
+        return {"rd": ("v", src.name)}
     return {"rd": ("v", src)}
+
+
+def _pick(src, index: int, limbs: int, side: str = "a") -> dict:
+    """Pick fields of one operand: limb ``index`` (signed if the top one), or its check word."""
+    if isinstance(src, Check):
+        return {f"pw{side}": 1}
+    return {f"p{side}": index, f"ps{side}": int(index == limbs - 1)}
 
 
 def I(*conds, **fields) -> dict:
@@ -117,7 +134,8 @@ class Asm:
         """acc (+)= sum of +-a*b; ``terms``: (a, a_bits, b, b_bits, negative, extra_shift).
 
         Per term: the operands are loaded (MB only when it changes), one limb pair is picked per
-        clock, and its product is added two clocks later (the multiplier's two registers)."""
+        clock, and its product is added two clocks later (the multiplier's two registers). A
+        :class:`Check` operand is one limb, its check word."""
         slots: list[dict] = []
 
         def put(t, **fields):
@@ -131,9 +149,11 @@ class Asm:
         for index, (a, a_bits, b, b_bits, negative, extra) in enumerate(terms):
             self.operand_bits = max(self.operand_bits, a_bits, b_bits)
             self.product_bits = max(self.product_bits, a_bits + b_bits + extra)
-            la, lb = limbs_of(a_bits), limbs_of(b_bits)
+            la, lb = (1 if isinstance(x, Check) else limbs_of(bits) for x, bits in ((a, a_bits), (b, b_bits)))
+            if isinstance(a, Check) or isinstance(b, Check):
+                self.operand_bits = max(self.operand_bits, CHECK_BITS)
             put(t, mld=1, **operand(a))
-            key = (b.value if isinstance(b, Const) else b, b_bits)
+            key = (b.value if isinstance(b, Const) else b.name if isinstance(b, Check) else b, b_bits)
             if key != last_b:
                 put(t + 1, mld=2, **operand(b))
                 t += 1
@@ -143,7 +163,7 @@ class Asm:
                 raise ValueError("only the first term of a sum may be negative")
             for i in range(la):
                 for j in range(lb):
-                    put(t, pick=1, pa=i, pb=j, psa=int(i == la - 1), psb=int(j == lb - 1))
+                    put(t, pick=1, **_pick(a, i, la), **_pick(b, j, lb, "b"))
                     put(t + 2, alu=A_MLD if first_macc else A_MACC,
                         sh=self.shift_index(LIMB * (i + j) + extra))
                     first_macc = False
@@ -178,8 +198,9 @@ class Asm:
         return ([I(cop=K_LDXG, **operand(x)), I(cop=K_LDYG, **operand(y))] + self.atan2_body()
                 + self.atan2_angle(zero_status) + [st(dest)])
 
-    def rotate(self, x, y, angle: str, dest_x: str, dest_y: str) -> list:
-        """(dest_x, dest_y) = cordic_rotate(x, y, angle) (saturated, flagged)."""
+    def rotate(self, x, y, angle: str, dest_x: str, dest_y: str, beside=()) -> list:
+        """(dest_x, dest_y) = cordic_rotate(x, y, angle) (saturated, flagged); ``beside``: work on
+        the other units during the micro-rotations."""
         ki = self.ki
         c = ki.cfg
         code = [I(cop=K_LDZA, **operand(angle)), I(cop=K_LDX, **operand(x)), I(cop=K_LDY, **operand(y)),
@@ -192,7 +213,7 @@ class Asm:
             if load == K_LDX:
                 code += [st("rot_gx")]
         code += [I(cop=K_LDY, bsel=B_ACC), I(cop=K_LDX, **operand("rot_gx"))]
-        code += [I(cop=K_ROT, ci=i) for i in range(c.iterations)]
+        code += self.par([I(cop=K_ROT, ci=i) for i in range(c.iterations)], list(beside))
         for src, dest in ((CX, dest_x), (CY, dest_y)):
             code += [alu(A_LD, src)] + self.round_shift(c.guard_bits)
             code += [alu(A_SATI, stat=S.SATURATED), st(dest)]
@@ -292,7 +313,7 @@ def _widths(k: Constants) -> Widths:
     return Widths(word=k.cfg.width, guard=k.cfg.internal_guard_bits, internal=c.width,
                   acc=2 * c.width + 6, mem=c.width + 4, limbs=1, xy=c.width + c.guard_bits + 3,
                   z=z, radicand=2 * c.width, cordic_guard=c.guard_bits,
-                  angle_guard=c.angle_guard_bits)
+                  angle_guard=c.angle_guard_bits, check_lsb=ki.check_shift)
 
 
 def ik_program(k: Constants) -> Program:
@@ -300,6 +321,9 @@ def ik_program(k: Constants) -> Program:
     a = Asm(k)
     ki = k.internal
     c = ki.cfg
+    if ki.check_shift != k.check_shift + k.cfg.internal_guard_bits:
+        raise ValueError("the frame's check words (of the word format) must be the top bits of the "
+                         f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
     wi, fu = c.width, c.frac_unit
     radicand = 2 * wi
     code = []
@@ -314,11 +338,15 @@ def ik_program(k: Constants) -> Program:
     theta = [I(cop=K_LDXG, **operand("px")), I(NOT_F, cop=K_LDXG, **operand("ax")),
              I(cop=K_LDYG, **operand("py")), I(NOT_F, cop=K_LDYG, **operand("ay"))]
     theta += a.atan2_body() + a.atan2_angle(S.SINGULAR_BASE) + [st("theta1")]
-    code += a.par(theta, [I(sq=Q_STEP)] * wi)
+    # The orientation checks' products fill the clocks the CORDIC runs alone (they only set status
+    # bits): the frame's beside this vectoring and the rotations, the plane's once c1, s1 are known.
+    checks = frame_checks(a)
+    beside = [{}] * 4 + _fill(len(a.atan2_body()), checks)
+    code += a.par(theta, a.par([I(sq=Q_STEP)] * wi, beside))
     code += sqrt_round(a) + [alu(A_SATI, stat=S.SATURATED)]
     code += [alu(A_NEG, None, (C_BACK, 0)), alu(A_SUB, Const(ki.a1_l)), st("xa")]
     code += [alu(A_LD, "theta1")] + a.opposite((C_BACK, 0)) + [st("q1")]
-    code += a.rotate(Const(ki.one_u), Const(0), "q1", "c1", "s1")
+    code += a.rotate(Const(ki.one_u), Const(0), "q1", "c1", "s1", _fill(c.iterations, checks))
 
     # Tool pitch phi beside the roll's s5, c5.
     code += a.products([("ax", wi, "c1", wi, False, 0), ("ay", wi, "s1", wi, False, 0)])
@@ -332,7 +360,9 @@ def ik_program(k: Constants) -> Program:
     code += a.atan2_angle(S.INVALID) + a.opposite() + [st("phi")]
 
     # Wrist centre: the rotated offset, then the roll's atan2 beside the elbow's products.
-    code += a.rotate(Const(ki.a4_l), Const(ki.d5_l), "phi", "offx", "offy")
+    checks.insert(0, plane_check(a))
+    code += a.rotate(Const(ki.a4_l), Const(ki.d5_l), "phi", "offx", "offy", _fill(c.iterations, checks))
+    code += [ins for check in checks for ins in check]
     code += [I(cop=K_LDXG, **operand("c5")), I(cop=K_LDYG, **operand("s5"))]
     code += a.par(a.atan2_body(), elbow(a))
     code += a.atan2_angle() + [alu(A_NOP, None, (C_ZERO, 0), (C_ROLL, 0), stat=S.INVALID)]
@@ -400,9 +430,10 @@ def elbow(a: Asm) -> list:
             alu(A_LD, Const(ki.d1_l)), alu(A_SUB, "pz"), alu(A_SUB, "offy"),
             alu(A_SATI, stat=S.SATURATED), st("yw"), alu(A_LD, Const(-ki.links_sq_l2))]
     code += a.products([("xw", wi, "xw", wi, False, 0), ("yw", wi, "yw", wi, False, 0)], first=False)
-    limit = ki.twice_a2a3_l2
-    code += [alu(A_CMPGT, Const(limit), stat=S.UNREACHABLE), alu(A_LD, Const(limit), F),
-             alu(A_CMPLT, Const(-limit), stat=S.UNREACHABLE), alu(A_LD, Const(-limit), F), st("num")]
+    limit, reach = ki.twice_a2a3_l2, int(ki.reach_limit_l2)
+    code += [alu(A_CMPGT, Const(reach), stat=S.UNREACHABLE), alu(A_CMPLT, Const(-reach), stat=S.UNREACHABLE),
+             alu(A_CMPGT, Const(limit)), alu(A_LD, Const(limit), F),
+             alu(A_CMPLT, Const(-limit)), alu(A_LD, Const(-limit), F), st("num")]
     one, two = ki.one_u, 2 * ki.one_u
     bits = limit.bit_length() + 3
     if a.k.cfg.internal_guard_bits == 0:
@@ -417,3 +448,43 @@ def elbow(a: Asm) -> list:
         code += [alu(A_LD, Const(limit)), alu(op, "num")] + a.mul_const(m, bits)
         code += [alu(A_CMPGT, Const(two)), alu(A_LD, Const(two), F), st(dest)]
     return code + [alu(A_LD, Const(one)), alu(A_SUB, "om"), st("c3")]
+
+
+def _fill(window: int, streams: list) -> list:
+    """The streams taken off the front of ``streams`` while they fit ``window`` clocks, in a row."""
+    out = []
+    while streams and len(out) + len(streams[0]) <= window:
+        out += streams.pop(0)
+    return out
+
+
+def beyond(centre: int, k: Constants, *conds) -> list:
+    """BAD_ORIENTATION if acc is beyond ``centre`` by more than the tolerance (``model.beyond``)."""
+    tol = k.check_tol_c2
+    return [alu(A_CMPGT, Const(centre + tol), *conds, stat=S.BAD_ORIENTATION),
+            alu(A_CMPLT, Const(centre - tol), *conds, stat=S.BAD_ORIENTATION)]
+
+
+def frame_checks(a: Asm) -> list:
+    """``model.frame_is_bad`` (with roll only), one instruction list a check: n.n, o.o, n.o and
+    the components of n x o - a, each a sum of check-word products against its centre."""
+    k, wi = a.k, a.ki.cfg.width
+    n, o = ([Check(f"{v}{axis}") for axis in "xyz"] for v in "no")
+
+    def dot(u, v):
+        return [(x, wi, y, wi, False, 0) for x, y in zip(u, v)]
+
+    checks = [(dot(n, n), k.check_one_c2), (dot(o, o), k.check_one_c2), (dot(n, o), 0)]
+    for i, axis in enumerate("xyz"):
+        j, m = (i + 1) % 3, (i + 2) % 3
+        # (n x o - a)_i = -n_m o_j (the one negative term first) + n_j o_m - a_i << check_frac.
+        checks.append(([(n[m], wi, o[j], wi, True, 0), (n[j], wi, o[m], wi, False, 0),
+                        (Check(f"a{axis}"), wi, Const(-1), 2, False, k.check_frac)], 0))
+    return [a.products(terms) + beyond(centre, k, (C_ROLL, 0)) for terms, centre in checks]
+
+
+def plane_check(a: Asm) -> list:
+    """``model.off_plane``: the approach's component normal to the arm's plane, ay c1 - ax s1."""
+    wi = a.ki.cfg.width
+    terms = [(Check("ax"), wi, Check("s1"), wi, True, 0), (Check("ay"), wi, Check("c1"), wi, False, 0)]
+    return a.products(terms) + beyond(0, a.ki)

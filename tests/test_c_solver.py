@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ik5r import status as st
 from ik5r.firmware import codegen, csolver, model
 from ik5r.firmware.vectors import Poses, concat, edge_poses, random_poses
 from ik5r.fxconfig import constants, load_config
@@ -214,7 +215,7 @@ def test_solve_edges_match_model(name):
     assert_poses_equal(poses, cs.solve_batch(*poses.args()), expected, f"{name} edges")
     # The edge set exercises every status bit the fixed-point IK can set.
     seen = np.bitwise_or.reduce(expected[1])
-    assert seen == 0b11111, bin(seen)
+    assert seen == st.FIXED_BITS, bin(seen)
 
 
 @pytest.mark.parametrize("fn", ["atan2", "rotate", "acos", "sqrt_word", "isqrt64"])

@@ -78,13 +78,16 @@ def test_fk_solve_round_trip(poses, tmp_path, solver):
     assert main(["solve", str(path), "-o", str(out), "--solver", solver, "--all"]) == 0
     rows = _read(out)
     header = list(rows[0])
-    base = ["row", "branch", "q1", "q2", "q3", "q4", "q5", "status"]
+    base = ["row", "branch", "q1", "q2", "q3", "q4", "q5", "status", "residual_cm", "residual_rad"]
     if solver == "float":
-        assert header == base + ["residual_rad"]
+        assert header == base
         tol = 1e-7
     else:
         assert header == base + [f"q{j}_raw" for j in range(1, 6)] + ["status_bits"]
         tol = 1e-5           # q32: the angles of a 32-bit solver, errors of a few 1e-7 rad
+    # reachable poses: the written joints reach the tool point and the approach
+    assert max(float(r["residual_cm"]) for r in rows) <= (1e-9 if solver == "float" else 1e-5)
+    assert max(float(r["residual_rad"]) for r in rows) <= (1e-9 if solver == "float" else 1e-6)
     index = np.array([int(r["row"]) for r in rows])
     got = _joints(rows)
     status = [r["status"] for r in rows]
@@ -280,7 +283,7 @@ def test_console_script_subprocess(poses, tmp_path):
                           timeout=120)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
-    assert lines[0] == "row,branch,q1,q2,q3,q4,q5,status,residual_rad" and len(lines) == 201
+    assert lines[0] == "row,branch,q1,q2,q3,q4,q5,status,residual_cm,residual_rad" and len(lines) == 201
     bad = tmp_path / "bad.csv"
     bad.write_text("px,py,pz,ax,ay,az\n1,2,3,0,0\n")
     done = subprocess.run([*cmd, "solve", str(bad)], capture_output=True, text=True, timeout=120)

@@ -236,6 +236,25 @@ def test_poses_ragged_record_exit_2_file_line(tmp_path, capsys):
     assert capsys.readouterr().err.startswith(f"{poses}:3: ")
 
 
+def test_poses_on_error_skip_numeric(tmp_path, capsys):
+    """--on-error skip: the bad record reported as FILE:LINE, the others solved under their own
+    row numbers (those of a run without the bad record), exit 3."""
+    arm = str(shipped_arm("toz-6r"))
+    q = random_joints(load_chain(arm), 3, np.random.default_rng(4))
+    points = fk(load_chain(arm), q)[1]
+    rows = [",".join(repr(float(v)) for v in point) for point in points]
+    poses = tmp_path / "p.csv"
+    poses.write_text("\n".join(["px,py,pz", rows[0], "4,5", rows[1], rows[2]]) + "\n")
+    out = tmp_path / "o.csv"
+    argv = ["solve", str(poses), "--solver", "numeric", "--mode", "position", "--arm", arm, "-o", str(out)]
+    assert main(argv + ["--on-error", "skip"]) == 3
+    assert capsys.readouterr().err.startswith(f"{poses}:3: expected 3 fields, got 2")
+    got = _read(out)
+    assert [int(r["row"]) for r in got] == [0, 2, 3]
+    assert all(r["status"] == "ok" for r in got)
+    assert main(argv) == 2 and not out.exists()
+
+
 def test_solver_default_is_closed_form_for_the_5r_and_numeric_otherwise(tmp_path):
     arm = load_arm()
     p, n, o, a = reference.fk(arm, reference.random_joints(arm, 3, np.random.default_rng(7)))

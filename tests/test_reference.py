@@ -232,10 +232,42 @@ def test_off_plane_approach_residual():
     a_off = math.cos(tilt) * a + math.sin(tilt) * normal
     res = ref.ik(ARM, p, a_off)
     assert res.residual[0] == pytest.approx(tilt, abs=1e-12)
-    assert _has_original(res, q).size
-    p_back, _, _, a_back = ref.fk(ARM, res.q[0][res.valid[0]])
+    # 0.25 rad off the plane: beyond the orientation tolerance, every branch says so ...
+    assert np.all(res.status[0] & st.BAD_ORIENTATION)
+    assert not res.valid[0].any()
+    # ... and solves the projected approach: the branches valid but for that bit.
+    solved = (res.status[0] & ~(st.BAD_ORIENTATION | st.SINGULAR_ELBOW | st.SINGULAR_BASE)) == 0
+    dq = np.abs(ref.wrap(res.q[0] - np.asarray(q))).max(axis=-1)
+    assert np.any(solved & (dq <= JOINT_TOL_RAD))
+    assert solved[res.choose()[0]]
+    p_back, _, _, a_back = ref.fk(ARM, res.q[0][solved])
     assert np.abs(p_back - p).max() <= POSITION_TOL_CM
     assert np.abs(a_back - a).max() <= 1e-12        # the projection, not the given approach
+
+
+def test_orientation_tolerance_boundary():
+    """An approach off the plane by less than the tolerance is ok, by more bad_orientation; a frame
+    rotated, skewed or mirrored beyond it too; the default tolerance is 1e-3."""
+    q = [0.6, -0.7, 1.1, 0.5, 0.2]
+    p, n, o, a = _pose(q)
+    normal = np.array([-math.sin(q[0]), math.cos(q[0]), 0.0])
+    for sine, bad in ((0.5e-3, False), (2e-3, True)):
+        a_off = math.sqrt(1 - sine * sine) * a + sine * normal
+        res = ref.ik(ARM, p, a_off)
+        assert bool(np.all(res.status[0] & st.BAD_ORIENTATION)) is bad
+        assert bool(np.any(res.status[0] & st.BAD_ORIENTATION)) is bad
+    assert not np.any(ref.ik(ARM, p, a, n, o).status[0] & st.BAD_ORIENTATION)
+    for n2, o2 in ((n, -o), (o, n), (n, (o + 2e-3 * n) / np.linalg.norm(o + 2e-3 * n)), (1.002 * n, o)):
+        assert np.all(ref.ik(ARM, p, a, n2, o2).status[0] & st.BAD_ORIENTATION)
+    assert np.all(ref.ik(ARM, p, a, n, (o + 5e-4 * n) / np.linalg.norm(o + 5e-4 * n)).status[0]
+                  & st.BAD_ORIENTATION) == 0
+
+
+def test_huge_input_is_invalid_not_nan_status():
+    res = ref.ik(ARM, [1e155, 0.0, 0.0], [0.0, 0.0, 1.0])
+    assert np.all(res.status[0] == st.INVALID) and np.isnan(res.q[0]).all()
+    res = ref.ik(ARM, [1e150, 0.0, 0.0], [0.0, 0.0, 1.0])          # large but squarable: unreachable
+    assert np.all(res.status[0] & st.UNREACHABLE) and not np.any(res.status[0] & st.INVALID)
 
 
 def test_perpendicular_approach_is_invalid():

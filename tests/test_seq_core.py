@@ -14,15 +14,17 @@ from __future__ import annotations
 import random
 import re
 
+import numpy as np
 import pytest
 from amaranth.sim import Simulator
 
+from ik5r import status as st
 from ik5r.firmware import model
-from ik5r.firmware.vectors import concat, directed_poses, random_poses
+from ik5r.firmware.vectors import Poses, concat, directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl import seq_isa
 from ik5r.hdl.generate import generate
-from ik5r.hdl.seq_core import SequencedIKCore, SerialIK
+from ik5r.hdl.seq_core import STATUS_BITS, SequencedIKCore, SerialIK
 from ik5r.hdl.seq_program import ik_program
 from ik5r.hdl.tb.amaranth_stream import compare, run_stream
 from ik5r.hdl.tb.blocks import ik_outputs
@@ -30,7 +32,7 @@ from ik5r.hdl.tb.blocks import ik_outputs
 from test_ik_core import expected_of, inputs_of, with_tags
 
 TAG_WIDTH = 6
-WORD_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "ox", "oy", "q5_default")
+WORD_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "q5_default")
 
 
 def _k(name):
@@ -61,6 +63,40 @@ def test_program_on_interpreter(cfg):
         if got != want or out["tag"] != i % 64:
             bad.append((i, want, got))
     assert not bad, f"{len(bad)} of {len(poses)} mismatch, first {bad[0]}"
+
+
+def _frame_noise(k, poses, seed):
+    """The poses with n, o, a moved by up to twice the orientation tolerance, by pose index mod 6:
+    |n| off, |o| off, n towards o, or one component of a off (so that each check of
+    ``model.frame_is_bad`` alone decides some poses)."""
+    rng = np.random.default_rng(seed)
+    f = poses.fields()
+    vec = {key: np.stack([f[f"{key}{axis}"] for axis in "xyz"], axis=1).astype(float) for key in "noa"}
+    count = len(poses)
+    e = rng.uniform(-2, 2, (count, 1)) * k.cfg.orientation_tolerance
+    mode = np.arange(count) % 6
+    vec["n"] += np.where(mode[:, None] == 0, e * vec["n"], 0) + np.where(mode[:, None] == 2, e * vec["o"], 0)
+    vec["o"] += np.where(mode[:, None] == 1, e * vec["o"], 0)
+    vec["a"] += (mode[:, None] == 3 + np.arange(3)) * e * 2.0 ** k.cfg.frac_unit
+    for key in "noa":
+        for j, axis in enumerate("xyz"):
+            f[f"{key}{axis}"] = np.clip(np.rint(vec[key][:, j]), k.word_min, k.word_max).astype(np.int64)
+    return Poses.from_fields(f)
+
+
+@pytest.mark.parametrize("cfg", ("q18", "q32w"))
+def test_program_orientation_checks(cfg):
+    """n, o, a near the orientation tolerance (every check of ``model.frame_is_bad`` alone
+    decides some poses): the program's status bits are the model's."""
+    k = _k(cfg)
+    poses = _frame_noise(k, random_poses(k, 50, seed=12), seed=13)
+    expected = ik_outputs(k, poses, model.solve_batch)
+    bad_orientation = (np.asarray(expected["status"]) & st.BAD_ORIENTATION) != 0
+    assert 0.1 < bad_orientation.mean() < 0.9
+    prog = ik_program(k)
+    fields = poses.fields()
+    got = [seq_isa.run(prog, _engine_words(fields, i, 0))["status"] for i in range(len(poses))]
+    assert got == [int(v) for v in expected["status"]]
 
 
 def test_program_is_short_and_shared():
@@ -150,7 +186,7 @@ def test_serial_wrapper(stalls):
         words = [sum(received[(6 * i + w) * dut.out_beats + j] << (b * j) for j in range(dut.out_beats))
                  for w in range(6)]
         got = {f"q{j + 1}": seq_isa.wrap_signed(words[j], width) for j in range(5)}
-        got["status"], tag = words[5] & 31, words[5] >> 5
+        got["status"], tag = words[5] & ((1 << STATUS_BITS) - 1), words[5] >> STATUS_BITS
         assert got == {name: int(expected[name][i]) for name in got} and tag == i % 16, f"pose {i}"
     if not stalls:
         # Beats every clock: one pose per cycles_per_result clocks, + the clock after power-up

@@ -145,6 +145,44 @@ def _driver_lines(args) -> list[str]:
             for i in range(len(p_l))]
 
 
+def cli_streaming(poses: int, config: str | None, solvers=("float", "fixed"), seed: int = 0) -> list[dict]:
+    """``ik5r solve --all`` on a file of ``poses`` poses, in a child process: wall time, output
+    rows and peak resident memory (``ru_maxrss`` of the child), per solver. The file is streamed in
+    chunks, so the memory must not grow with its length (floor: under 1 GB for 1,000,000 poses)."""
+    import os
+    import sys
+
+    from . import csvio
+
+    arm = load_arm()
+    results = []
+    with tempfile.TemporaryDirectory(prefix="ik5r-bench-") as tmp:
+        path = Path(tmp) / "poses.csv"
+        rng = np.random.default_rng(seed)
+        with csvio.Writer(path, csvio.POSE_COLUMNS) as out:
+            for lo in range(0, poses, csvio.CHUNK_ROWS):
+                pose = reference.fk_pose(arm, reference.random_joints(arm, min(csvio.CHUNK_ROWS, poses - lo), rng))
+                out.write([pose[:, j] for j in range(12)])
+        for solver in solvers:
+            target = Path(tmp) / f"{solver}.csv"
+            cmd = [sys.executable, "-m", "ik5r.cli", "solve", str(path), "--all", "--solver", solver,
+                   "-o", str(target)] + (["--config", config] if config else [])
+            t0 = time.perf_counter()
+            child = subprocess.Popen(cmd)
+            _, status, usage = os.wait4(child.pid, 0)
+            child.returncode = os.waitstatus_to_exitcode(status)
+            wall = time.perf_counter() - t0
+            if child.returncode != 0:
+                raise RuntimeError(f"{' '.join(cmd)} exited {child.returncode}")
+            with open(target, "rb") as handle:
+                rows = sum(1 for _ in handle) - 1
+            results.append({"solver": solver, "poses": poses, "rows": rows, "wall_s": wall,
+                            "poses_per_s_wall": poses / wall, "max_rss_mb": usage.ru_maxrss / 1024,
+                            "command": "ik5r " + " ".join(cmd[3:])})
+            target.unlink()
+    return results
+
+
 def run(poses: int = 1_000_000, config: str | None = None, repeat: int = 3, lm_count: int = 100,
         ikpy_count: int = 20, callgrind_count: int = 2000, seed: int = 0) -> dict:
     from ik5r.firmware import csolver, vector
@@ -175,6 +213,7 @@ def run(poses: int = 1_000_000, config: str | None = None, repeat: int = 3, lm_c
     sample = tuple(arg[:callgrind_count] for arg in args)
     result["c_instructions"] = callgrind_instructions(k, _driver_lines(sample))
     result["simulation"] = simulation_speeds(k.cfg.name)
+    result["cli"] = cli_streaming(poses, config)
     return result
 
 
@@ -199,7 +238,19 @@ def table(result: dict) -> str:
     for r in result["simulation"]:
         lines.append(f"| {r['block']} | {r['simulator']} | {r['vectors']:,} | {r['mismatches']} | "
                      f"{r['vectors_per_second']:,.0f} | {r['build_seconds']:.0f} |")
-    return "\n".join(lines)
+    return "\n".join(lines + cli_table(result.get("cli") or []))
+
+
+def cli_table(runs: list[dict]) -> list[str]:
+    """Markdown lines of the ``ik5r solve --all`` streaming runs (none: no lines)."""
+    if not runs:
+        return []
+    lines = ["", "| `ik5r solve --all` (CSV in, CSV out) | poses | rows written | poses/s (wall) | peak RSS (MB) |",
+             "| --- | ---: | ---: | ---: | ---: |"]
+    for r in runs:
+        lines.append(f"| --solver {r['solver']} | {r['poses']:,} | {r['rows']:,} | {r['poses_per_s_wall']:,.0f} "
+                     f"| {r['max_rss_mb']:,.0f} |")
+    return lines
 
 
 def main(argv=None) -> int:
@@ -209,7 +260,15 @@ def main(argv=None) -> int:
     parser.add_argument("--config", default=None)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("-o", "--output", default="build/bench")
+    parser.add_argument("--only-cli", action="store_true",
+                        help="only the `ik5r solve --all` streaming runs (memory and CLI throughput)")
     args = parser.parse_args(argv)
+    if args.only_cli:
+        runs = cli_streaming(args.poses, args.config)
+        Path(args.output).mkdir(parents=True, exist_ok=True)
+        (Path(args.output) / "bench_cli.json").write_text(json.dumps(runs, indent=2) + "\n")
+        print("\n".join(cli_table(runs)))
+        return 0
     result = run(args.poses, args.config, args.repeat)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 from . import __version__, cliopts
@@ -31,12 +32,42 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Arguments naming an output file or folder: checked before a verb starts its work.
+OUTPUT_ARGUMENTS = ("output", "json", "cache", "synth_cache")
+
+
+def check_outputs(args) -> None:
+    """InputError unless every output path of ``args`` can be created: its nearest existing
+    ancestor is a writable folder (a verb may create the folders below it)."""
+    from pathlib import Path
+
+    for name in OUTPUT_ARGUMENTS:
+        value = getattr(args, name, None)
+        if value is None or str(value) == "-":
+            continue
+        path = Path(value)
+        ancestor = path.parent
+        while not ancestor.exists() and ancestor != ancestor.parent:
+            ancestor = ancestor.parent
+        if not ancestor.is_dir():
+            raise InputError(value, f"cannot be created: {str(ancestor)!r} is not a folder")
+        if not os.access(ancestor, os.W_OK | os.X_OK):
+            raise InputError(value, f"cannot be created: folder {str(ancestor)!r} is not writable")
+
+
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        check_outputs(args)
         return args.run(args)
     except InputError as exc:
         print(exc, file=sys.stderr)
+        return 2
+    except OSError as exc:
+        if isinstance(exc, BrokenPipeError):
+            return 1
+        where = exc.filename if exc.filename is not None else f"ik5r {args.verb}"
+        print(f"{where}: {exc.strerror or exc}", file=sys.stderr)
         return 2
 
 

@@ -18,10 +18,12 @@ def read_toml(path, text: str | None = None) -> dict:
 
     if text is None:
         try:
-            text = Path(path).read_text()
+            text = Path(path).read_text(encoding="utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise InputError(path, f"not UTF-8 text: {exc.reason}") from None
         except OSError as exc:
             raise InputError(path, exc.strerror or str(exc)) from exc
     try:
-        return tomllib.loads(text)
+        return tomllib.loads(text.removeprefix("\ufeff"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(path, f"not valid TOML: {exc}") from exc

@@ -32,6 +32,9 @@ INV_GAIN_FRAC = 31
 #: Width of the mantissa of a constant multiplier (fits a signed 32-bit word) in every word config;
 #: an internal format wider than 32 bits uses width - 1 (``Constants.const_mant_bits``).
 CONST_MANT_BITS = 31
+#: Width of the check words of the orientation checks (``Constants.check_shift``): one 17 x 17
+#: product each, whatever the word width.
+CHECK_BITS = 17
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,16 @@ class FixedConfig:
     # Extra fraction bits of every quantity inside the IK (0: the IK runs on the words themselves).
     internal_guard_bits: int = 0
     source: str = "<config>"
+    # c3 beyond +-1 by at most this: singular_elbow (straight/folded), not unreachable. None: the
+    # default of the format, 2**(2 - frac_length) (a few position LSBs of rounding).
+    reach_tolerance: float | None = None
+    # Off-plane approach (sine) and n, o, a frame error above this: bad_orientation.
+    orientation_tolerance: float = 1e-3
+
+    @property
+    def reach_tol(self) -> float:
+        """The reach tolerance in force (``reach_tolerance`` or the format's default)."""
+        return 2.0 ** (2 - self.frac_length) if self.reach_tolerance is None else self.reach_tolerance
 
     @property
     def round_nearest(self) -> bool:
@@ -62,6 +75,8 @@ class FixedConfig:
             f"angle_guard_bits = {self.angle_guard_bits}\n\n[ik]\n"
             f'rounding = "{self.rounding}"\nsingular_sin_q3 = {self.singular_sin_q3!r}\n'
             f"internal_guard_bits = {self.internal_guard_bits}\n"
+            + ("" if self.reach_tolerance is None else f"reach_tolerance = {self.reach_tolerance!r}\n")
+            + f"orientation_tolerance = {self.orientation_tolerance!r}\n"
         )
 
     def internal(self) -> FixedConfig:
@@ -71,7 +86,7 @@ class FixedConfig:
         if g == 0:
             return self
         return replace(self, name=f"{self.name}-internal", width=self.width + g,
-                       frac_length=self.frac_length + g, frac_unit=self.frac_unit + g,
+                       reach_tolerance=self.reach_tol, frac_length=self.frac_length + g, frac_unit=self.frac_unit + g,
                        frac_angle=self.frac_angle + g, iterations=self.iterations + g,
                        internal_guard_bits=0)
 
@@ -87,13 +102,40 @@ _SCHEMA = {
     ("cordic", "angle_guard_bits"): (int, 1, 8),
     ("ik", "singular_sin_q3"): (float, 0.0, 0.5),
     ("ik", "internal_guard_bits"): (int, 0, 8),
+    ("ik", "reach_tolerance"): (float, 0.0, 0.5),
+    ("ik", "orientation_tolerance"): (float, 1e-6, 0.5),
 }
 #: Optional fields and their defaults (a config without them behaves as before they existed).
-_OPTIONAL = {("ik", "internal_guard_bits"): 0}
+_OPTIONAL = {("ik", "internal_guard_bits"): 0, ("ik", "reach_tolerance"): None,
+             ("ik", "orientation_tolerance"): 1e-3}
+
+
+#: Every key a config TOML may hold (tables and their keys); others are rejected.
+_KEYS = {"name": None, "width": None, "frac": {"length", "unit", "angle"},
+         "cordic": {"iterations", "guard_bits", "angle_guard_bits"},
+         "ik": {"rounding", "singular_sin_q3", "internal_guard_bits", "reach_tolerance",
+                "orientation_tolerance"}}
+
+
+def _check_keys(doc: dict, path) -> None:
+    """InputError naming the first unknown key (a misspelt one would otherwise be ignored)."""
+    for key, value in doc.items():
+        if key not in _KEYS:
+            raise InputError(path, f"unknown key (known: {', '.join(_KEYS)})", field=key)
+        known = _KEYS[key]
+        if known is None:
+            continue
+        if not isinstance(value, dict):
+            raise InputError(path, "must be a table", field=key)
+        for sub in value:
+            if sub not in known:
+                raise InputError(path, f"unknown key (known in [{key}]: {', '.join(sorted(known))})",
+                                 field=f"{key}.{sub}")
 
 
 def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
     """Validate a parsed config TOML; errors name ``path`` and the field."""
+    _check_keys(doc, path)
     values = {}
     for keys, (kind, lo, hi) in _SCHEMA.items():
         name = ".".join(keys)
@@ -105,6 +147,9 @@ def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
                     break
                 raise InputError(path, "missing", field=name)
             node = node[key]
+        if node is None:
+            values[name] = None
+            continue
         if isinstance(node, bool) or not isinstance(node, (int, float)) or (kind is int and not isinstance(node, int)):
             raise InputError(path, f"must be {'an integer' if kind is int else 'a number'}, got {node!r}", field=name)
         if not lo <= node <= hi:
@@ -124,6 +169,8 @@ def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
         angle_guard_bits=values["cordic.angle_guard_bits"], rounding=rounding,
         singular_sin_q3=float(values["ik.singular_sin_q3"]),
         internal_guard_bits=values["ik.internal_guard_bits"], source=str(path),
+        reach_tolerance=None if values["ik.reach_tolerance"] is None else float(values["ik.reach_tolerance"]),
+        orientation_tolerance=float(values["ik.orientation_tolerance"]),
     )
 
 
@@ -245,6 +292,16 @@ class Constants:
              const_mul(c3_factor, (2 * self.twice_a2a3_l2).bit_length(), mant_bits))
         set_(self, "a3_from_u", const_mul(a.a[2] * 2.0 ** (fl - fu), fu + 1, mant_bits))
         set_(self, "singular_s3_u", _q(c.singular_sin_q3, fu))
+        # Reach: num = xw^2 + yw^2 - a2^2 - a3^2 beyond +-(2 a2 a3)(1 + reach tolerance) is
+        # unreachable; between that and +-2 a2 a3 it is clipped (straight or folded elbow).
+        set_(self, "reach_limit_l2", WideInt(_q(2 * a.a[1] * a.a[2] * (1 + c.reach_tol), 2 * fl)))
+        # Orientation checks on check words: the top CHECK_BITS bits of a unit word (floor), so
+        # that each product is one 17 x 17 signed product (one DSP, also as a MULT18X18D); products
+        # in Q(2 check_frac).
+        set_(self, "check_shift", max(0, w - CHECK_BITS))
+        set_(self, "check_frac", fu - self.check_shift)
+        set_(self, "check_one_c2", 1 << (2 * self.check_frac))
+        set_(self, "check_tol_c2", _q(c.orientation_tolerance, 2 * self.check_frac))
         for name in ("a1_l", "a2_l", "a4_l", "d1_l", "d5_l", "pi_a", "one_u"):
             if not self.word_min <= getattr(self, name) <= self.word_max:
                 raise InputError(c.source, f"{name} = {getattr(self, name)} does not fit {w} bits")
@@ -271,3 +328,30 @@ def quantize(values, frac: int, cfg: FixedConfig):
     lo, hi = -(2 ** (cfg.width - 1)), 2 ** (cfg.width - 1) - 1
     saturated = finite & ((scaled < lo) | (scaled > hi))
     return np.clip(np.round(scaled), lo, hi).astype(np.int64), saturated
+
+
+def pose_words(cfg: FixedConfig, p, a, n=None, o=None):
+    """Poses (N, 3) floats to the solvers' input words, and the per-row input status.
+
+    Returns (p_l, a_u, n_u, o_u, input_status): words (n_u, o_u None without n, o) and
+    ``INVALID | SATURATED`` on rows with a value outside the word range (the pose cannot be given
+    to the solver), ``INVALID`` on rows with a non-finite value, else 0.
+    """
+    import numpy as np
+
+    from . import status as st
+
+    values = [np.asarray(v, dtype=np.float64) for v in (p, a, n, o) if v is not None]
+    fracs = [cfg.frac_length] + [cfg.frac_unit] * (len(values) - 1)
+    count = len(values[0])
+    finite = np.ones(count, dtype=bool)
+    saturated = np.zeros(count, dtype=bool)
+    words = []
+    for value, frac in zip(values, fracs):
+        finite &= np.isfinite(value).all(axis=1)
+        word, sat = quantize(value, frac, cfg)
+        saturated |= sat.any(axis=1)
+        words.append(word)
+    input_status = np.where(saturated, st.INVALID | st.SATURATED, np.where(finite, 0, st.INVALID))
+    words += [None] * (4 - len(words))
+    return (*words, input_status.astype(np.int64))

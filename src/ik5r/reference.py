@@ -33,8 +33,13 @@ Special cases, per pose:
 * approach off the arm's plane: projected onto it; ``residual`` is the angle removed (rad).
   An approach with no component in the plane (perpendicular to it, or zero) is INVALID.
 * position + tool direction only (``n``, ``o`` absent): q5 = ``near[4]`` (0 without ``near``).
-* non-finite input: the row is INVALID, its q NaN; the other rows are solved as usual.
-* |c3| > 1 (+ REACH_TOLERANCE): UNREACHABLE, the elbow is clipped straight or folded (the arm
+* non-finite input, or a value beyond ``input_limit(dtype)`` (its square would overflow): the row
+  is INVALID, its q NaN; the other rows are solved as usual.
+* approach off the arm's plane by more than ``orientation_tolerance`` (sine of the angle, relative
+  to |a|), or n, o, a not a right-handed orthonormal frame (|n.n - 1|, |o.o - 1|, |n.o|, a
+  component of n x o - a above it): BAD_ORIENTATION on every branch (the joints solve the
+  projected approach).
+* |c3| > 1 + reach_tolerance: UNREACHABLE, the elbow is clipped straight or folded (the arm
   points at the target); |sin q3| <= singular_sin_q3: SINGULAR_ELBOW (still a valid solution).
 * joint limits of the arm filter branches (OUT_OF_LIMITS); an angle is reported in [-pi, pi] or,
   where a limit extends beyond +-pi and only that puts it within the limits, shifted by 2 pi.
@@ -66,6 +71,9 @@ AXIS_TOLERANCE_CM = 1e-9
 REACH_TOLERANCE = 1e-9
 #: A direction component below this fraction of the vector's length counts as zero.
 DIRECTION_TOLERANCE = 1e-12
+#: Off-plane approach (sine of its angle to the arm's plane) or n, o, a frame error above this:
+#: BAD_ORIENTATION (see :mod:`ik5r.status`).
+ORIENTATION_TOLERANCE = 1e-3
 
 #: Default FK round-trip tolerances per dtype: (tool point, cm; approach, unit vector).
 CONFIRM_TOLERANCE = {np.float64: (1e-6, 1e-9), np.float32: (1e-2, 1e-4)}
@@ -187,8 +195,12 @@ class IKResult:
     def choose(self, near=None) -> np.ndarray:
         """Index of one branch per pose: the valid one nearest ``near`` (sum of squared wrapped
         differences; ``near`` (5,) or (N, 5)), else the first valid in index order (front shoulder,
-        q3 >= 0 first); a pose with no valid branch gets branch 0."""
+        q3 >= 0 first); a pose with no valid branch gets branch 0. A pose with BAD_ORIENTATION
+        (all its branches) is chosen among as if it were not set."""
         valid = self.valid
+        # BAD_ORIENTATION is a property of the pose: among its branches, choose as if it were not set.
+        usable = (self.status & ~(st.SINGULAR_ELBOW | st.SINGULAR_BASE | st.BAD_ORIENTATION)) == 0
+        valid = np.where(valid.any(axis=1, keepdims=True), valid, usable)
         if near is None:
             cost = np.broadcast_to(np.arange(N_BRANCHES, dtype=float), valid.shape).copy()
         else:
@@ -221,7 +233,22 @@ def _rows(x, dtype, name):
 CHUNK = 16384
 
 
+def input_limit(dtype) -> float:
+    """Largest |input value| the IK takes in ``dtype``: squares and their sums stay finite."""
+    return float(np.sqrt(np.finfo(dtype).max) / 16)
+
+
+def frame_error(n, o, a):
+    """(3, m) n, o, a -> (m,) largest of |n.n - 1|, |o.o - 1|, |n.o| and |n x o - a| (per component)."""
+    nn = np.einsum("im,im->m", n, n) - 1
+    oo = np.einsum("im,im->m", o, o) - 1
+    no = np.einsum("im,im->m", n, o)
+    cross = np.cross(n, o, axis=0) - a
+    return np.max(np.abs(np.vstack([nn, oo, no, cross])), axis=0)
+
+
 def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
+       reach_tolerance=REACH_TOLERANCE, orientation_tolerance=ORIENTATION_TOLERANCE,
        dtype=np.float64, confirm_tolerance_cm="auto", confirm_tolerance_dir="auto") -> IKResult:
     """Closed-form IK of N poses, all four branches (see the module docstring).
 
@@ -256,7 +283,7 @@ def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
     S = np.empty((N_BRANCHES, count), dtype=np.int64)
     residual = np.empty(count, dtype=dt)
     q1_free = np.zeros(count, dtype=bool)
-    kernel = _Kernel(arm, dt, singular_sin_q3, tolerances)
+    kernel = _Kernel(arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance)
     for lo in range(0, count, CHUNK):
         sl = slice(lo, min(count, lo + CHUNK))
         near_c = near_q if near_q.ndim == 1 else near_q[sl]
@@ -268,8 +295,9 @@ def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
 class _Kernel:
     """The closed-form IK of one chunk of poses, written into slices of the result arrays."""
 
-    def __init__(self, arm: Arm, dt, singular_sin_q3, tolerances):
+    def __init__(self, arm: Arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance):
         self.arm, self.dt, self.singular = arm, dt, float(singular_sin_q3)
+        self.reach, self.orientation = float(reach_tolerance), float(orientation_tolerance)
         self.tolerances = tolerances
         self.offsets = np.asarray(arm.theta_offset, dtype=np.float64)
         self.has_offset = bool(np.any(self.offsets != 0))
@@ -292,6 +320,10 @@ class _Kernel:
             Nv = np.array(n.T, dtype=dt, order="C")
             Ov = np.array(o.T, dtype=dt, order="C")
             finite &= np.isfinite(Nv).all(axis=0) & np.isfinite(Ov).all(axis=0)
+        limit = input_limit(dt)
+        with np.errstate(invalid="ignore"):
+            for values in (P, A) + ((Nv, Ov) if has_roll else ()):
+                finite &= (np.abs(values) <= limit).all(axis=0)
         bad = ~finite
         any_bad = bool(bad.any())
         if any_bad:
@@ -345,6 +377,9 @@ class _Kernel:
         np.abs(a_nrm, out=a_nrm)
         np.arctan2(a_nrm, a_in, out=residual)
         np.sqrt(a_len2, out=a_len2)
+        bad_orientation = a_nrm > a_len2 * self.orientation
+        if has_roll:
+            bad_orientation |= frame_error(Nv, Ov, A) > self.orientation
         no_direction = a_in <= a_len2 * DIRECTION_TOLERANCE
         no_direction |= a_in == 0
         if no_direction.any():
@@ -388,6 +423,7 @@ class _Kernel:
         base = np.zeros(count, dtype=np.int64)
         base[invalid_rows] = st.INVALID
         base[q1_free] |= st.SINGULAR_BASE
+        base[bad_orientation] |= st.BAD_ORIENTATION
 
         q1_b = _opposite(theta1)
         l_sq = a2 * a2 + a3 * a3
@@ -414,7 +450,7 @@ class _Kernel:
             c3 -= l_sq
             c3 *= inv_2l
             status = base.copy()
-            status[np.abs(c3) > 1 + REACH_TOLERANCE] |= st.UNREACHABLE
+            status[np.abs(c3) > 1 + self.reach] |= st.UNREACHABLE
             np.minimum(c3, 1.0, out=c3)
             np.maximum(c3, -1.0, out=c3)
             s3 = 1.0 - c3
@@ -583,7 +619,7 @@ def _confirm(arm, Q, S, P, cphi, sphi, c1_in, s1_in, offsets, tol_cm, tol_dir):
     err += ey * ey
     err += ez * ez
     miss |= err > tol_dir * tol_dir
-    harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
+    harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE | st.BAD_ORIENTATION
     miss &= (S & ~harmless) == 0
     if miss.any():
         S[miss] |= st.UNREACHABLE

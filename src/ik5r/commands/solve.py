@@ -18,12 +18,16 @@ float reference chose on the same pose. --all writes every valid branch of every
 branch, with its status, when none is valid); for fixed and c it solves all four branches.
 
 Output columns: row (0-based index of the pose in the input), branch, q1..q5 (radians), status
-(``ok`` or names such as ``unreachable+singular_elbow``), then residual_rad for float (angle of the
-approach off the arm's plane, projected away), or q1_raw..q5_raw (integer angle codes, Q frac.angle)
-and status_bits for fixed and c. Fixed and c quantize the inputs with the config's formats; an input
-value that saturates sets the row's ``saturated`` bit. A row with a non-finite number is ``invalid``
-(q NaN; raw codes 0); the other rows are solved as usual. Exit status 0 once the input was read,
-2 for a malformed input file. A negative --near needs ``--near=-0.5,...``.
+(``ok`` or names such as ``unreachable+singular_elbow``), residual_cm and residual_rad (the forward
+kinematics of the written joints against the input: distance of the tool point, cm, and angle of
+the approach, rad; NaN where the joints are), then for fixed and c q1_raw..q5_raw (integer angle
+codes, Q frac.angle) and status_bits. Fixed and c quantize the inputs with the config's formats; an input
+value outside the word range makes the row ``invalid+saturated``, a non-finite number ``invalid``
+(q NaN; raw codes 0); the other rows are solved as usual. With --config the float solver takes the
+config's tolerances (singular_sin_q3, reach_tolerance, orientation_tolerance). The file is streamed in chunks (memory
+does not grow with its length). Exit status 0 once the input was read, 2 for a malformed input
+file (``FILE:LINE: message``; no output file is left), 3 with ``--on-error skip`` when malformed
+records were reported and left out. A negative --near needs ``--near=-0.5,...``.
 """
 
 from __future__ import annotations
@@ -34,6 +38,8 @@ import sys
 import numpy as np
 
 from ik5r.fxconfig import DEFAULT_CONFIG
+
+from .fk import add_on_error
 
 SOLVERS = ("float", "fixed", "c", "rv32", "numeric")
 
@@ -72,6 +78,7 @@ def register(subparsers) -> None:
                         help="choose the branch nearest these joints (radians); also the free q1 "
                              "and the q5 of poses without n, o")
     _register_numeric(parser)
+    add_on_error(parser)
     parser.set_defaults(run=run)
 
 
@@ -132,18 +139,50 @@ def _numeric_arm(args) -> bool:
 
 
 def run(args) -> int:
-    from ik5r import csvio, reference
-    from ik5r import status as st
+    from ik5r import csvio
     from ik5r.arm import load_arm
-    from ik5r.fxconfig import constants, load_config, quantize
+    from ik5r.fxconfig import constants, load_config
 
     if _numeric_arm(args):
         from ik5r.commands.solve_numeric import run_numeric
         return run_numeric(args)
     arm = load_arm(args.arm)
     cfg = load_config(args.config) if (args.solver != "float" or args.config is not None) else None
-    table = csvio.read_table(args.poses, csvio.POSITION_COLUMNS + csvio.APPROACH_COLUMNS,
-                             groups=[csvio.ROLL_COLUMNS])
+    solve = None
+    if args.solver != "float":
+        try:
+            solve = _fixed_solver(args.solver, constants(cfg, arm))
+        except RuntimeError as exc:
+            print(f"ik5r solve: {exc}", file=sys.stderr)
+            return 1
+    names = ["row", "branch", *csvio.JOINT_COLUMNS, "status", "residual_cm", "residual_rad"]
+    if solve is not None:
+        names += [f"{c}_raw" for c in csvio.JOINT_COLUMNS] + ["status_bits"]
+    with csvio.Writer(args.output, names) as out, \
+            csvio.Reader(args.poses, csvio.POSITION_COLUMNS + csvio.APPROACH_COLUMNS,
+                         groups=[csvio.ROLL_COLUMNS], on_error=args.on_error) as reader:
+        for table in reader.chunks():
+            out.write(_solve_chunk(table, arm, cfg, solve, args))
+    return 3 if reader.skipped else 0
+
+
+def _residuals(arm, q, p, a):
+    """(tool point distance cm, approach angle rad) of fk(q) against the target p, a."""
+    from ik5r import reference
+
+    with np.errstate(invalid="ignore", over="ignore"):
+        p_fk, _, _, a_fk = reference.fk(arm, q)
+        dist = np.sqrt(np.sum((p_fk - p) ** 2, axis=1))
+        cross = np.sqrt(np.sum(np.cross(a_fk, a) ** 2, axis=1))
+        angle = np.arctan2(cross, np.sum(a_fk * a, axis=1))
+    return dist, angle
+
+
+def _solve_chunk(table, arm, cfg, solve, args) -> list:
+    """The output columns of one chunk of poses."""
+    from ik5r import csvio, reference
+    from ik5r import status as st
+
     has_roll = "nx" in table
     p = table.matrix(csvio.POSITION_COLUMNS)
     a = table.matrix(csvio.APPROACH_COLUMNS)
@@ -151,12 +190,10 @@ def run(args) -> int:
     o = table.matrix(csvio.ROLL_COLUMNS[3:]) if has_roll else None
     near = args.near
     count = len(table)
-    kwargs = {} if cfg is None else {"singular_sin_q3": cfg.singular_sin_q3}
+    kwargs = {} if cfg is None else {"singular_sin_q3": cfg.singular_sin_q3, "reach_tolerance": cfg.reach_tol,
+                                     "orientation_tolerance": cfg.orientation_tolerance}
     res = reference.ik(arm, p, a, n, o, near=near, **kwargs)
-    harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
-    names = ["row", "branch", *csvio.JOINT_COLUMNS, "status"]
-
-    if args.solver == "float":
+    if solve is None:
         if args.all:
             valid = res.valid
             rows, branch = np.nonzero(valid | ~valid.any(axis=1, keepdims=True))
@@ -164,34 +201,27 @@ def run(args) -> int:
             rows, branch = np.arange(count), res.choose(near)
         q = res.q[rows, branch]
         status = res.status[rows, branch]
-        columns = [rows, branch, *(q[:, j] for j in range(5)), [st.describe(s) for s in status],
-                   res.residual[rows].astype(np.float64)]
-        csvio.write_table(args.output, names + ["residual_rad"], columns)
-        return 0
+        return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
+                *_residuals(arm, q, p[rows], a[rows])]
+    rows, branch, q, q_raw, status = _fixed_chunk(solve, cfg, res, p, a, n, o, near, args.all)
+    return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
+            *_residuals(arm, q, p[rows], a[rows]), *(q_raw[:, j] for j in range(5)), status]
 
-    k = constants(cfg, arm)
-    try:
-        solve = _fixed_solver(args.solver, k)
-    except RuntimeError as exc:
-        print(f"ik5r solve: {exc}", file=sys.stderr)
-        return 1
-    values = [p, a] + ([n, o] if has_roll else [])
-    finite = np.ones(count, dtype=bool)
-    for v in values:
-        finite &= np.isfinite(v).all(axis=1)
-    p_l, sat = quantize(p, cfg.frac_length, cfg)
-    saturated = sat.any(axis=1)
-    words = []
-    for v in values[1:]:
-        w, sat = quantize(v, cfg.frac_unit, cfg)
-        saturated |= sat.any(axis=1)
-        words.append(w)
-    a_u = words[0]
-    n_u, o_u = (words[1], words[2]) if has_roll else (None, None)
+
+def _fixed_chunk(solve, cfg, res, p, a, n, o, near, all_branches):
+    """(rows, branch, q, q_raw, status) of the fixed-point solver on one chunk."""
+    from ik5r import reference
+    from ik5r import status as st
+    from ik5r.fxconfig import pose_words, quantize
+
+    count = len(p)
+    harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
+    p_l, a_u, n_u, o_u, input_status = pose_words(cfg, p, a, n, o)
+    has_roll = n_u is not None
     q5_raw, q5_sat = quantize(0.0 if near is None else near[4], cfg.frac_angle, cfg)
     if bool(q5_sat):
         print("ik5r solve: --near q5 saturates the angle format", file=sys.stderr)
-    if args.all:
+    if all_branches:
         rows = np.repeat(np.arange(count), 4)
         branch = np.tile(np.arange(4), count)
     else:
@@ -203,17 +233,13 @@ def run(args) -> int:
                           shoulder_back, elbow_down, np.full(m, int(q5_raw), dtype=np.int64))
     q_raw = np.asarray(q_raw, dtype=np.int64).copy()
     status = np.asarray(status, dtype=np.int64).copy()
-    status[saturated[rows]] |= st.SATURATED
-    bad = ~finite[rows]
-    status[bad] = st.INVALID | np.where(saturated[rows][bad], st.SATURATED, 0)
+    bad = input_status[rows] != 0
+    status[bad] = input_status[rows][bad]
     q_raw[bad] = 0
     q = q_raw * 2.0 ** -cfg.frac_angle
     q[bad] = np.nan
-    if args.all:
+    if all_branches:
         valid = ((status & ~harmless) == 0).reshape(count, 4)
         keep = (valid | ~valid.any(axis=1, keepdims=True)).reshape(-1)
         rows, branch, q, q_raw, status = rows[keep], branch[keep], q[keep], q_raw[keep], status[keep]
-    columns = [rows, branch, *(q[:, j] for j in range(5)), [st.describe(s) for s in status],
-               *(q_raw[:, j] for j in range(5)), status]
-    csvio.write_table(args.output, names + [f"{c}_raw" for c in csvio.JOINT_COLUMNS] + ["status_bits"], columns)
-    return 0
+    return rows, branch, q, q_raw, status
