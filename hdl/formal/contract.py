@@ -64,6 +64,8 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 from amaranth.hdl._ast import AnySeq
 
 from ..common import Datapath, SharedStage, StreamBlock
+from ..seq_core import SequencedIKCore
+from .sequenced import elaborate_engine, sequencer, tag_queue
 
 __all__ = ["CHECKS", "MUTATIONS", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
 
@@ -145,8 +147,11 @@ class StreamContract(Elaboratable):
         self.checks = tuple(checks)
         self.dut = dut
         self.mutation = mutation
-        self.pipelined = dut._datapath_arch == "pipelined"
-        dut._dp = abstract_datapath(dut._dp)
+        # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
+        self.sequenced = isinstance(dut, SequencedIKCore)
+        self.pipelined = not self.sequenced and dut._datapath_arch == "pipelined"
+        if not self.sequenced:
+            dut._dp = abstract_datapath(dut._dp)
         # The harness elaborates ``dut`` itself (to reach its FIFO and credits), so Amaranth never
         # sees it used: silence its UnusedElaboratable warning.
         dut._MustUse__silence = True
@@ -171,6 +176,10 @@ class StreamContract(Elaboratable):
         dut = self.dut
         inner = dut.elaborate(platform)
         m.submodules.dut = inner
+        self.places = None
+        if self.sequenced:
+            engine = elaborate_engine(inner, dut._engine, platform)
+            self.places = sequencer(m, dut, inner, engine, _find_signal, self._assert)
         rst = ResetSignal()
         past_rst = Signal(reset_less=True, init=1)
         m.d.sync += past_rst.eq(rst)
@@ -186,12 +195,19 @@ class StreamContract(Elaboratable):
         taken_in = ~rst & i_valid & dut.i.ready
         taken_out = ~rst & o_valid & o_ready
         self._environment(m, rst)
+        inside = None
         if "control" in self.checks:
             self._hold(m, rst, o_valid, o_ready, o_payload)
             inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
             if self.pipelined:
                 self._credits(m, inner, inside)
-        if "order" in self.checks:
+        if "order" in self.checks and self.sequenced:
+            # Proved by k-induction against a ghost queue of the tags inside (:mod:`.sequenced`).
+            if inside is None:
+                inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
+            tag_queue(m, dut.capacity, inside, taken_in, taken_out, self.i_payload.tag,
+                      self.places, self._assert)
+        elif "order" in self.checks:
             self._marks(m, rst, taken_in, taken_out, o_valid, o_payload.tag)
         return m
 
@@ -224,8 +240,11 @@ class StreamContract(Elaboratable):
             m.d.sync += inside.eq(inside + 1)
         with m.Elif(taken_out & ~taken_in):
             m.d.sync += inside.eq(inside - 1)
-        stages = _occupied_stages(inner, [self.dut.o.valid])
-        occupancy = self._segment_counts(m, stages, taken_in) if self.pipelined else sum(stages)
+        if self.sequenced:
+            occupancy = self.places.occupancy
+        else:
+            stages = _occupied_stages(inner, [self.dut.o.valid])
+            occupancy = self._segment_counts(m, stages, taken_in) if self.pipelined else sum(stages)
         if self.pipelined:
             name = self.dut._dp.name
             fifo, _ = inner._named_submodules[f"{name}_output_fifo"]
