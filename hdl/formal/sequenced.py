@@ -14,7 +14,8 @@ a function of the program counter alone, and only ``io`` instructions wait. So a
 * in the output register while ``valid``.
 
 :func:`sequencer` asserts the invariants that make this inductive (the ROM read data, ``fetched``
-and ``exe`` are the program's words at pc, pc - 1 and pc - 2, ``in_q`` holds the flags word when
+and ``exe`` are the program's words at pc, pc - 1 and pc - 2 in their word-port fields, the only
+ones the control reads, ``in_q`` holds the flags word when
 the flags read executes) and returns the occupancy (for the contract's ``conservation``) and the
 tags of the three places (for the ``order`` group, proved by k-induction against a ghost queue
 of the tags accepted and not yet taken). The data (memory, step-angle ROM) is cut by the
@@ -25,13 +26,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from amaranth.hdl import Array, Const, Module, Mux, Signal, Value
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, Value
 from amaranth.lib import data
 
 from .. import seq_isa as X
 from ..seq_core import _pack
 
 __all__ = ["DATA_REGISTERS", "Places", "elaborate_engine", "sequencer", "tag_queue"]
+
+#: The instruction fields the control reads (the word ports).
+CONTROL_FIELDS = ("io", "iw")
 
 #: The engine's data registers (arithmetic, CORDIC, multiplier, square root, condition flags,
 #: status): the control never reads them, the job's Yosys script cuts them to free values.
@@ -74,17 +78,29 @@ def _index(program, io) -> int:
 def sequencer(m: Module, dut, inner: Module, engine: Module, find, check) -> Places:
     """Assert (``check(test, name)``) the engine's control invariants; return the places."""
     e = dut._engine
-    words, _, width = _pack(e.prog)
+    words, layout, _ = _pack(e.prog)
     count = len(words)
     first, last = _index(e.prog, X.IO_FLAGS), _index(e.prog, X.IO_STATUS)
     if not first < last == count - 1:
         raise ValueError("the sequenced invariants expect the flags read before the status "
                          "write, which ends the program")
-    rom = Array(Const(word, width) for word in words)
+    # Only the word-port fields (io, iw) of an instruction reach the control and the tag path:
+    # comparing just them leaves the other fields to the data, which the job's script cuts.
+    fields = [layout[name] for name in CONTROL_FIELDS]
+    width = sum(bits for _, bits in fields)
+
+    def control(word):
+        return Cat(word[lo:lo + bits] for lo, bits in fields)
+
+    def program_bits(word):
+        return Const(sum(((word >> lo) & ((1 << bits) - 1)) << sum(b for _, b in fields[:j])
+                         for j, (lo, bits) in enumerate(fields)), width)
+    rom = Array(program_bits(word) for word in words)
     pc, exe = e.trace["pc"], e.trace["exe"]
-    started, fetched = find(engine, "started"), find(engine, "fetched")
+    started = find(engine, "started")
+    fetched, exe = control(find(engine, "fetched")), control(exe)
     rom_module, _ = engine._named_submodules["rom"]
-    rom_data = rom_module.read_ports[0].data
+    rom_data = control(rom_module.read_ports[0].data)
     booted = e.booted
     lapped = Signal(name="seq_lapped")         # the program counter has wrapped since reset
     with m.If(booted & (pc == count - 1)):
