@@ -1,7 +1,8 @@
 """The stream contract of an ik5r block or IK core as Amaranth ``Assert``/``Assume`` properties.
 
 :class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.common.StreamBlock`: the four
-blocks in both architectures and the IK core, pipelined and compact) for SymbiYosys.
+blocks in both architectures and the IK core: pipelined, staged, and the compact arch's
+sequenced engine, :class:`~ik5r.hdl.seq_core.SequencedIKCore`, see :mod:`.sequenced`) for SymbiYosys.
 
 **Data abstraction.** The contract is about control, and the datapaths (dozens of adders and
 multipliers a stage, up to 190 stages) would drown a solver. :func:`abstract_datapath` keeps the
@@ -9,7 +10,8 @@ component's own :class:`~ik5r.hdl.common.Datapath`: the same stages, counts, ite
 stages, stashes and the same ``Datapath.build`` (valid chain, credits, output FIFO, step counters,
 shared-unit sequencing), but every value a stage computes, except the ``tag``, is a free value
 (``$anyseq``) of the register's shape. So the registers, their enables and the tag path are the
-component's, the data they load is arbitrary: a property proved here holds for any data, in
+component's, the data they load is arbitrary (the sequenced core: its data memory, step-angle ROM
+and data registers, cut by the job's Yosys script): a property proved here holds for any data, in
 particular for the real arithmetic (the control never reads a data value). Only the generic
 mapping is checked (``dsp="ecp5"`` changes the data cells, not the control).
 
@@ -33,12 +35,15 @@ reset.
   FIFO's level and its write register: no item is lost, duplicated or invented; at most
   ``capacity`` items inside; no ``o.valid`` without an item inside; in the cycle after a reset
   ``o.valid`` is low and nothing is inside;
+* *room* (sequenced IK core, :mod:`.sequenced`): ``i.ready`` only while fewer than ``capacity``
+  items are inside; its engine's control invariants (program counter, instruction registers);
 * *credits* (pipelined): the credit counter is ``capacity`` minus the items inside, ``i.ready``
   is exactly ``credits != 0``, and the output FIFO is never written while full (its
   ``SyncFIFOBuffered`` would drop the item). With the FIFO's own invariant (its output register
   is empty only while at most one item is queued) these are inductive.
 
-``order`` (bounded model checking from reset; Wolper's data-independence argument: a component
+``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
+yet taken, :mod:`.sequenced`; the others: bounded model checking from reset; Wolper's data-independence argument: a component
 that never reads its tags keeps order for all data iff it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,
 others 0, at free times:
@@ -254,6 +259,9 @@ class StreamContract(Elaboratable):
             self._assert(inside == occupancy, "conservation"),
             self._assert(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
         ]
+        if self.sequenced:
+            # No credits: i.ready is the input register's being free, so it must mean room.
+            m.d.comb += self._assert(~self.dut.i.ready | (inside < capacity), "ready_has_room")
         with m.If(past_rst):
             m.d.comb += self._assert(~self.dut.o.valid & (inside == 0), "reset_empties")
         return inside
