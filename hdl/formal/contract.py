@@ -63,6 +63,7 @@ output's LSB flips).
 from __future__ import annotations
 
 import copy
+import os
 
 from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal, Value
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
@@ -164,12 +165,12 @@ class StreamContract(Elaboratable):
         self.i_payload = Signal(dut.i.payload.shape(), name="env_i_payload")
         self.o_ready = Signal(name="env_o_ready")
         self.glitch = Signal(name="env_glitch")
-        #: Source line of each assertion -> its name (how SymbiYosys names a failed one).
+        #: (file name, line) of each assertion -> its name (how SymbiYosys names a failed one).
         self.assert_names = {}
 
     def _assert(self, test, name: str):
         check = Assert(test, name, src_loc_at=1)
-        self.assert_names[check.src_loc[1]] = name
+        self.assert_names[(os.path.basename(check.src_loc[0]), check.src_loc[1])] = name
         return check
 
     @property

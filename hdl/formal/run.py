@@ -194,11 +194,11 @@ def _detail(log: str) -> str:
 
 
 def _failed_assertions(log: str, names: dict) -> list:
-    """The names of the failed assertions (``names``: source line -> name, from the harness),
-    from the source locations SymbiYosys reports."""
+    """The names of the failed assertions (``names``: (file name, line) -> name, from the
+    harness), from the source locations SymbiYosys reports."""
     found = set(re.findall(r"failed assertion \S+ at (\S+\.py):(\d+)", log))
-    return sorted({names.get(int(line), f"{Path(path).name}:{line}") if Path(path).name == "contract.py"
-                   else f"{Path(path).name}:{line}" for path, line in found})
+    return sorted({names.get((Path(path).name, int(line)), f"{Path(path).name}:{line}")
+                   for path, line in found})
 
 
 def main(argv=None) -> int:
