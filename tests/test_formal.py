@@ -4,11 +4,13 @@ Every block (atan2, rotate, sqrt, acos; pipelined and iterative) and both IK cor
 compact): the ``control`` group (hold, conservation, reset, credits) proved by k-induction on the
 real component with its data abstracted (the pipelined IK core's, minutes, in the slow set); the
 ``order`` group (two marked items) by BMC from reset, to 2 x latency + 4 cycles where one item is
-in flight (iterative blocks, compact core) and to latency + 8 for the pipelined builds (the blocks
+in flight (iterative blocks, staged core) and to latency + 8 for the pipelined builds (the blocks
 in the default run, the IK cores in the slow set). The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must
 make the proof fail with a counterexample on the assertion it breaks. The jobs of the selected
 tests run two at a time (each is a solver subprocess), started when the first test of this module
-is reached.
+is reached. The compact core (the sequenced engine, ``hdl/formal/sequenced.py``): both groups by
+k-induction (order against a ghost queue of the tags inside), and its fault self-test by
+k-induction (the induction step must fail on the broken hold).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 import pytest
 
 from ik5r.hdl.formal.contract import MUTATIONS
-from ik5r.hdl.formal.run import JOBS, prove
+from ik5r.hdl.formal.run import INDUCTION_ONLY, JOBS, prove
 
 pytestmark = pytest.mark.formal
 
@@ -59,7 +61,7 @@ def proofs(request):
                 selected.append(key)
     with ThreadPoolExecutor(max_workers=2) as pool:
         futures = {key: pool.submit(prove, key[1], key[2], key[0], mutation=key[3],
-                                    method="bmc" if key[3] else None)
+                                    method="bmc" if key[3] and key[1:3] not in INDUCTION_ONLY else None)
                    for key in selected}
         yield lambda key: futures[key].result()
 
@@ -69,7 +71,7 @@ def test_contract_proved(proofs, check, block, arch):
     r = proofs((check, block, arch, None))
     assert r.status == "PASS", r.detail
     assert r.config == "q18"
-    if check == "control":
+    if check == "control" or (block, arch) in INDUCTION_ONLY:
         assert r.method == "k-induction"
     else:
         assert r.method == "bmc"
@@ -81,4 +83,19 @@ def test_injected_fault_fails_the_proof(proofs, mutation, block, arch):
     r = proofs(("control", block, arch, mutation))
     assert r.status == "FAIL", f"{mutation} not caught: {r.status} {r.detail}"
     assert r.method == "bmc" and r.depth == r.latency + 8
+    assert r.failed and set(r.failed) <= BROKEN[mutation], r.failed
+
+
+#: The sequenced compact core's self-test: by k-induction (a counterexample from reset needs an
+#: item through the 518-instruction program, see run.INDUCTION_ONLY). The faulty core's proof must
+#: not go through: the induction step fails on the assertion the fault breaks.
+SEQUENCED_MUTANTS = [("ready_glitch", "ik", "compact")]
+
+
+@pytest.mark.parametrize("mutation,block,arch", SEQUENCED_MUTANTS,
+                         ids=[f"{m}-{b}-{a}" for m, b, a in SEQUENCED_MUTANTS])
+def test_injected_fault_breaks_the_induction(proofs, mutation, block, arch):
+    r = proofs(("control", block, arch, mutation))
+    assert r.status in ("FAIL", "UNKNOWN"), f"{mutation} not caught: {r.status} {r.detail}"
+    assert r.method == "k-induction"
     assert r.failed and set(r.failed) <= BROKEN[mutation], r.failed

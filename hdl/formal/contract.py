@@ -1,7 +1,8 @@
 """The stream contract of an ik5r block or IK core as Amaranth ``Assert``/``Assume`` properties.
 
 :class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.common.StreamBlock`: the four
-blocks in both architectures and the IK core, pipelined and compact) for SymbiYosys.
+blocks in both architectures and the IK core: pipelined, staged, and the compact arch's
+sequenced engine, :class:`~ik5r.hdl.seq_core.SequencedIKCore`, see :mod:`.sequenced`) for SymbiYosys.
 
 **Data abstraction.** The contract is about control, and the datapaths (dozens of adders and
 multipliers a stage, up to 190 stages) would drown a solver. :func:`abstract_datapath` keeps the
@@ -9,7 +10,8 @@ component's own :class:`~ik5r.hdl.common.Datapath`: the same stages, counts, ite
 stages, stashes and the same ``Datapath.build`` (valid chain, credits, output FIFO, step counters,
 shared-unit sequencing), but every value a stage computes, except the ``tag``, is a free value
 (``$anyseq``) of the register's shape. So the registers, their enables and the tag path are the
-component's, the data they load is arbitrary: a property proved here holds for any data, in
+component's, the data they load is arbitrary (the sequenced core: its data memory, step-angle ROM
+and data registers, cut by the job's Yosys script): a property proved here holds for any data, in
 particular for the real arithmetic (the control never reads a data value). Only the generic
 mapping is checked (``dsp="ecp5"`` changes the data cells, not the control).
 
@@ -33,12 +35,15 @@ reset.
   FIFO's level and its write register: no item is lost, duplicated or invented; at most
   ``capacity`` items inside; no ``o.valid`` without an item inside; in the cycle after a reset
   ``o.valid`` is low and nothing is inside;
+* *room* (sequenced IK core, :mod:`.sequenced`): ``i.ready`` only while fewer than ``capacity``
+  items are inside; its engine's control invariants (program counter, instruction registers);
 * *credits* (pipelined): the credit counter is ``capacity`` minus the items inside, ``i.ready``
   is exactly ``credits != 0``, and the output FIFO is never written while full (its
   ``SyncFIFOBuffered`` would drop the item). With the FIFO's own invariant (its output register
   is empty only while at most one item is queued) these are inductive.
 
-``order`` (bounded model checking from reset; Wolper's data-independence argument: a component
+``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
+yet taken, :mod:`.sequenced`; the others: bounded model checking from reset; Wolper's data-independence argument: a component
 that never reads its tags keeps order for all data iff it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,
 others 0, at free times:
@@ -58,12 +63,15 @@ output's LSB flips).
 from __future__ import annotations
 
 import copy
+import os
 
 from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal, Value
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
 from amaranth.hdl._ast import AnySeq
 
 from ..common import Datapath, SharedStage, StreamBlock
+from ..seq_core import SequencedIKCore
+from .sequenced import elaborate_engine, sequencer, tag_queue
 
 __all__ = ["CHECKS", "MUTATIONS", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
 
@@ -145,8 +153,11 @@ class StreamContract(Elaboratable):
         self.checks = tuple(checks)
         self.dut = dut
         self.mutation = mutation
-        self.pipelined = dut._datapath_arch == "pipelined"
-        dut._dp = abstract_datapath(dut._dp)
+        # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
+        self.sequenced = isinstance(dut, SequencedIKCore)
+        self.pipelined = not self.sequenced and dut._datapath_arch == "pipelined"
+        if not self.sequenced:
+            dut._dp = abstract_datapath(dut._dp)
         # The harness elaborates ``dut`` itself (to reach its FIFO and credits), so Amaranth never
         # sees it used: silence its UnusedElaboratable warning.
         dut._MustUse__silence = True
@@ -154,12 +165,12 @@ class StreamContract(Elaboratable):
         self.i_payload = Signal(dut.i.payload.shape(), name="env_i_payload")
         self.o_ready = Signal(name="env_o_ready")
         self.glitch = Signal(name="env_glitch")
-        #: Source line of each assertion -> its name (how SymbiYosys names a failed one).
+        #: (file name, line) of each assertion -> its name (how SymbiYosys names a failed one).
         self.assert_names = {}
 
     def _assert(self, test, name: str):
         check = Assert(test, name, src_loc_at=1)
-        self.assert_names[check.src_loc[1]] = name
+        self.assert_names[(os.path.basename(check.src_loc[0]), check.src_loc[1])] = name
         return check
 
     @property
@@ -171,6 +182,10 @@ class StreamContract(Elaboratable):
         dut = self.dut
         inner = dut.elaborate(platform)
         m.submodules.dut = inner
+        self.places = None
+        if self.sequenced:
+            engine = elaborate_engine(inner, dut._engine, platform)
+            self.places = sequencer(m, dut, inner, engine, _find_signal, self._assert)
         rst = ResetSignal()
         past_rst = Signal(reset_less=True, init=1)
         m.d.sync += past_rst.eq(rst)
@@ -186,12 +201,19 @@ class StreamContract(Elaboratable):
         taken_in = ~rst & i_valid & dut.i.ready
         taken_out = ~rst & o_valid & o_ready
         self._environment(m, rst)
+        inside = None
         if "control" in self.checks:
             self._hold(m, rst, o_valid, o_ready, o_payload)
             inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
             if self.pipelined:
                 self._credits(m, inner, inside)
-        if "order" in self.checks:
+        if "order" in self.checks and self.sequenced:
+            # Proved by k-induction against a ghost queue of the tags inside (:mod:`.sequenced`).
+            if inside is None:
+                inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
+            tag_queue(m, dut.capacity, inside, taken_in, taken_out, self.i_payload.tag,
+                      self.places, self._assert)
+        elif "order" in self.checks:
             self._marks(m, rst, taken_in, taken_out, o_valid, o_payload.tag)
         return m
 
@@ -224,8 +246,11 @@ class StreamContract(Elaboratable):
             m.d.sync += inside.eq(inside + 1)
         with m.Elif(taken_out & ~taken_in):
             m.d.sync += inside.eq(inside - 1)
-        stages = _occupied_stages(inner, [self.dut.o.valid])
-        occupancy = self._segment_counts(m, stages, taken_in) if self.pipelined else sum(stages)
+        if self.sequenced:
+            occupancy = self.places.occupancy
+        else:
+            stages = _occupied_stages(inner, [self.dut.o.valid])
+            occupancy = self._segment_counts(m, stages, taken_in) if self.pipelined else sum(stages)
         if self.pipelined:
             name = self.dut._dp.name
             fifo, _ = inner._named_submodules[f"{name}_output_fifo"]
@@ -235,6 +260,9 @@ class StreamContract(Elaboratable):
             self._assert(inside == occupancy, "conservation"),
             self._assert(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
         ]
+        if self.sequenced:
+            # No credits: i.ready is the input register's being free, so it must mean room.
+            m.d.comb += self._assert(~self.dut.i.ready | (inside < capacity), "ready_has_room")
         with m.If(past_rst):
             m.d.comb += self._assert(~self.dut.o.valid & (inside == 0), "reset_empties")
         return inside

@@ -1,0 +1,157 @@
+"""The sequenced IK core (:class:`~ik5r.hdl.seq_core.SequencedIKCore`) under the stream contract.
+
+The engine has no :class:`~ik5r.hdl.common.Datapath`; its control is the program counter, the
+instruction ROM's read register and the two instruction registers (``fetched``, ``exe``), the
+``started``/``booted`` bits and the core's input register (``full``, ``full_q``, ``in_q``) and
+output register (``valid``, ``out``). The program has no branches: which instruction executes is
+a function of the program counter alone, and only ``io`` instructions wait. So an item is:
+
+* in the input register while ``full``;
+* in the engine from the read of the last data word (the core then frees its input register; the
+  flags word is already in ``in_q``) to the status word's write (index ``S``, the program's last
+  instruction) included, i.e. while the executing instruction's index is in [F, S] (``F``: the
+  flags word's read);
+* in the output register while ``valid``.
+
+:func:`sequencer` asserts the invariants that make this inductive (the ROM read data, ``fetched``
+and ``exe`` are the program's words at pc, pc - 1 and pc - 2 in their word-port fields, the only
+ones the control reads, ``in_q`` holds the flags word when
+the flags read executes) and returns the occupancy (for the contract's ``conservation``) and the
+tags of the three places (for the ``order`` group, proved by k-induction against a ghost queue
+of the tags accepted and not yet taken). The data (memory, step-angle ROM) is cut by the
+job's Yosys script; the arithmetic registers are the engine's, unconstrained in the induction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, Value
+from amaranth.lib import data
+
+from .. import seq_isa as X
+from ..seq_core import _pack
+
+__all__ = ["DATA_REGISTERS", "Places", "elaborate_engine", "sequencer", "tag_queue"]
+
+#: The instruction fields the control reads (the word ports).
+CONTROL_FIELDS = ("io", "iw")
+
+#: The engine's data registers (arithmetic, CORDIC, multiplier, square root, condition flags,
+#: status): the control never reads them, the job's Yosys script cuts them to free values.
+DATA_REGISTERS = ("acc", "cx", "cy", "cz", "ma", "mb", "la", "lb", "prod", "rad", "root", "rem",
+                  "mem_q", "step", "flag", "zero", "back", "down", "roll", "status")
+
+
+@dataclass
+class Places:
+    """Where the items inside the core are, as one-bit values, and their tags."""
+    full: Value        # the input register holds one
+    busy: Value        # the engine holds one
+    valid: Value       # the output register holds one
+    held_tag: Value
+    engine_tag: Value
+    out_tag: Value
+
+    @property
+    def occupancy(self) -> Value:
+        return self.full + self.busy + self.valid
+
+
+def elaborate_engine(inner: Module, engine, platform) -> Module:
+    """Elaborate the core's engine in place of the component in ``inner`` (so the harness can
+    reach its registers: Amaranth would otherwise elaborate it later, into signals unseen)."""
+    module = engine.elaborate(platform)
+    engine._MustUse__silence = True
+    _, src_loc = inner._named_submodules["engine"]
+    inner._named_submodules["engine"] = (module, src_loc)
+    return module
+
+
+def _index(program, io) -> int:
+    found = [j for j, ins in enumerate(program.code) if ins.get("io", 0) == io]
+    if len(found) != 1:
+        raise ValueError(f"the program must have one io={io} instruction, has {len(found)}")
+    return found[0]
+
+
+def sequencer(m: Module, dut, inner: Module, engine: Module, find, check) -> Places:
+    """Assert (``check(test, name)``) the engine's control invariants; return the places."""
+    e = dut._engine
+    words, layout, _ = _pack(e.prog)
+    count = len(words)
+    first, last = _index(e.prog, X.IO_FLAGS), _index(e.prog, X.IO_STATUS)
+    if not first < last == count - 1:
+        raise ValueError("the sequenced invariants expect the flags read before the status "
+                         "write, which ends the program")
+    # Only the word-port fields (io, iw) of an instruction reach the control and the tag path:
+    # comparing just them leaves the other fields to the data, which the job's script cuts.
+    fields = [layout[name] for name in CONTROL_FIELDS]
+    width = sum(bits for _, bits in fields)
+
+    def control(word):
+        return Cat(word[lo:lo + bits] for lo, bits in fields)
+
+    def program_bits(word):
+        return Const(sum(((word >> lo) & ((1 << bits) - 1)) << sum(b for _, b in fields[:j])
+                         for j, (lo, bits) in enumerate(fields)), width)
+    rom = Array(program_bits(word) for word in words)
+    pc, exe = e.trace["pc"], e.trace["exe"]
+    started = find(engine, "started")
+    fetched, exe = control(find(engine, "fetched")), control(exe)
+    rom_module, _ = engine._named_submodules["rom"]
+    rom_data = control(rom_module.read_ports[0].data)
+    booted = e.booted
+    lapped = Signal(name="seq_lapped")         # the program counter has wrapped since reset
+    with m.If(booted & (pc == count - 1)):
+        m.d.sync += lapped.eq(1)
+    before = Mux(pc == 0, count - 1, pc - 1)
+    before2 = Mux(pc == 0, count - 2, Mux(pc == 1, count - 1, pc - 2))
+    live = booted & (lapped | (pc >= 2))       # exe holds the instruction at index before2
+    m.d.comb += [check(pc < count, "seq_pc"), check(booted | ~lapped, "seq_lapped")]
+    with m.If(~started):
+        m.d.comb += check(~booted & (pc == 0) & (fetched == 0) & (exe == 0), "seq_reset")
+    with m.If(started & ~booted):
+        m.d.comb += check((pc == 0) & (fetched == 0) & (exe == 0) & (rom_data == rom[0]), "seq_boot")
+    with m.If(booted):
+        m.d.comb += [
+            check(rom_data == rom[pc], "seq_rom"),
+            check(fetched == rom[before], "seq_fetched"),
+            check(exe == Mux(live, rom[before2], 0), "seq_exe"),
+            check(lapped | (pc != 0), "seq_lapped"),
+        ]
+    full, full_q, valid = (find(inner, name) for name in ("full", "full_q", "valid"))
+    layout = dut.i.payload.shape()
+    held = data.View(layout, find(inner, "held"))
+    flags_tag = find(inner, "in_q")[3:3 + dut.tag_width]
+    # The core frees its input register when the engine takes the last data word (the next
+    # word, the flags, is then in in_q): the flags read executes at pc = first + 2 from in_q,
+    # with full_q still high and full low, and without waiting.
+    at_flags = Signal(name="seq_at_flags")
+    m.d.comb += at_flags.eq(booted & (pc == first + 2))
+    m.d.comb += check(~full_q | full | at_flags, "seq_input")
+    with m.If(at_flags):
+        m.d.comb += check(full_q & ~full & (flags_tag == held.tag), "seq_flags_word")
+    with m.If(~booted):
+        m.d.comb += check(~full & ~full_q & ~valid, "seq_input")
+    busy = Signal(name="seq_busy")
+    m.d.comb += busy.eq(live & (before2 >= first) & (before2 <= last))
+    out = data.View(dut.o.payload.shape(), find(inner, "out"))
+    engine_tag = Mux(at_flags, flags_tag, e.trace["tag"])
+    return Places(full, busy, valid, held.tag, engine_tag, out.tag)
+
+
+def tag_queue(m: Module, capacity: int, inside, taken_in, taken_out, i_tag, places: Places, check):
+    """A ghost queue of the tags accepted and not taken (oldest first): the output register,
+    the engine and the input register hold its entries in this order."""
+    queue = Array(Signal(len(i_tag), name=f"queue_{j}") for j in range(capacity))
+    with m.If(taken_out):
+        m.d.sync += [queue[j].eq(queue[j + 1]) for j in range(capacity - 1)]
+    with m.If(taken_in):
+        m.d.sync += queue[inside - taken_out].eq(i_tag)
+    with m.If(places.valid):
+        m.d.comb += check(places.out_tag == queue[0], "order")
+    with m.If(places.busy):
+        m.d.comb += check(places.engine_tag == queue[places.valid], "order_engine")
+    with m.If(places.full):
+        m.d.comb += check(places.held_tag == queue[places.valid + places.busy], "order_input")
