@@ -4,9 +4,12 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.ik5r-installed
 CONFIG ?= q32w
+# pytest-xdist workers of `make test` (auto: one per CPU); 0 runs the suite in one process. Tests
+# go out one at a time, heaviest first (tests/conftest.py), so the long simulations start at once.
+TEST_JOBS ?= auto
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: demo test test-slow bench verilog report synth sweep results simulator clean
+.PHONY: demo test test-slow formal bench verilog report synth sweep results simulator riscv firmware clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -24,18 +27,41 @@ simulator:
 	    echo "error: Icarus Verilog (iverilog) not found; install it, e.g. 'sudo apt-get install iverilog'" >&2; exit 1; \
 	  fi; }
 
+# The RISC-V cross compiler and picolibc (ik5r firmware, the soft CPU tests) come from Debian.
+RISCV_PACKAGES := gcc-riscv64-unknown-elf picolibc-riscv64-unknown-elf
+riscv:
+	@command -v riscv64-unknown-elf-gcc >/dev/null && [ -e /usr/lib/picolibc/riscv64-unknown-elf/picolibc.specs ] || { \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing the RISC-V cross compiler (apt-get install $(RISCV_PACKAGES))"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(RISCV_PACKAGES) >/dev/null; \
+	  else \
+	    echo "error: riscv64-unknown-elf-gcc / picolibc not found; install them, e.g. 'sudo apt-get install $(RISCV_PACKAGES)'" >&2; exit 1; \
+	  fi; }
+
+# The C solver on the simulated soft CPU: rv32im on VexRiscv, rv32i on VexRiscv_Min and on VexRiscv.
+FW_VECTORS ?= 2000
+firmware: $(STAMP) riscv
+	$(VENV)/bin/ik5r firmware --isa rv32im --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32im_$(CONFIG).json
+	$(VENV)/bin/ik5r firmware --isa rv32i --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_min_rv32i_$(CONFIG).json
+	$(VENV)/bin/ik5r firmware --isa rv32i --cpu vexriscv --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32i_$(CONFIG).json
+
 demo: $(STAMP) simulator
 	$(PY) -m ik5r.demo --config $(CONFIG)
 
-test: $(STAMP) simulator
-	$(PY) -m pytest -q
+test: $(STAMP) simulator riscv
+	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1
 
-test-slow: $(STAMP) simulator
-	$(PY) -m pytest -q -m slow
+test-slow: $(STAMP) simulator riscv
+	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1 -m slow
+
+# The stream contract of every block and IK core, proved with SymbiYosys (hdl/formal).
+formal: $(STAMP)
+	$(PY) -m ik5r.hdl.formal --json build/formal.json
 
 bench: $(STAMP) simulator
 	$(PY) -m ik5r.bench
 	$(PY) -m ik5r.bench_arms
+	$(PY) -m ik5r.bench_sweep
 
 verilog: $(STAMP)
 	$(VENV)/bin/ik5r verilog --block all --config $(CONFIG) -o build/verilog

@@ -64,30 +64,37 @@ def _write_atomic(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
-def build_dir(k: Constants, kind: str, files: tuple[str, ...], flags: tuple[str, ...]) -> Path:
-    """A cache directory holding the generated header and copies of ``files``, keyed by a hash."""
-    header = generate_header(k).encode()
+def keyed_dir(prefix: str, contents: dict[str, bytes], flags: tuple[str, ...]) -> Path:
+    """A cache directory holding ``contents`` (name -> bytes), keyed by a hash of them, the
+    compiler and ``flags``; any C build (this solver's, ik5r's numeric kernel) goes through it."""
     digest = hashlib.sha256()
-    contents = {}
-    for name in files:
-        contents[name] = (SOURCE_DIR / name).read_bytes()
-        digest.update(name.encode() + b"\0" + contents[name] + b"\0")
-    digest.update(header + b"\0" + compiler().encode() + b"\0" + "\0".join(flags).encode())
-    directory = cache_root() / f"{k.cfg.name}-{kind}-{digest.hexdigest()[:20]}"
+    for name, data in contents.items():
+        digest.update(name.encode() + b"\0" + data + b"\0")
+    digest.update(compiler().encode() + b"\0" + "\0".join(flags).encode())
+    directory = cache_root() / f"{prefix}-{digest.hexdigest()[:20]}"
     directory.mkdir(parents=True, exist_ok=True)
-    _write_atomic(directory / HEADER_NAME, header)
     for name, data in contents.items():
         _write_atomic(directory / name, data)
     return directory
 
 
-def _compile(directory: Path, output: str, flags: tuple[str, ...], sources: tuple[str, ...]) -> Path:
+def build_dir(k: Constants, kind: str, files: tuple[str, ...], flags: tuple[str, ...]) -> Path:
+    """A cache directory holding the generated header and copies of ``files``, keyed by a hash."""
+    contents = {name: (SOURCE_DIR / name).read_bytes() for name in files}
+    contents[HEADER_NAME] = generate_header(k).encode()
+    return keyed_dir(f"{k.cfg.name}-{kind}", contents, flags)
+
+
+def compile_cached(directory: Path, output: str, flags: tuple[str, ...], sources: tuple[str, ...],
+                   libs: tuple[str, ...] = ()) -> Path:
+    """``directory/output`` built from ``sources`` (in ``directory``) with ``flags`` (``libs``
+    after the sources), once; atomic."""
     target = directory / output
     if target.exists():
         return target
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{output}.")
     os.close(fd)
-    cmd = [compiler(), *flags, "-I", str(directory), *(str(directory / s) for s in sources), "-o", tmp]
+    cmd = [compiler(), *flags, "-I", str(directory), *(str(directory / s) for s in sources), *libs, "-o", tmp]
     result = subprocess.run(cmd, capture_output=True, text=True)
     if result.returncode != 0:
         os.unlink(tmp)
@@ -99,14 +106,14 @@ def _compile(directory: Path, output: str, flags: tuple[str, ...], sources: tupl
 def build_library(k: Constants, flags: tuple[str, ...] = LIB_FLAGS) -> Path:
     """The shared library of the solver for ``k`` (built once per hash)."""
     directory = build_dir(k, "lib", SOURCES, flags)
-    return _compile(directory, "libik5r.so", flags, ("ik5r.c",))
+    return compile_cached(directory, "libik5r.so", flags, ("ik5r.c",))
 
 
 def build_test_driver(k: Constants, sanitize: bool = True) -> Path:
     """The standalone test driver (test_driver.c + ik5r.c), by default with ASan + UBSan."""
     flags = SANITIZE_FLAGS if sanitize else ("-O2", "-std=c99")
     directory = build_dir(k, "asan" if sanitize else "driver", SOURCES + (DRIVER,), flags)
-    return _compile(directory, "ik5r_test_driver", flags, ("ik5r.c", DRIVER))
+    return compile_cached(directory, "ik5r_test_driver", flags, ("ik5r.c", DRIVER))
 
 
 def warnings_check(k: Constants, flags: tuple[str, ...] = WARN_FLAGS) -> subprocess.CompletedProcess:

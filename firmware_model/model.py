@@ -13,52 +13,18 @@ Every function takes the constants ``k`` of the format it works on. The building
 their own work on the config's words; :func:`ik_solve` runs on the internal format
 ``k.internal`` (``ik.internal_guard_bits`` more fraction bits in every quantity, the word width
 and the CORDIC iterations widened alike; ``k`` itself when that is 0): it shifts its input words
-up, and rounds the joint angles back to words, saturated.
+up, and rounds the joint angles back to words, saturated. The helpers the C has too
+(``rshift_round``, ``saturate``, ``mul_const``, ``wrap_angle``, ``opposite``) are the fixed-point
+vocabulary of :mod:`ik5r.fixedpoint`, shared with the HDL.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ik5r.fixedpoint import mul_const, opposite, rshift_round, saturate, wrap_angle  # noqa: F401 (the C's helpers)
 from ik5r.fxconfig import Constants
 from ik5r.status import BAD_ORIENTATION, INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
-
-
-def rshift_round(value: int, shift: int, nearest: bool) -> int:
-    """value * 2**-shift, rounded half up (nearest) or floored (truncate)."""
-    if shift <= 0:
-        return value << -shift
-    if nearest:
-        value += 1 << (shift - 1)
-    return value >> shift
-
-
-def saturate(value: int, k: Constants) -> tuple[int, int]:
-    """Clip to the word range; returns (value, SATURATED or 0)."""
-    if value > k.word_max:
-        return k.word_max, SATURATED
-    if value < k.word_min:
-        return k.word_min, SATURATED
-    return value, 0
-
-
-def mul_const(value: int, m, nearest: bool) -> int:
-    """value * c for a ConstMul m (pre-shift, 31-bit mantissa, post-shift)."""
-    return rshift_round(rshift_round(value, m.pre, nearest) * m.mant, m.post, nearest)
-
-
-def wrap_angle(angle_a: int, k: Constants) -> int:
-    """Bring an angle within one turn of zero back to [-pi, pi] (one correction)."""
-    if angle_a > k.pi_a:
-        return angle_a - 2 * k.pi_a
-    if angle_a < -k.pi_a:
-        return angle_a + 2 * k.pi_a
-    return angle_a
-
-
-def opposite(angle_a: int, k: Constants) -> int:
-    """The angle of the opposite vector: atan2(-y, -x) from atan2(y, x), with no negation of a word."""
-    return angle_a - k.pi_a if angle_a > 0 else angle_a + k.pi_a
 
 
 def _bit_length_ones_abs(x: int, y: int) -> int:

@@ -2,7 +2,9 @@
 
 ``generate(block, arch, constants, tag_width) -> (verilog_text, portmap)``. The module is named
 ``ik5r_<block>_<arch>`` (e.g. ``ik5r_atan2_pipelined``); the text is deterministic (no source
-locations, no paths, no time stamps) so two runs give byte-identical files.
+locations, no paths, no time stamps) so two runs give byte-identical files. It starts with a
+header comment (:mod:`.provenance`: config, formats, latency, error bound, tool versions, source
+commit); hashes of the design are of the text without it (:func:`.provenance.body_sha256`).
 
 Amaranth flattens each stream of the component into ports named ``<stream>__<member>``:
 ``i__payload``, ``i__valid``, ``i__ready``, ``o__payload``, ``o__valid``, ``o__ready``, plus the
@@ -19,14 +21,14 @@ from amaranth.lib import wiring
 
 from ik5r.fxconfig import Constants
 
-from .common import ARCHS, ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .common import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
+from .provenance import verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
 
-#: Block names accepted by :func:`generate` and the ``ik5r verilog`` verb; ``ik`` is the IK core.
-BLOCKS = ("atan2", "rotate", "sqrt", "acos", "ik")
-#: The IK core's architectures (the arithmetic blocks have :data:`ARCHS`).
-CORE_ARCHS = ("pipelined", "compact")
+# BLOCKS: the names :func:`generate` and the ``ik5r verilog`` verb accept (``ik`` is the IK core);
+# CORE_ARCHS the IK core's architectures, ARCHS the arithmetic blocks' (all in .modes).
 
 
 def archs_of(block: str) -> tuple[str, ...]:
@@ -39,7 +41,7 @@ def resolve_arch(block: str, arch: str) -> str:
     archs = archs_of(block)
     if arch in archs:
         return arch
-    if arch in ("iterative", "compact"):
+    if arch in (Arch.ITERATIVE, CoreArch.COMPACT):
         return archs[1]
     raise ValueError(f"{block}: arch must be one of {archs}, got {arch!r}")
 
@@ -166,9 +168,10 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     if arch not in archs_of(block) and not (block == "ik" and arch == STAGED):
         raise ValueError(f"{block}: arch must be one of {archs_of(block)}, got {arch!r}")
     name = module_name(block, arch, **options)
+    header_options = dict(options)
     component = build(block, arch, constants, tag_width, **options)
     pmap = portmap(component, block, arch, constants, name)
     text = verilog.convert(component, name=name, emit_src=False, strip_internal_attrs=True)
     if f"{ECP5_ADD_SUB_MODULE} #(" in text:
         text += ecp5_add_sub_verilog()
-    return text, pmap
+    return verilog_header(pmap, constants, header_options) + text, pmap

@@ -29,7 +29,7 @@ from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, signed, unsigne
 from amaranth.lib.memory import Memory
 
 from ik5r import status as S
-from ik5r.firmware import model
+from ik5r import fixedpoint
 from ik5r.fxconfig import Constants
 
 from .acos import Acos
@@ -39,8 +39,7 @@ from .sqrt import add_isqrt, fit
 
 __all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
 
-#: Architectures of the core.
-CORE_ARCHS = ("pipelined", "compact")
+from .modes import CORE_ARCHS  # noqa: E402 (the core's architectures, defined once)
 
 #: Stash distances up to this many stages use a register chain instead of a RAM ring buffer.
 _REGISTER_DELAY_MAX = 4
@@ -217,8 +216,8 @@ def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
     shift = k.inv_gain_frac - c.guard_bits
 
     def gained(x, y):
-        return (model.rshift_round(x * k.inv_gain, shift, c.round_nearest),
-                model.rshift_round(y * k.inv_gain, shift, c.round_nearest))
+        return (fixedpoint.rshift_round(x * k.inv_gain, shift, c.round_nearest),
+                fixedpoint.rshift_round(y * k.inv_gain, shift, c.round_nearest))
 
     cases = {"up": gained(-y0, x0), "down": gained(y0, -x0), "none": gained(x0, y0)}
     h = k.half_pi_z
@@ -245,8 +244,8 @@ def _rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
 def _const_mul_operand(k: Constants, m, bound: int):
     """Shape of rshift_round(x, m.pre) for |x| <= bound."""
     nearest = k.cfg.round_nearest
-    top = max(abs(model.rshift_round(bound, m.pre, nearest)),
-              abs(model.rshift_round(-bound, m.pre, nearest)))
+    top = max(abs(fixedpoint.rshift_round(bound, m.pre, nearest)),
+              abs(fixedpoint.rshift_round(-bound, m.pre, nearest)))
     return signed(top.bit_length() + 1)
 
 

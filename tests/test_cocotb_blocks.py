@@ -20,11 +20,12 @@ import os
 
 import pytest
 
+from ik5r.hdl.modes import ARCHS, Block
+
 pytestmark = pytest.mark.sim
 
 
-BLOCKS = ("atan2", "sqrt", "acos", "rotate")
-ARCHS = ("pipelined", "iterative")
+BLOCKS = tuple(block.value for block in Block if block != Block.IK)
 CONFIGS = ("q18", "q32")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")

@@ -26,19 +26,19 @@ import pytest
 
 from ik5r.firmware.vectors import directed_poses
 from ik5r.fxconfig import constants, load_config
+from ik5r.hdl.modes import CORE_ARCHS
 
 pytestmark = pytest.mark.sim
 
 
-ARCHS = ("pipelined", "iterative")      # "iterative" = the core's "compact" arch
 CONFIGS = ("q18", "q32", "q32w")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
 CASE_KEYS = ("arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
-# "iterative" = the compact arch = the sequenced engine (hdl/seq_core.py): q18 on Icarus, the
-# default config q32w on Verilator.
-DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("iterative", "q18", "generic", "icarus"),
-           ("iterative", "q32w", "generic", "verilator"),
+# "compact" = the sequenced engine (hdl/seq_core.py): q18 on Icarus, the default config q32w on
+# Verilator.
+DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("compact", "q18", "generic", "icarus"),
+           ("compact", "q32w", "generic", "verilator"),
            ("pipelined", "q32", "ecp5", "icarus"), ("pipelined", "q32w", "generic", "verilator")}
 
 
@@ -52,7 +52,7 @@ def _sizes(arch: str, sim: str) -> tuple[int, int]:
 CASES = [
     pytest.param(a, c, "generic", s, id=f"ik-{a}-{c}-{s}",
                  marks=() if FULL or (a, c, "generic", s) in DEFAULT else (pytest.mark.slow,))
-    for s in SIMS for a in ARCHS for c in CONFIGS
+    for s in SIMS for a in CORE_ARCHS for c in CONFIGS
 ] + [
     # The ECP5 variant: MULT18X18D and CCU2C instances (models in hdl/sim/) in the pipelined core.
     pytest.param("pipelined", c, "ecp5", s, id=f"ik-pipelined-dspecp5-{c}-{s}",

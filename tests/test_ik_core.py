@@ -22,10 +22,10 @@ import pytest
 from ik5r.firmware import model
 from ik5r.firmware.vectors import FIELDS, concat, directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
-from ik5r.hdl.generate import generate
 from ik5r.hdl.ik_core import IKCore
 from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
 from ik5r.hdl.tb.blocks import IK_OUTPUTS, ik_outputs
+from ik5r.hdl.tb.runner import DEFAULT_TAG_WIDTH, generate_cached
 
 CONFIGS = ("q18", "q32")
 #: q32w: q32's words on a 38-bit internal format (``ik.internal_guard_bits`` = 6).
@@ -161,12 +161,13 @@ def test_staged_shares_its_units(cfg):
     one register set for all eight), the two square roots digit-serial, each multiplier stepped
     over its partial products; the pipelined core unrolls them all."""
     k = _k(cfg)
-    compact, _ = generate("ik", "staged", k)
+    # Through the Verilog cache: the lint test and the testbenches convert the same designs.
+    compact, _ = generate_cached("ik", "staged", k, 0)
     steps = set(re.findall(r"^\s*reg [^;]*?(\w+_step)\b", compact, re.M))
     assert [s for s in steps if "cordic" in s or "_it" in s] == ["unit_cordic_step"]
     assert len([s for s in steps if s.endswith("_digit_step")]) == 2
     assert len([s for s in steps if s.endswith("_acc_step")]) == 6      # 6 product groups
     assert steps == {s for s in steps if s.endswith(("_acc_step", "_digit_step", "unit_cordic_step"))}
     assert len(re.findall(r"^\s*reg [^;]* unit_cordic_cx\b", compact, re.M)) == 1
-    pipelined, _ = generate("ik", "pipelined", k)
+    pipelined, _ = generate_cached("ik", "pipelined", k, DEFAULT_TAG_WIDTH)
     assert "unit_cordic" not in pipelined and not re.search(r"\w+_step\b", pipelined)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 import re
+from pathlib import Path
 
 import pytest
 
@@ -38,7 +39,8 @@ def test_files_and_meta(q32_run):
     meta = doc["meta"]
     assert meta["config"] == "q32" and meta["vectors"] == N and meta["seed"] == 3
     assert meta["arm"] == "hu-5r" and meta["total_s"] > 0
-    assert list(doc["sections"]) == ["overview", "task_space", "joint_error", "conditioning", "status"]
+    assert list(doc["sections"]) == ["glance", "overview", "hardware", "task_space", "joint_error", "conditioning",
+                                     "status", "worst_poses"]
     for section in doc["sections"].values():
         assert section["title"] and isinstance(section["data"], dict)
     ov = doc["sections"]["overview"]["data"]
@@ -152,8 +154,126 @@ def test_build_report_api_and_extra_section(tmp_path):
                              extra_sections=[extra])
     assert doc["sections"]["bit_accuracy"]["data"] == {"mismatches": 0}
     assert "Bit accuracy" in (tmp_path / "index.html").read_text()
-    assert "q18" in text and "fixed beats float32" in text
+    # The verdict line says what the figures say: at 18 bits fixed point loses to float32.
+    ts = doc["sections"]["task_space"]["data"]
+    loses = (ts["fixed"]["position_cm"]["max"] >= ts["float32"]["position_cm"]["max"]
+             or ts["fixed"]["position_cm"]["rms"] >= ts["float32"]["position_cm"]["rms"])
+    assert loses and ts["fixed_beats_float32"] is False
+    verdict = [line for line in text.splitlines() if line.startswith("fixed beats float32")]
+    assert len(verdict) == 1 and verdict[0].split(": ")[1].startswith("NO ")
+    assert "config q18" in text.splitlines()[0]
     fig = {**doc["sections"]["overview"]["data"], **{k: doc["sections"][k]["data"]
                                                      for k in ("joint_error", "task_space")},
            "status": doc["sections"]["status"]["data"]}
     assert summary_text(fig).splitlines()[0] == text.splitlines()[0]
+
+
+def test_overview_has_provenance_and_no_text_dump(q32_run):
+    out, doc = q32_run
+    page = (out / "index.html").read_text()
+    overview = page.split('<section id="overview">')[1].split("</section>")[0]
+    assert "<pre>" not in overview                 # the tables are not repeated as a text dump
+    prov = doc["meta"]["provenance"]
+    assert prov["package_version"] == doc["meta"]["ik5r"] and prov["tools"]["numpy"]
+    commit = prov["git_commit"]
+    assert commit == "unknown" or re.fullmatch(r"[0-9a-f]{40}(-dirty)?", commit)
+    assert re.fullmatch(r"[0-9a-f]{16}", prov["config_hash"]) and prov["config"] == "q32"
+    for value in (commit, prov["config_hash"], prov["package_version"]):
+        assert value in overview
+
+
+def test_off_axis_table_only_when_poses_are_excluded(q32_run):
+    out, doc = q32_run
+    page = (out / "index.html").read_text()
+    near = doc["sections"]["joint_error"]["data"]["near_axis_count"]
+    assert page.count("<caption>(a′)") == (1 if near else 0)
+    assert ("No pose lies within" in page) == (near == 0)
+
+
+def test_hardware_section_from_records(q32_run):
+    _, doc = q32_run
+    rows = doc["sections"]["hardware"]["data"]["rows"]
+    core = [r for r in rows if r["block"] == "ik" and r["arch"] == "pipelined"]
+    assert len(core) == 1
+    r = core[0]
+    assert r["latency_cycles"] > 100 and r["cycles_per_pose"] == 1
+    assert r["lut4_sites"] > 0 and r["ffs"] > 0 and r["dsps"] > 0 and r["brams"] >= 0
+    assert 50 < r["fmax_mhz"] < 500 and "85k" in r["device"]
+    record = json.loads((Path(__file__).parents[1] / "docs/results/records/synth" / r["record"]).read_text())
+    assert (record["luts"], record["fmax_mhz"], record["config"]) == (r["lut4_sites"], r["fmax_mhz"], "q32")
+
+
+def test_worst_pose_csv_refeeds_into_solve(q32_run, tmp_path, capsys):
+    import csv
+
+    from ik5r.cli import main
+
+    out, doc = q32_run
+    worst = doc["sections"]["worst_poses"]["data"]
+    with open(out / worst["files"]["position"]) as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 20
+    errors = [float(r["position_err_cm"]) for r in rows]
+    assert errors == sorted(errors, reverse=True)
+    assert errors[0] == doc["sections"]["task_space"]["data"]["fixed"]["position_cm"]["max"]
+    solved = tmp_path / "solved.csv"
+    assert main(["solve", "--solver", "fixed", "--config", "q32", "--all", str(out / "worst_position.csv"),
+                 "-o", str(solved)]) == 0
+    with open(solved) as fh:
+        lines = {(int(r["row"]), int(r["branch"])): r for r in csv.DictReader(fh)}
+    for i, row in enumerate(rows):
+        got = lines[(i, int(row["branch"]))]
+        assert [float(got[f"q{j}"]) for j in range(1, 6)] == [float(row[f"fixed_q{j}"]) for j in range(1, 6)]
+        assert got["status"] == row["fixed_status"]
+    # ik5r fk on the same file gives the pose back from q1..q5, digit for digit.
+    assert main(["fk", str(out / "worst_position.csv"), "-o", str(tmp_path / "fk.csv")]) == 0
+    with open(tmp_path / "fk.csv") as fh:
+        poses = list(csv.DictReader(fh))
+    for row, pose in zip(rows, poses):
+        assert all(float(pose[c]) == float(row[c]) for c in ("px", "py", "pz", "ax", "ay", "az"))
+
+
+def test_config_comparison_page(tmp_path):
+    from ik5r.cli import main
+
+    out = tmp_path / "cmp"
+    assert main(["report", "--configs", "q18,q32w", "--vectors", "3000", "-q", "-o", str(out)]) == 0
+    doc = _strict_json(out / "report.json")
+    rows = doc["configs"]
+    assert [r["config"] for r in rows] == ["q18", "q32w"]
+    assert rows[0]["position_max_cm"] > 100 * rows[1]["position_max_cm"]     # 14 more bits
+    assert rows[1]["core"]["fmax_mhz"] > 0 and rows[0]["core"] is None       # q18: no core record
+    assert rows[0]["float32_position_max_cm"] == rows[1]["float32_position_max_cm"]   # same poses
+    page = (out / "index.html").read_text()
+    assert "error_vs_bits.png" in page and (out / "error_vs_bits.png").stat().st_size > 1000
+    assert page.count("<tr>") == 1 + len(rows) + len(provenance_rows(doc))
+
+
+def provenance_rows(doc):
+    from ik5r.report.provenance import rows
+    return rows(doc["meta"]["provenance"]) + [("header", "")]
+
+
+@pytest.mark.slow
+@pytest.mark.sim
+def test_report_hdl_bit_accuracy_and_links(tmp_path):
+    """ik5r report --hdl (what make demo runs) on a small run: zero mismatches, every link resolves."""
+    from ik5r.cli import main
+
+    out = tmp_path / "hdl"
+    assert main(["report", "--hdl", "--vectors", "2000", "--hdl-poses", "300", "--block-vectors", "300",
+                 "--config", "q18", "-q", "-o", str(out)]) == 0
+    doc = _strict_json(out / "report.json")
+    bit = doc["sections"]["bit_accuracy"]["data"]
+    assert bit["total_mismatches"] == 0
+    assert [r["block"] for r in bit["hdl"]] == ["ik", "atan2", "rotate", "sqrt", "acos"]
+    assert all(r["vectors"] >= 300 and r["mismatches"] == 0 for r in bit["hdl"])
+    files = doc["sections"]["files"]["data"]
+    assert len(files["modules"]) == 5 and len(files["simulations"]) == 5
+    page = (out / "index.html").read_text()
+    for href in re.findall(r'<a href="([^"#]+)"', page):
+        assert (out / href).is_file(), href
+    for m in files["modules"]:
+        assert f"module {m['module']}(" in (out / m["verilog"]).read_text()
+        assert json.loads((out / m["portmap"]).read_text())["module"] == m["module"]
+    assert doc["meta"]["provenance"]["tools"]["verilator"]

@@ -5,13 +5,19 @@ generates the block's Verilog and port map (``hdl/generate.py``), wraps it (:mod
 builds it under ``build/sim/<block>_<arch>_<config>_<sim>/`` with ``timescale=("1ns", "1ps")`` (a
 build is reused while its sources and options are unchanged), runs :mod:`.stream_tb` and returns
 the merged result JSON. ``WAVES=1`` (or ``waves=True``) records FST waves and prints where.
+The Verilog comes through :func:`generate_cached` (one conversion per design, shared by the tests);
+builds are serialised across threads and processes, or run one make job each (:func:`_build_lock`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import functools
 import hashlib
 import json
 import os
+import platform
 import shutil
 import threading
 import time
@@ -24,7 +30,6 @@ from .portmap import load_portmap
 
 ROOT = Path(__file__).resolve().parents[2]
 SIMULATORS = ("icarus", "verilator")
-ARCHS = ("pipelined", "iterative")
 DEFAULT_TAG_WIDTH = 8
 
 
@@ -68,6 +73,44 @@ def _write_if_changed(path: Path, text: str) -> None:
         path.write_text(text)
 
 
+#: Generated Verilog bodies and port maps, by :func:`generate_cached`'s key.
+VERILOG_CACHE = ROOT / "build" / "verilog-cache"
+
+
+@functools.cache
+def _generator_sources_hash() -> str:
+    """Hash of every source file the Verilog comes from (the import closure of the generator)."""
+    from ik5r.sources import closure_hash
+    return closure_hash(["ik5r.hdl.generate"])
+
+
+def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> tuple[str, dict]:
+    """``ik5r.hdl.generate.generate(block, arch, k, tag_width, **options)``, the body and port map
+    kept in :data:`VERILOG_CACHE` under a key of everything they depend on: the arguments, the
+    config's name and numbers and the arm, the files of the generator's import closure, the tool
+    and Python versions. A hit gets a fresh header (this checkout's commit). Converting an IK core
+    takes tens of seconds; the testbenches and the lint test share one conversion. ``make clean``
+    empties the cache (entries of older sources are not pruned)."""
+    from ik5r.hdl.generate import generate
+    from ik5r.hdl.provenance import config_hash, strip_header, tool_versions, verilog_header
+
+    key = hashlib.sha256(json.dumps(
+        [block, arch, tag_width, sorted(options.items()), k.cfg.name, config_hash(k),
+         _generator_sources_hash(), tool_versions(), platform.python_version()],
+        default=str).encode()).hexdigest()[:24]
+    body_path, map_path = VERILOG_CACHE / f"{key}.v", VERILOG_CACHE / f"{key}.json"
+    if body_path.is_file() and map_path.is_file():
+        pmap = json.loads(map_path.read_text())
+        return verilog_header(pmap, k, options) + body_path.read_text(), pmap
+    text, pmap = generate(block, arch, k, tag_width, **options)
+    VERILOG_CACHE.mkdir(parents=True, exist_ok=True)
+    for path, content in ((body_path, strip_header(text)), (map_path, json.dumps(pmap))):
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+        tmp.write_text(content)
+        os.replace(tmp, path)      # atomic: a parallel test process reads the old or the new file
+    return text, json.loads(json.dumps(pmap))
+
+
 def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
                      portmap: str | Path | None = None, verilog: str | Path | None = None,
                      dsp: str = "generic") -> tuple[Path, Path]:
@@ -76,9 +119,8 @@ def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_widt
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
-        from ik5r.hdl.generate import generate
         options = {} if dsp == "generic" else {"dsp": dsp}
-        vtext, pmdoc = generate(block, arch, constants(load_config(config)), tag_width, **options)
+        vtext, pmdoc = generate_cached(block, arch, constants(load_config(config)), tag_width, **options)
     vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
     _write_if_changed(vpath, vtext)
     _write_if_changed(jpath, json.dumps(pmdoc, indent=1, sort_keys=True))
@@ -99,6 +141,13 @@ def _runtime_cache(build_args: list[str]) -> Path:
     return ROOT / "build" / "sim" / "_verilator_runtime" / key
 
 
+def _source_digest(path: Path) -> str:
+    """SHA-1 of a source without its header comment (a new commit's header is the same design:
+    the simulation built from the old one is reused)."""
+    from ik5r.hdl.provenance import strip_header
+    return hashlib.sha1(strip_header(path.read_text()).encode()).hexdigest()
+
+
 def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose: bool,
            cflags: str = "-O1") -> float:
     """Build (or reuse) the simulation; returns seconds spent. ``cflags``: the C++ optimisation of
@@ -115,7 +164,7 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
             # Verilator's FST writer needs lz4.h (Debian: liblz4-dev); without it, VCD.
             build_args += ["--trace-fst"] if _have_lz4() else []
     stamp_doc = {"sim": sim, "args": build_args, "waves": waves,
-                 "sources": {str(s): hashlib.sha1(s.read_bytes()).hexdigest() for s in sources}}
+                 "sources": {str(s): _source_digest(s) for s in sources}}
     stamp = build_dir / "build.stamp"
     binary = build_dir / ("ik5r_tb_top" if sim == "verilator" else "sim.vvp")
     if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
@@ -132,11 +181,35 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
                     # date them ahead so make keeps them.
                     ahead = time.time() + 10 * 365 * 86400
                     os.utime(build_dir / src.name, (ahead, ahead))
-    with _BUILD_LOCK:       # one build at a time (make -j uses every core); MAKEFLAGS is process-wide
+    with _build_lock():     # one build at a time (make -j uses every core); MAKEFLAGS is process-wide
         return _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0)
 
 
 _BUILD_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _build_lock():
+    """One simulator build at a time in this process (its threads share MAKEFLAGS), and, unless
+    ``IK5R_BUILD_JOBS`` is set, on this machine's checkout (a lock file under build/sim/: each
+    build's make uses every core). ``IK5R_BUILD_JOBS=n`` (``pytest -n``'s workers: 1) gives each
+    build n make jobs and lets the processes build side by side, none waiting idle for another."""
+    jobs = os.environ.get("IK5R_BUILD_JOBS")
+    if jobs:
+        import cocotb_tools.runner
+
+        with _BUILD_LOCK:
+            cocotb_tools.runner.MAX_PARALLEL_BUILD_JOBS = int(jobs)
+            yield
+        return
+    path = ROOT / "build" / "sim" / ".build.lock"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with _BUILD_LOCK, open(path, "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0) -> float:
@@ -172,18 +245,50 @@ def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, st
     return time.perf_counter() - t0
 
 
+def _run_cocotb(sim: str, bdir: Path, work: Path, job: dict, waves: bool, seed: int, quiet: bool
+                ) -> tuple[int, int]:
+    """Run :mod:`.stream_tb` on the build in ``bdir`` for ``job``; (cocotb tests, failed)."""
+    from cocotb_tools.runner import get_results, get_runner
+
+    job_path = work / "job.json"
+    job_path.write_text(json.dumps(job, indent=1))
+    plusargs = [f"+ik5r_bulk_{k}={work / f}" for k, f in (("in", wrapper.IN_FILE), ("out", wrapper.OUT_FILE),
+                                                          ("vpat", wrapper.VPAT_FILE), ("rpat", wrapper.RPAT_FILE))]
+    xml = work / "results.xml"
+    try:
+        xml = get_runner(sim).test(
+            test_module="ik5r.hdl.tb.stream_tb", hdl_toplevel=wrapper.TOP, hdl_toplevel_lang="verilog",
+            build_dir=bdir, test_dir=work, extra_env={"IK5R_TB_JOB": str(job_path)}, plusargs=plusargs,
+            waves=waves, seed=seed, results_xml=str(xml), log_file=work / "sim.log" if quiet else None)
+    except SystemExit:
+        pass            # failed cocotb tests (cocotb exits under pytest): the result JSONs say which
+    try:
+        return get_results(xml)
+    except Exception:       # no results file: the simulator died
+        return 0, 0
+
+
+def _wave_file(sim: str, bdir: Path, work: Path) -> str:
+    """Where the simulator wrote the waves (printed)."""
+    wave_file = (str(bdir / "ik5r_tb_top.fst") if sim == "icarus"
+                 else str(work / ("dump.fst" if _have_lz4() else "dump.vcd")))
+    if sim == "verilator" and not _have_lz4():
+        print("note: lz4.h not found (apt-get install liblz4-dev): Verilator waves are VCD, not FST")
+    print(f"waves: {wave_file}")
+    return wave_file
+
+
 def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str | None = None, *,
               stream_vectors: int = 1000, bulk_vectors: int = 0, seed: int = 1, pattern: str = "random",
               waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
-              cflags: str = "-O1", dsp: str = "generic") -> dict:
+              cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None) -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
     ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
-    with their models in ``hdl/sim/``."""
-    from cocotb_tools.runner import get_runner
-
+    with their models in ``hdl/sim/``. ``fault`` (testbench self-test): corrupt the stream
+    monitor's view (:class:`~ik5r.hdl.tb.stream_tb.Monitor`); the run must then fail."""
     from ik5r.hdl.generate import resolve_arch
 
     arch = resolve_arch(block, arch)
@@ -208,29 +313,13 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
         (work / name).unlink(missing_ok=True)
     job = {"portmap": str(jpath), "block": block, "arch": arch, "config": config, "seed": seed,
            "work_dir": str(work),
-           "stream": {"vectors": stream_vectors, "reset": reset} if stream_vectors else None,
+           "stream": dict({"vectors": stream_vectors, "reset": reset}, **({"fault": fault} if fault else {}))
+           if stream_vectors else None,
            "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
            if bulk_vectors else None}
-    job_path = work / "job.json"
-    job_path.write_text(json.dumps(job, indent=1))
-    runner = get_runner(sim)
-    plusargs = [f"+ik5r_bulk_{k}={work / f}" for k, f in (("in", wrapper.IN_FILE), ("out", wrapper.OUT_FILE),
-                                                          ("vpat", wrapper.VPAT_FILE), ("rpat", wrapper.RPAT_FILE))]
     t0 = time.perf_counter()
-    xml = work / "results.xml"
-    try:
-        xml = runner.test(test_module="ik5r.hdl.tb.stream_tb", hdl_toplevel=wrapper.TOP, hdl_toplevel_lang="verilog",
-                          build_dir=bdir, test_dir=work, extra_env={"IK5R_TB_JOB": str(job_path)},
-                          plusargs=plusargs, waves=waves, seed=seed, results_xml=str(xml),
-                          log_file=None if (verbose or progress) else work / "sim.log")
-    except SystemExit:
-        pass            # failed cocotb tests (cocotb exits under pytest): the result JSONs say which
+    tests, failed = _run_cocotb(sim, bdir, work, job, waves, seed, quiet=not (verbose or progress))
     sim_wall = time.perf_counter() - t0
-    from cocotb_tools.runner import get_results
-    try:
-        tests, failed = get_results(xml)
-    except Exception:       # no results file: the simulator died
-        tests, failed = 0, 0
 
     parts = {}
     for name in ("stream", "bulk"):
@@ -240,13 +329,7 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     merged = _merge(parts)
     stream = parts.get("stream", {}).get("stream", {})
     bulk = parts.get("bulk", {}).get("bulk", {})
-    wave_file = None
-    if waves:
-        wave_file = (str(bdir / "ik5r_tb_top.fst") if sim == "icarus"
-                     else str(work / ("dump.fst" if _have_lz4() else "dump.vcd")))
-        if sim == "verilator" and not _have_lz4():
-            print("note: lz4.h not found (apt-get install liblz4-dev): Verilator waves are VCD, not FST")
-        print(f"waves: {wave_file}")
+    wave_file = _wave_file(sim, bdir, work) if waves else None
     expected_runs = int(bool(stream_vectors)) + int(bool(bulk_vectors))
     if len(parts) < expected_runs and not merged["mismatches"]:
         merged["mismatches"] = 1
@@ -281,4 +364,5 @@ def _merge(parts: dict) -> dict:
     return {"vectors": vectors, "mismatches": mism, "first_mismatch": first, "field_mismatches": fields,
             "tag_errors": sum(p.get("tag_errors", 0) for p in parts.values()),
             "stale_outputs": sum(p.get("stale_outputs", 0) for p in parts.values()),
+            "hold_violations": sum(p.get("hold_violations", 0) for p in parts.values()),
             "max_error_lsb": mx, "rms_error_lsb": (sq / n) ** 0.5 if n else None}

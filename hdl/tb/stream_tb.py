@@ -109,6 +109,7 @@ class Results:
         self.field_mismatches = {}      # output field -> items where it differs from the model
         self.tag_errors = 0
         self.stale_outputs = 0
+        self.hold_violations = 0
         self.err_max = 0.0
         self.err_sq = 0.0
         self.err_n = 0
@@ -133,6 +134,7 @@ class Results:
         doc = {"compared": self.compared, "mismatches": self.mismatches, "first_mismatch": self.first_mismatch,
                "field_mismatches": {name: self.field_mismatches.get(name, 0) for name in self.job.bind_out.values()},
                "tag_errors": self.tag_errors, "stale_outputs": self.stale_outputs,
+               "hold_violations": self.hold_violations,
                "max_error_lsb": self.err_max if self.err_n else None,
                "rms_error_lsb": (self.err_sq / self.err_n) ** 0.5 if self.err_n else None,
                "error_items": self.err_n, **self.sections, **(extra or {})}
@@ -243,32 +245,71 @@ class BackPressure:
 
 
 class Monitor:
-    """Samples accepted output items (o.valid & o.ready, reset low) and hands them on."""
+    """Samples accepted output items (o.valid & o.ready, reset low) and hands them on; checks the
+    stream rule on the output: an item offered and not taken (o.valid & ~o.ready) is offered
+    again, unchanged, in the next cycle (also when that cycle asserts the reset: the reset acts on
+    the clock edge after it and only then releases the item).
 
-    def __init__(self, dut, job: Job, bp: BackPressure):
+    ``fault`` (the testbench self-test) corrupts the monitor's view: ``{"kind": "flip", "at": n}``
+    flips bit 0 of the n-th taken payload, ``"drop"`` swallows the n-th taken item (a lost tag),
+    ``"unstable"`` flips bit 0 of the payload in the n-th held cycle."""
+
+    def __init__(self, dut, job: Job, bp: BackPressure, fault: dict | None = None):
         self.valid = _sig(dut, job.pm.o.valid)
         self.payload = _sig(dut, job.pm.o.payload)
         self.stream = job.pm.o
         self.bp = bp
         self.first_valid = None
         self.callback = None
+        self.on_hold_violation = None
+        self.held = None            # payload offered and not taken in the previous cycle
+        self.held_cycles = 0        # cycles in which the rule was checked
+        self.taken = 0
+        self.fault = fault or {}
+
+    def _payload(self, value: int, held: bool) -> int:
+        kind, at = self.fault.get("kind"), int(self.fault.get("at", 0))
+        if (kind == "flip" and not held and self.taken == at) or \
+                (kind == "unstable" and held and self.held_cycles == at):
+            return value ^ 1
+        return value
+
+    def _check_held(self, cycle: int, valid: int, payload):
+        if self.held is None:
+            return
+        self.held_cycles += 1
+        now = self._payload(int(payload), True) if valid == 1 and payload.is_resolvable else None
+        if valid != 1 or now != self.held:
+            self.on_hold_violation(cycle, self.stream.unpack(self.held),
+                                   None if now is None else self.stream.unpack(now))
 
     def sample(self, cycle: int, in_reset: bool):
-        if in_reset:
-            return
         v = self.valid.value
         if not v.is_resolvable:
-            self.callback(cycle, None, f"o.valid is {v}")
+            if not in_reset:
+                self.callback(cycle, None, f"o.valid is {v}")
+            self.held = None
+            return
+        p = self.payload.value
+        self._check_held(cycle, int(v), p)
+        self.held = None
+        if in_reset:
             return
         if int(v) == 1:
             if self.first_valid is None:
                 self.first_valid = cycle
-            if self.bp.value:
-                p = self.payload.value
-                if not p.is_resolvable:
+            if not p.is_resolvable:
+                if self.bp.value:
                     self.callback(cycle, None, f"payload {p}")
-                else:
-                    self.callback(cycle, self.stream.unpack(int(p)), None)
+                return
+            if not self.bp.value:
+                self.held = int(p)
+                return
+            value = self._payload(int(p), False)
+            self.taken += 1
+            if self.fault.get("kind") == "drop" and self.taken - 1 == int(self.fault.get("at", 0)):
+                return
+            self.callback(cycle, self.stream.unpack(value), None)
 
 
 class ResetGen:
@@ -313,6 +354,11 @@ class Scoreboard:
         self.pending.clear()
         return flushed
 
+    def hold_violation(self, cycle, held, now):
+        self.results.hold_violations += 1
+        self.results.mismatch("output changed while held (o.valid & ~o.ready the cycle before)",
+                              None, held, now if now is not None else "o.valid low or X")
+
     def output(self, cycle, values, problem):
         r, job = self.results, self.job
         if problem is not None:       # X/Z on the bus: a mismatch of the next pending item
@@ -356,11 +402,12 @@ class StreamTB:
         self.clk = _sig(dut, job.pm.clk)
         self.driver = Driver(dut, job, rng)
         self.bp = BackPressure(dut, job, rng)
-        self.monitor = Monitor(dut, job, self.bp)
+        self.monitor = Monitor(dut, job, self.bp, (job.doc.get("stream") or {}).get("fault"))
         self.reset = ResetGen(dut, job)
         self.sb = Scoreboard(job, results)
         self.driver.on_accept = self.sb.accept
         self.monitor.callback = self.sb.output
+        self.monitor.on_hold_violation = self.sb.hold_violation
         self.cycle = 0
         self.was_reset = False
         self.trace = int(os.environ.get("IK5R_TB_TRACE", "0") or 0)    # log the handshakes of N cycles
@@ -466,16 +513,19 @@ async def _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order
     half = len(rest) // 2
     tb.driver.queue.extend(rest)
     resets = 0
+    held_at_reset = False
     if opts.get("reset", True) and half:
-        # Reset once traffic is flowing and the block holds items in flight.
+        # Reset once traffic is flowing, the block holds items in flight and its output is held
+        # (o.valid & ~o.ready): stability under a stall and the reset's release checked together.
         limit_c = tb.cycle + _limit(job, half)
-        while len(tb.driver.accepted) < 1 + burst + half or not tb.sb.pending:
+        while len(tb.driver.accepted) < 1 + burst + half or not tb.sb.pending or tb.monitor.held is None:
             await tb.step()
             if tb.cycle > limit_c:
                 raise AssertionError("traffic did not reach the mid-point")
         in_flight = len(tb.sb.pending)
         tb.reset.trigger(int(opts.get("reset_cycles", 4)))
         resets = 1
+        held_at_reset = True
         dut._log.info("reset asserted at cycle %d with %d items in flight", tb.cycle, in_flight)
     await tb.run_until_idle(_limit(job, len(rest)))
     # Nothing may come out after the last item: a few more cycles, ready high.
@@ -491,6 +541,7 @@ async def _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order
         results.errors({r: v[idx] for r, v in inputs.items()}, got)
     wall = time.perf_counter() - t0
     results.sections["stream"] = {"vectors": n, "cycles": tb.cycle, "resets": resets,
+                                  "reset_while_held": held_at_reset, "held_cycles": tb.monitor.held_cycles,
                                   "latency_cycles": latency, "cycles_per_result": cpr,
                                   "wall_seconds": wall}
     doc = results.write(job.work / "result_stream.json")

@@ -7,8 +7,8 @@ limits; every solver gets the same first start per pose (another uniform draw), 
 does by itself (ik5r: more random starts; ik_LM: ``slimit`` random searches; ikpy: none). A pose
 counts as solved when the FK of the returned joints is within 1e-9 cm and 1e-9 rad of the target
 (the floor of issue 17), measured by ik5r's FK; each tool's own success flag is reported too.
-ik5r solves the whole batch at once (numpy, one core); ik_LM and ikpy are called once per pose on
-the first poses. Times are CPU times of this process. Writes bench_arms.json / bench_arms.md.
+ik5r solves the whole batch at once (the C LM kernel of :mod:`ik5r.lmkernel`, numpy around it,
+one core); ik_LM and ikpy are called once per pose on the first poses. Times are CPU times of this process. Writes bench_arms.json / bench_arms.md.
 """
 
 from __future__ import annotations
@@ -96,6 +96,7 @@ def bench_arm(name: str, poses: int, rtb_count: int, ikpy_count: int, seed: int 
     rng = np.random.default_rng(seed)
     R, p = fk(chain, random_joints(chain, poses, rng))
     starts = random_joints(chain, poses, rng)
+    multistart.solve(chain, nm.Targets("pose", p[:10], R[:10]), q0=starts[:10], seed=seed)  # load the C kernel
     t0 = time.process_time()
     sol = multistart.solve(chain, nm.Targets("pose", p, R), q0=starts, seed=seed)
     cpu = time.process_time() - t0

@@ -1,4 +1,8 @@
-"""The ``ik5r`` command line: one verb per module of ``ik5r.commands``."""
+"""The ik5r command line: one verb per module of ik5r.commands.
+
+Every verb takes -q/--quiet and -v/--verbose; progress bars appear only on a terminal. Run
+'ik5r VERB --help' for a verb's options.
+"""
 
 from __future__ import annotations
 
@@ -7,17 +11,24 @@ import importlib
 import os
 import sys
 
+from . import __version__, cliopts
 from .errors import InputError
 
 #: Verb modules, in the order ``ik5r --help`` lists them.
-VERBS = ("fk", "solve", "report", "verilog", "sim", "synth", "sweep")
+VERBS = ("fk", "solve", "report", "verilog", "sim", "synth", "sweep", "firmware")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="ik5r", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"ik5r {__version__}")
     sub = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
     for verb in VERBS:
         importlib.import_module(f"ik5r.commands.{verb}").register(sub)
+    for verb_parser in sub.choices.values():
+        cliopts.add_common(verb_parser)
+        cliopts.plain_help(verb_parser)
+    for choice in sub._choices_actions:
+        choice.help = cliopts.plain_text(choice.help)
     return parser
 
 

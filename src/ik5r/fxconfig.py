@@ -175,17 +175,41 @@ def parse_config(doc: dict, path: str | Path = "<config>") -> FixedConfig:
 
 
 def config_dir() -> Path:
-    """The shipped configs (``configs/`` of the source tree)."""
-    return Path(str(resources.files("ik5r"))).resolve().parents[1] / "configs"
+    """The shipped configs: package data ``ik5r.configs`` (``configs/`` of the source tree)."""
+    import importlib
+
+    try:   # a data-only (namespace) package: its folder is its __path__
+        return Path(next(iter(importlib.import_module("ik5r.configs").__path__)))
+    except (ModuleNotFoundError, StopIteration):   # an install older than the package data
+        return Path(str(resources.files("ik5r"))).resolve().parents[1] / "configs"
+
+
+def shipped_configs() -> list[str]:
+    return sorted(p.stem for p in config_dir().glob("*.toml"))
+
+
+def resolve_config_path(path: str | Path | None) -> Path:
+    """NAME (``q18``) is a shipped config wherever ik5r runs; PATH a file. A relative
+    ``configs/NAME.toml`` that does not exist from here is the shipped one too, so the README's
+    commands work from any directory."""
+    candidate = Path(DEFAULT_CONFIG if path is None else path)
+    if candidate.is_file():
+        return candidate
+    if not candidate.suffix and len(candidate.parts) == 1:
+        shipped = config_dir() / f"{candidate.name}.toml"
+        if shipped.is_file():
+            return shipped
+    elif not candidate.is_absolute() and candidate.parent == Path("configs"):
+        shipped = config_dir() / candidate.name
+        if shipped.is_file():
+            return shipped
+    raise InputError(path, f"no such config file or shipped config name "
+                           f"(shipped: {', '.join(shipped_configs())})")
 
 
 def load_config(path: str | Path | None = None) -> FixedConfig:
     """Load a config TOML; ``None`` gives :data:`DEFAULT_CONFIG`; a bare name ``q18`` a shipped one."""
-    if path is None:
-        path = DEFAULT_CONFIG
-    candidate = Path(path)
-    if not candidate.suffix and not candidate.is_file():
-        candidate = config_dir() / f"{path}.toml"
+    candidate = resolve_config_path(path)
     return parse_config(read_toml(candidate), candidate)
 
 

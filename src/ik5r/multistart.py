@@ -2,7 +2,7 @@
 
 ``solve(chain, targets, starts=S)`` runs Levenberg-Marquardt from S joint vectors per pose (start 0
 is ``q0`` when given, the others uniform in the limits from ``numpy.random.default_rng(seed)``, so a
-run is reproducible). With ``all_solutions`` every start runs and the converged ones are
+run is reproducible; in rounds they are drawn only for the poses still open). With ``all_solutions`` every start runs and the converged ones are
 de-duplicated (two solutions are the same when every joint differs by less than ``DISTINCT``, angles
 of full-turn joints compared modulo 2 pi); otherwise starts run in rounds, each round only on the
 poses still unsolved, and the first converged start answers. Poses with no converged start get one
@@ -13,13 +13,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import lmkernel
 from . import numeric as nm
 from .chain import Chain
 
 DISTINCT = 1e-6
 WARM_DAMPING = 1e-6  # initial LM damping (relative) from a start known to be close
 DEFAULT_STARTS = {"first": 32, "all": 128}
-_ROUNDS = (1, 3, 12)  # starts per pose in successive rounds of the first-solution search
+_ROUNDS = (1, 1, 2, 4, 8)  # starts per pose in successive rounds of the first-solution search: small
+# first rounds, as most poses converge from their first or second start (a wider round wastes starts)
+_POLISH_AFTER = 4  # starts tried before the close-but-unsolved poses are polished
 
 
 def _starts(chain: Chain, todo: np.ndarray, starts: int, q0, rng) -> np.ndarray:
@@ -31,7 +34,33 @@ def _starts(chain: Chain, todo: np.ndarray, starts: int, q0, rng) -> np.ndarray:
     return q
 
 
-def _run(chain, targets, rows, q, **kw):
+def _round_starts(chain: Chain, poses: np.ndarray, width: int, q0, rng) -> np.ndarray:
+    """(len(poses), width, n) starts of one round, drawn only for the poses still open (a pose
+    solved by its first start costs no draw); start 0 is q0 in the first round when given."""
+    if q0 is None:
+        return rng.uniform(chain.lower, chain.upper, size=(len(poses), width, chain.n))
+    q = np.empty((len(poses), width, chain.n))
+    q0 = np.asarray(q0, dtype=np.float64)
+    q[:, 0] = q0[poses] if q0.ndim == 2 else q0
+    q[:, 1:] = rng.uniform(chain.lower, chain.upper, size=(len(poses), width - 1, chain.n))
+    return q
+
+
+def _rank_lost_at(chain, targets, rows, q) -> np.ndarray:
+    """Whether the task Jacobian at q (M, n) for targets[rows] has lost rank: the ``singular``
+    flag of levenberg_marquardt, computed once for the poses left unsolved rather than per run."""
+    if not len(rows):
+        return np.zeros(0, dtype=bool)
+    R, p, J = nm.jacobian(chain, q)
+    return nm._rank_lost(nm._task(targets.take(rows), R, p, J, max(chain.reach, 1.0) / 4.0)[1])
+
+
+def _run(chain, targets, rows, q, backend="auto", **kw):
+    """LM from starts q (M, n) on targets[rows]: the C kernel, or the numpy reference in chunks."""
+    if backend == "c" or backend == "auto" and lmkernel.available():  # singular: see _rank_lost_at
+        return lmkernel.levenberg_marquardt(chain, targets, q, rows=rows, rank_check=False, **kw)
+    if backend not in ("auto", "numpy"):
+        raise ValueError(f"backend must be auto, c or numpy, got {backend!r}")
     out = [nm.levenberg_marquardt(chain, targets.take(rows[i:i + nm._CHUNK]), q[i:i + nm._CHUNK], **kw)
            for i in range(0, len(rows), nm._CHUNK)]
     return tuple(np.concatenate(parts) for parts in zip(*out)) if out else None
@@ -52,6 +81,7 @@ def _distinct(chain: Chain, q: np.ndarray, ok: np.ndarray) -> np.ndarray:
 
 
 _KICKS = np.array([0.0, 1e-4, -1e-4, 1e-3, -1e-3, 1e-2, -1e-2, 0.1, -0.1])
+_KICK_ROUNDS = (1, 3, 5, 7, 9)  # end of each round of kicks
 
 
 def _polish(chain, targets, rows, q, **kw):
@@ -65,8 +95,16 @@ def _polish(chain, targets, rows, q, **kw):
     weakest = np.linalg.svd(Jt)[2][:, -1, :]
     k = len(_KICKS)
     starts = clamp_rows(chain, q[:, None, :] + _KICKS[None, :, None] * weakest[:, None, :])
-    out = _run(chain, targets, np.repeat(rows, k), starts.reshape(-1, chain.n), **kw)
-    qq, pos, rot, conv, sing = (v.reshape(len(rows), k, *v.shape[1:]) for v in out)
+    qq, pos, rot = starts.copy(), np.full((len(rows), k), np.inf), np.full((len(rows), k), np.inf)
+    conv, sing = np.zeros((len(rows), k), dtype=bool), np.zeros((len(rows), k), dtype=bool)
+    open_, lo = np.arange(len(rows)), 0
+    for hi in _KICK_ROUNDS:  # in order, only for rows no earlier kick solved: the same pick, fewer runs
+        out = _run(chain, targets, np.repeat(rows[open_], hi - lo), starts[open_, lo:hi].reshape(-1, chain.n), **kw)
+        for array, value in zip((qq, pos, rot, conv, sing), out):
+            array[open_, lo:hi] = value.reshape(len(open_), hi - lo, *value.shape[1:])
+        open_, lo = open_[~conv[open_, lo:hi].any(axis=1)], hi
+        if not len(open_):
+            break
     score = pos + np.where(np.isnan(rot), 0.0, rot)
     pick = np.where(conv.any(axis=1), np.argmax(conv, axis=1), np.argmin(score, axis=1))
     at = np.arange(len(rows))
@@ -127,7 +165,7 @@ def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int
     best = np.argmin(np.where(np.isnan(rot), 0.0, rot).reshape(shape) + pos.reshape(shape), axis=1)
     flat = np.arange(len(todo)) * starts + best
     sel = flat[none]
-    failed = _failed_rows(todo[none], q[sel], pos[sel], rot[sel], sing[sel])
+    failed = _failed_rows(todo[none], q[sel], pos[sel], rot[sel], _rank_lost_at(chain, targets, todo[none], q[sel]))
     return _collect([found, failed, rejected])
 
 
@@ -137,7 +175,6 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
     the solution (e.g. the previous point of a path): its first step is barely damped."""
     todo, rejected = _prechecked(chain, targets)
     rng = np.random.default_rng(seed)
-    qs = _starts(chain, todo, starts, q0, rng)
     n = chain.n
     best_q = np.full((len(todo), n), np.nan)
     best_pos = np.full(len(todo), np.inf)
@@ -151,8 +188,9 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         open_ = np.nonzero(~solved)[0]
         if width <= 0 or not len(open_):
             break
+        qs = _round_starts(chain, todo[open_], width, q0 if begin == 0 else None, rng)
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
-                                       qs[open_, begin:begin + width].reshape(-1, n), polish=begin == 0,
+                                       qs.reshape(-1, n), polish=begin == 0,
                                        **({"damping": WARM_DAMPING} if warm and begin == 0 else {}), **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
@@ -165,8 +203,9 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         best_score[upd] = score[np.arange(len(open_)), pick][better]
         solved[open_] = any_conv
         begin += width
-        if begin == sum(_ROUNDS[:2]) or begin == starts:
+        if begin == _POLISH_AFTER or begin == starts:
             _polish_close(chain, targets, todo, solved, best_score, (best_q, best_pos, best_rot, best_sing), kw)
+    best_sing[~solved] = _rank_lost_at(chain, targets, todo[~solved], best_q[~solved])
     status = np.where(solved, nm.OK, np.where(best_sing, nm.SINGULAR, nm.NOT_CONVERGED))
     return _collect([nm.Solutions(todo, best_q, status, best_pos, best_rot), rejected])
 

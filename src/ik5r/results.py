@@ -7,7 +7,9 @@ Two steps:
 1. **collect** (skipped with ``--no-collect``): the measurements of this machine's ``build/`` are
    copied into ``docs/results/records/``: each ``build/synth/*/result.json`` (``ik5r synth``, a
    shipped config, nextpnr seed 1, whose Verilog is what this checkout generates) as
-   ``synth/<module>_<config>_<target>-<device>.json`` with the SHA-256 of that Verilog, the sweep's
+   ``synth/<module>_<config>_<target>-<device>.json`` with the SHA-256 of that Verilog (of its
+   body: the text after the header comment, whose commit line changes with every commit; see
+   ``ik5r.hdl.provenance``), the sweep's
    ``sweep.json`` and plots (``ik5r sweep``), and ``bench.json`` / ``bench.md`` (``make bench``).
    A record is replaced only by a newer measurement of the same design point.
 2. **render**: the text between the ``<!-- results:begin -->`` and ``<!-- results:end -->``
@@ -21,10 +23,11 @@ each one can be traced to the JSON record it came from.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import shutil
 from pathlib import Path
+
+from .routes import routes_part
 
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 SHIPPED = ("q32w", "q32", "q24", "q18")
@@ -50,6 +53,9 @@ class VerilogOfCheckout:
         dsp = r.get("dsp", "generic")
         serial = r.get("serial")
         key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial)
+        if key not in self._texts and r["block"] == "cpu":
+            from ik5r.softcpu import soc_design  # the SoC with the firmware this checkout builds
+            self._texts[key] = soc_design(constants(load_config(r["config"])), r["arch"])[0]
         if key not in self._texts:
             options = {} if dsp == "generic" else {"dsp": dsp}
             if serial:
@@ -59,7 +65,10 @@ class VerilogOfCheckout:
         return self._texts[key]
 
     def sha256(self, r: dict) -> str:
-        return hashlib.sha256(self.text(r).encode()).hexdigest()
+        """SHA-256 of the Verilog's body (without the header comment): the records made before
+        the header existed hashed the same bytes, and a new commit does not make them stale."""
+        from ik5r.hdl.provenance import body_sha256
+        return body_sha256(self.text(r))
 
 
 def _record_name(r: dict) -> str:
@@ -69,15 +78,19 @@ def _record_name(r: dict) -> str:
 def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: VerilogOfCheckout) -> list[str]:
     """Copy this machine's measurements into ``records`` (see the module docstring); returns what
     was written."""
+    from ik5r.hdl.provenance import body_sha256
+
     written = []
     synth_dir = records / "synth"
     for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
         r = json.loads(path.read_text())
         # Runs at other nextpnr seeds (robustness checks) are not the design point's figure.
-        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or r.get("fmax_mhz") is None:
+        # A run that did not fit its device is a measurement too (no Fmax, fits_device false).
+        placed = r.get("fmax_mhz") is not None or (r.get("fits_device") is False and r.get("pnr_error"))
+        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or not placed:
             continue
         design = path.parent / "design.v"
-        if not design.exists() or design.read_text() != verilog.text(r):
+        if not design.exists() or body_sha256(design.read_text()) != verilog.sha256(r):
             continue
         record = {k: v for k, v in r.items() if k not in LOCAL_KEYS}
         record["verilog_sha256"] = verilog.sha256(r)
@@ -97,6 +110,11 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
             if (sweep / plot).exists():
                 shutil.copyfile(sweep / plot, docs / plot)
                 written.append(str(docs / plot))
+    for path in sorted(build.glob("firmware/*.json")):
+        target = records / "firmware" / path.name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, target)
+        written.append(str(target))
     for name in ("bench.json", "bench.md", "bench_arms.json", "bench_arms.md"):
         if (build / "bench" / name).exists():
             records.mkdir(parents=True, exist_ok=True)
@@ -111,7 +129,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
     rows, stale = [], []
     for path in sorted((records / "synth").glob("*.json")):
         r = json.loads(path.read_text())
-        if r.get("verilog_sha256") == verilog.sha256(r):
+        if _current(r, verilog):
             rows.append(r)
         else:
             stale.append(path.name)
@@ -123,11 +141,23 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
     for r in rows:
         arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
         lines.append(f"| {r['block']} | {arch} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']}"
-                     f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
+                     f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
+                     f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")
     return lines, stale
+
+
+def _current(r: dict, verilog: VerilogOfCheckout) -> bool:
+    """Whether the record's Verilog is what this checkout generates (a soft CPU record needs
+    the cross compiler to tell: without it, the record counts as not current)."""
+    from ik5r.softcpu import SoftCpuError
+
+    try:
+        return r.get("verilog_sha256") == verilog.sha256(r)
+    except SoftCpuError:
+        return False
 
 
 def bench_table(records: Path) -> list[str]:
@@ -169,6 +199,7 @@ def section(records: Path, verilog: VerilogOfCheckout) -> tuple[str, list[str]]:
              "### Speed (`make bench`)", "", *bench_table(records), "",
              "### Any serial arm: numeric IK (`make bench`, `python -m ik5r.seedtables`)", "", *arms_part(records), "",
              "### Synthesis (`ik5r synth`, Yosys + nextpnr, out of context)", "", *synth, "",
+             *routes_part(records, lambda r: _current(r, verilog)), "",
              "### Word-length sweep (`ik5r sweep`)", "", *sweep_part(records), "", END]
     return "\n".join(parts), stale
 

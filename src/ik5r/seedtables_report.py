@@ -38,7 +38,7 @@ def _patil(p: dict) -> list[str]:
              "| --- | ---: | ---: | ---: | ---: |"]
     n = p["numeric"]
     lines.append(f"| ik5r numeric (position mode) | {p['targets']} ({n['ok']} ok) | {n['max_error_cm']:.1e} "
-                 f"| {n['rms_error_cm']:.1e} | {n['ms_per_target']:.2f} |")
+                 f"| {n['rms_error_cm']:.1e} | {n['ms_per_target']:.3g} |")
     for b in p["brute_force"]:
         lines.append(f"| brute force, {b['steps_per_joint']} steps per joint ({b['combinations']:,} combinations) "
                      f"| {b['targets']} | {b['max_error_cm']:.2f} | {b['rms_error_cm']:.2f} | {b['ms_per_target']:.0f} |")

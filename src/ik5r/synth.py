@@ -291,27 +291,35 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     ``log(message)`` receives progress lines (default: silent).
     """
     from .hdl.generate import generate, resolve_arch
+    from .hdl.provenance import strip_header
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
-    arch = resolve_arch(block, arch)
     k = constants(cfg)
     t0 = time.perf_counter()
-    # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-    dsp = opts.dsp if arch == "pipelined" else "generic"
-    options = {} if dsp == "generic" else {"dsp": dsp}
-    if block == "ik" and arch == "compact" and opts.target == "ice40":
-        # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
-        # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
-        options["serial"] = ICE40_BEAT_BITS
-    text, pmap = generate(block, arch, k, opts.tag_width, **options)
+    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
+        from .softcpu import soc_design
+        dsp = "generic"
+        text, pmap = soc_design(k, arch)
+    else:
+        arch = resolve_arch(block, arch)
+        # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
+        dsp = opts.dsp if arch == "pipelined" else "generic"
+        options = {} if dsp == "generic" else {"dsp": dsp}
+        if block == "ik" and arch == "compact" and opts.target == "ice40":
+            # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
+            # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
+            options["serial"] = ICE40_BEAT_BITS
+        text, pmap = generate(block, arch, k, opts.tag_width, **options)
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
     tools = tool_versions(opts.target)
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
-    key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
+    # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.
+    body = strip_header(text)
+    key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
     # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
     # shipped q32) give the same Verilog and share one run.
     folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
@@ -340,7 +348,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     folder.mkdir(parents=True, exist_ok=True)
     # A run stopped during nextpnr resumes after Yosys: the netlist is kept with a marker holding
     # the hash of everything it depends on (written only once Yosys has finished).
-    yosys_key = _hash(FLOW_VERSION, text, json.dumps(tools, sort_keys=True), opts.target)
+    yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
     marker = folder / "yosys.done"
     (folder / "report.json").unlink(missing_ok=True)
     if marker.is_file() and marker.read_text().strip() == yosys_key and not force:
@@ -400,8 +408,9 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "fmax_mhz": fmax,
         "timing_met": None if fmax is None else fmax >= opts.freq_mhz,
         "latency_cycles": pmap["latency_cycles"], "cycles_per_result": cpr,
-        "results_per_second": None if fmax is None else fmax * 1e6 / cpr,
-        "latency_ns": None if fmax is None else pmap["latency_cycles"] * 1e3 / fmax,
+        "results_per_second": None if fmax is None or cpr is None else fmax * 1e6 / cpr,
+        "latency_ns": None if fmax is None or cpr is None else pmap["latency_cycles"] * 1e3 / fmax,
+        **{name: pmap[name] for name in ("isa", "ram_bytes", "code_bytes", "data_bytes") if name in pmap},
         "critical_path": _critical_path(report) if report else None,
         "pnr_error": pnr_error,
         "tools": tools,

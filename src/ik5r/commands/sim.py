@@ -28,7 +28,9 @@ import sys
 import time
 from pathlib import Path
 
+from ik5r import cliopts
 from ik5r.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, BLOCKS, DSPS
 
 
 def _count(text: str) -> int:
@@ -42,7 +44,7 @@ def _count(text: str) -> int:
 
 
 def _blocks() -> tuple[str, ...]:
-    return ("atan2", "rotate", "sqrt", "acos", "ik")
+    return BLOCKS
 
 
 def register(subparsers) -> None:
@@ -50,7 +52,7 @@ def register(subparsers) -> None:
         "sim", help="simulate a hardware block under cocotb against the bit-accurate model",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--block", required=True, choices=_blocks(), help="block to simulate")
-    parser.add_argument("--arch", choices=("pipelined", "iterative", "compact"), default="pipelined",
+    parser.add_argument("--arch", choices=ARCH_NAMES, default="pipelined",
                         help="architecture (default: pipelined); for the IK core (--block ik) "
                              "'compact' is its iterative elaboration, the same as 'iterative'")
     parser.add_argument("--vectors", type=_count, default=10000, metavar="N",
@@ -69,11 +71,11 @@ def register(subparsers) -> None:
                              "(default: random)")
     parser.add_argument("--waves", action="store_true", help="record FST waves (also WAVES=1)")
     parser.add_argument("--tag-width", type=int, default=8, metavar="N", help="tag field width (default: 8)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
+    parser.add_argument("--dsp", choices=DSPS, default="generic",
                         help="primitives of the pipelined arch: generic operators, or ECP5 "
                              "MULT18X18D (with their registers) and CCU2C instances (simulated "
                              "with their models in hdl/sim/) (default: generic)")
+    cliopts.add_common(parser)
     parser.set_defaults(run=run)
 
 
@@ -89,7 +91,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     result = run_block(args.block, args.arch, args.config or cfg.name, sim,
                        stream_vectors=stream_vectors, bulk_vectors=max(args.vectors, 1), seed=args.seed,
-                       pattern=args.pattern, waves=waves, progress=not args.no_progress,
+                       pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
                        tag_width=args.tag_width, chunk=max(50000, args.vectors // 10), dsp=args.dsp)
     wall = time.perf_counter() - t0
     bulk = result.get("bulk") or {}

@@ -5,8 +5,10 @@ writes them. Without n and o, q5 is --near's q5 (0 by default).
 
 Solvers: ``float`` the float64 reference (:mod:`ik5r.reference`); ``fixed`` the bit-accurate
 fixed-point model (``ik5r.firmware.vector``, the vectorised twin of ``model.py``); ``c`` the integer
-C solver through ctypes (``ik5r.firmware.csolver``); ``numeric`` any serial arm, Levenberg-Marquardt
-from many starts (its columns and options: :mod:`ik5r.commands.solve_numeric`, docs/arms.md).
+C solver through ctypes (``ik5r.firmware.csolver``); ``rv32`` the same C cross-compiled for RV32IM
+and run on a simulated VexRiscv soft CPU (``ik5r.softcpu``; see ``ik5r firmware``), same CSV as c;
+``numeric`` any serial arm, Levenberg-Marquardt from many starts (its columns and options:
+:mod:`ik5r.commands.solve_numeric`, docs/arms.md).
 
 Branch choice: by default one line per pose, the float reference's choice: the valid branch nearest
 --near when given, else the first valid one of front/elbow-up, front/elbow-down, back/elbow-up,
@@ -39,7 +41,7 @@ from ik5r.fxconfig import DEFAULT_CONFIG
 
 from .fk import add_on_error
 
-SOLVERS = ("float", "fixed", "c", "numeric")
+SOLVERS = ("float", "fixed", "c", "rv32", "numeric")
 
 
 def _near(text: str) -> np.ndarray:
@@ -63,9 +65,10 @@ def register(subparsers) -> None:
     parser.add_argument("-o", "--output", metavar="OUT.csv", default=None,
                         help="output CSV (default: standard output)")
     parser.add_argument("--solver", choices=SOLVERS, default=None,
-                        help="float reference, fixed-point model, C solver (closed form, 5R family) "
-                             "or numeric (any arm: ik5r.commands.solve_numeric); default: float for "
-                             "the 5R family, numeric for other arms")
+                        help="float reference, fixed-point model, C solver on this host or on a "
+                             "simulated RV32IM soft CPU (closed form, 5R family), or numeric (any "
+                             "arm: ik5r.commands.solve_numeric); default: float for the 5R family, "
+                             "numeric for other arms")
     parser.add_argument("--config", metavar="CFG.toml", default=None,
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     parser.add_argument("--arm", metavar="ARM.toml", default=None,
@@ -110,6 +113,16 @@ def _fixed_solver(kind: str, k):
         except ImportError as exc:
             raise RuntimeError(f"--solver fixed needs ik5r.firmware.vector: {exc}") from exc
         return lambda *args: vector.solve_batch(k, *args)
+    if kind == "rv32":
+        from ik5r.errors import InputError
+        from ik5r.softcpu import SoftCpu, SoftCpuError
+
+        def on_cpu(*args):  # a missing tool, a trap or a hang: one line, exit 2
+            try:
+                return SoftCpu(k, isa="rv32im").solve_batch(*args)
+            except SoftCpuError as exc:
+                raise InputError("--solver rv32", str(exc)) from None
+        return on_cpu
     try:
         from ik5r.firmware.csolver import CSolver
         return CSolver(k).solve_batch

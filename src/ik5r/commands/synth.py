@@ -15,16 +15,21 @@ import time
 from pathlib import Path
 
 from ik5r.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, DSPS
 
-BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
-ARCH_CHOICES = ("pipelined", "iterative", "compact", "all")
+BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "cpu", "all")
+ARCH_CHOICES = (*ARCH_NAMES, "all")
 
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "synth", help="LUTs, FFs, DSPs and Fmax of a block (Yosys + nextpnr)", description=__doc__)
     parser.add_argument("--block", choices=BLOCK_CHOICES, default="atan2",
-                        help="block (default: atan2; all: every available block)")
+                        help="block (default: atan2; all: every available block; cpu: the soft "
+                             "CPU SoC running the C solver, see --cpu)")
+    parser.add_argument("--cpu", default=None, metavar="NAME",
+                        help="with --block cpu: vexriscv (rv32im) or vexriscv_min (rv32i) "
+                             "(default: both)")
     parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
                         help="architecture (default: pipelined; iterative and compact are the "
                              "same choice: one item in flight; all: both)")
@@ -44,7 +49,7 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
-    parser.add_argument("--dsp", choices=("generic", "ecp5"), default=None,
+    parser.add_argument("--dsp", choices=DSPS, default=None,
                         help="primitives: ECP5 MULT18X18D instances with their input and output "
                              "registers and CCU2C add/sub chains, or generic operators mapped by "
                              "Yosys (default: ecp5 on ECP5, generic on iCE40)")
@@ -72,11 +77,18 @@ def run(args) -> int:
     available = _available_blocks()
     if args.block == "all":
         blocks = available
+    elif args.block == "cpu":
+        blocks = ("cpu",)
     elif args.block not in available:
         raise InputError("--block", f"block {args.block!r} is not available in ik5r.hdl.generate "
                                     f"(have {', '.join(available)})")
     else:
         blocks = (args.block,)
+    if args.block == "cpu":
+        from ik5r.hdl.soc import CPUS
+        if args.cpu is not None and args.cpu not in CPUS:
+            raise InputError("--cpu", f"must be one of {', '.join(CPUS)}, got {args.cpu!r}")
+        cpus = (args.cpu,) if args.cpu else tuple(CPUS)
     cfg = load_config(args.config)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, seed=args.seed,
@@ -89,13 +101,16 @@ def run(args) -> int:
     results = []
     failed = 0
     for block in blocks:
-        archs = archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),)
+        if block == "cpu":
+            archs = cpus
+        else:
+            archs = archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),)
         for arch in archs:
             start = time.perf_counter()
             try:
                 result = synthesize(block, arch, cfg, opts, cache_dir=args.cache, force=args.force,
                                     log=log, timeout=args.timeout)
-            except (RuntimeError, OSError) as exc:
+            except (RuntimeError, OSError) as exc:  # also SoftCpuError
                 print(f"error: {block} {arch}: {exc}", file=sys.stderr)
                 failed += 1
                 continue

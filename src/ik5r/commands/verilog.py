@@ -11,9 +11,10 @@ import json
 from pathlib import Path
 
 from ik5r.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, DSPS
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
-ARCH_CHOICES = ("pipelined", "iterative", "compact", "all")
+ARCH_CHOICES = (*ARCH_NAMES, "all")
 
 
 def _tag_width(text: str) -> int:
@@ -41,7 +42,7 @@ def register(subparsers) -> None:
                              "step/cycle; IK core: compact); all: both (default: pipelined)")
     parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
                         help="width of the tag field carried through each block (default: 0)")
-    parser.add_argument("--dsp", choices=("generic", "ecp5"), default="generic",
+    parser.add_argument("--dsp", choices=DSPS, default="generic",
                         help="primitives of the pipelined arch: generic operators (any FPGA), or ECP5 "
                              "MULT18X18D instances using their input and output registers and CCU2C "
                              "add/sub chains (module "

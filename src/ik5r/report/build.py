@@ -7,18 +7,27 @@ from pathlib import Path
 
 from ..arm import Arm, load_arm
 from ..fxconfig import FixedConfig, load_config
-from . import plots
+from . import hardware, plots, provenance
+from . import worst as worst_poses
 from .html import Section, esc, fmt, image, para, table, write_report
 from .quantisation import (BIN_LABELS, JOINTS, PERCENTILES, SIN_Q3_BINS, Samples, compute, figures,
                            summary_text)
 
 
-def _overview(fig: dict, summary: str) -> Section:
+def _where(source: str) -> str:
+    """A shipped config by its place in the repository, any other by its path."""
+    from ..fxconfig import config_dir
+
+    path = Path(source)
+    return f"shipped: configs/{path.name}" if path.parent == config_dir() else source
+
+
+def _overview(fig: dict, prov: dict) -> Section:
     cfg, t = fig["config"], fig["timing"]
     ts = fig["task_space"]
     verdict = ts["fixed_beats_float32"]
     rows = [
-        ("config", f"{cfg['name']} ({cfg['source']})"),
+        ("config", f"{cfg['name']} ({_where(cfg['source'])})"),
         ("word width", cfg["width"]),
         ("fraction bits: length / unit / angle", f"{cfg['frac_length']} / {cfg['frac_unit']} / {cfg['frac_angle']}"),
         ("LSB: length (cm) / unit / angle (rad)",
@@ -44,9 +53,10 @@ def _overview(fig: dict, summary: str) -> Section:
              f"<span class=\"{'ok' if verdict else 'bad'}\">{'yes' if verdict else 'no'}</span> "
              f"(fixed/float32 ratios: max {fmt(ts['ratio_fixed_over_float32']['position_max'])}, "
              f"RMS {fmt(ts['ratio_fixed_over_float32']['position_rms'])})."),
-        f"<pre>{esc(summary)}</pre>",
+        table(("provenance", "value"), provenance.rows(prov), caption="Provenance"),
     ]
     data = {k: fig[k] for k in ("config", "arm", "vectors", "seed", "timing", "branches")}
+    data["provenance"] = prov
     data["fixed_beats_float32"] = verdict
     return Section("overview", "Overview", "\n".join(html_), data)
 
@@ -67,6 +77,17 @@ def _joint_table(fig: dict, solver_comp: str, f32_comp: str, caption: str) -> st
     return table(header, rows, caption=caption)
 
 
+def _off_axis_part(fig: dict) -> str:
+    """Table (a') without the poses near the base axis, or one line when there are none."""
+    je = fig["joint_error"]
+    where = (f"within ρ_axis = {fmt(je['axis_radius_cm'])} cm of the base axis (there input quantisation "
+             f"turns the arm's plane: q1, q5 and, at second order, q2-q4 follow 1/ρ)")
+    if je["near_axis_count"] == 0:
+        return para(f"(a′) No pose lies {where}, so table (a) holds without them as it stands.")
+    return _joint_table(fig, "fixed_vs_exact_off_axis", "float32_vs_exact_off_axis",
+                        f"(a′) End to end without the {je['near_axis_count']:,} poses {where}")
+
+
 def _joint_section(fig: dict, img: str) -> Section:
     lsb = fig["joint_error"]["angle_lsb_rad"]
     html_ = [
@@ -76,10 +97,7 @@ def _joint_section(fig: dict, img: str) -> Section:
              f"scale with 1/|sin q3| near the straight or folded elbow (see the conditioning section)."),
         _joint_table(fig, "fixed_vs_exact", "float32_vs_exact",
                      "(a) End to end: against float64 on the exact pose (input quantisation included)"),
-        _joint_table(fig, "fixed_vs_exact_off_axis", "float32_vs_exact_off_axis",
-                     f"(a′) End to end without the {fig['joint_error']['near_axis_count']:,} poses within "
-                     f"ρ_axis = {fmt(fig['joint_error']['axis_radius_cm'])} cm of the base axis (there input "
-                     f"quantisation turns the arm's plane: q1, q5 and, at second order, q2-q4 follow 1/ρ)"),
+        _off_axis_part(fig),
         _joint_table(fig, "fixed_vs_quantised", "float32_vs_quantised",
                      "(b) The algorithm's own error: against float64 on the pose the solver saw "
                      "(dequantised words for fixed, float32-rounded values for float32)"),
@@ -210,7 +228,7 @@ def _status_section(fig: dict) -> Section:
     return Section("status", "Status counts", "\n".join(html_), s)
 
 
-def quantisation_sections(samples: Samples, fig: dict, out_dir, summary: str) -> list[Section]:
+def quantisation_sections(samples: Samples, fig: dict, out_dir, prov: dict | None = None) -> list[Section]:
     """The quantisation report's sections; draws its PNGs into ``out_dir``."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -220,7 +238,7 @@ def quantisation_sections(samples: Samples, fig: dict, out_dir, summary: str) ->
     img_ws = plots.position_vs_workspace(samples, out_dir)
     img_app = plots.approach_vs_radius(samples, out_dir)
     return [
-        _overview(fig, summary),
+        _overview(fig, prov or provenance.provenance(samples.cfg)),
         _task_section(fig, (img_pos, img_ws, img_app)),
         _joint_section(fig, img_joint),
         _conditioning_section(fig, img_sin),
@@ -228,17 +246,61 @@ def quantisation_sections(samples: Samples, fig: dict, out_dir, summary: str) ->
     ]
 
 
+def _glance(fig: dict, sections: list[Section]) -> Section:
+    """The story in one table: accuracy verdicts, bit accuracy, the IK core's hardware figures."""
+    ts, floor = fig["task_space"], fig["joint_error"]["floor"]
+    by_key = {s.key: s.data for s in sections}
+
+    def verdict(ok):
+        return f'<span class="{"ok" if ok else "bad"}">{"yes" if ok else "no"}</span>'
+
+    rows = [("fixed point beats float32 on max and RMS position error",
+             f"{verdict(ts['fixed_beats_float32'])} (max {fmt(ts['fixed']['position_cm']['max'])} cm against "
+             f"{fmt(ts['float32']['position_cm']['max'])} cm)"),
+            ("joint error ≤ 1e-6 rad against float64 on the same words, |sin q3| ≥ 1e-3",
+             f"{verdict(floor['met'])} (max {fmt(floor['max_rad'])} rad)")]
+    data = {"fixed_beats_float32": ts["fixed_beats_float32"], "joint_floor_met": floor["met"]}
+    total = by_key.get("bit_accuracy", {}).get("total_mismatches")
+    if total is not None:
+        rows.append(("C, scalar model, vectorised model and HDL agree on every bit",
+                     f"{verdict(total == 0)} ({total:,} mismatching items)"))
+        data["total_mismatches"] = total
+    core = next((r for r in by_key.get("hardware", {}).get("rows", [])
+                 if r["block"] == "ik" and r["arch"] == "pipelined"), None)
+    if core:
+        rows.append(("pipelined IK core (committed record)",
+                     f"{fmt(core['fmax_mhz'])} MHz on {esc(core['device'])}, latency {core['latency_cycles']} "
+                     f"cycles, {core['cycles_per_pose']} cycle/pose, {fmt(core['lut4_sites'])} LUT4, "
+                     f"{fmt(core['dsps'])} DSP, {fmt(core['brams'])} BRAM"))
+        data["core"] = core
+    body = "<table>" + "".join(f"<tr><th>{esc(k)}</th><td style=\"text-align:left\">{v}</td></tr>"
+                               for k, v in rows) + "</table>"
+    return Section("glance", "At a glance", body, data)
+
+
 def build_report(out_dir, vectors: int = 1_000_000, config: FixedConfig | str | None = None,
                  arm: Arm | str | None = None, seed: int = 0, *, progress: bool = True,
-                 extra_sections: list[Section] | None = None):
-    """Run the quantisation report into ``out_dir``; returns (report JSON dict, summary text)."""
+                 extra_sections: list[Section] | None = None, worst: int = 20,
+                 simulators: bool = False, front_sections: list[Section] | None = None):
+    """Run the quantisation report into ``out_dir``; returns (report JSON dict, summary text).
+
+    Sections: the overview, ``front_sections`` (e.g. bit accuracy), the hardware records of the
+    config, the quantisation figures, the N = ``worst`` worst poses of each measure (CSV), then
+    ``extra_sections`` (e.g. the generated files).
+    """
     cfg = config if isinstance(config, FixedConfig) else load_config(config)
     arm_ = arm if isinstance(arm, Arm) else load_arm(arm)
     samples = compute(arm_, cfg, vectors, seed, progress=progress)
     fig = figures(samples)
-    sections = quantisation_sections(samples, fig, out_dir, summary_text(fig)) + list(extra_sections or [])
+    prov = provenance.provenance(cfg, simulators=simulators)
+    overview, *figure_sections = quantisation_sections(samples, fig, out_dir, prov)
+    sections = [overview, *(front_sections or []), hardware.section(cfg), *figure_sections,
+                worst_poses.section(samples, out_dir, worst), *(extra_sections or [])]
+    sections.insert(0, _glance(fig, sections))
     meta = {"report": "quantisation", "config": cfg.name, "arm": arm_.name, "vectors": vectors,
             "seed": seed, "total_s": round(fig["timing"]["total_s"], 3),
-            "generated_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")}
+            "generated_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "ik5r": prov["package_version"], "git_commit": prov["git_commit"],
+            "config_hash": prov["config_hash"], "provenance": prov}
     doc = write_report(out_dir, sections, meta, title=f"ik5r quantisation report: {cfg.name} on {arm_.name}")
     return doc, summary_text(fig, out_dir)

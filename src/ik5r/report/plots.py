@@ -141,7 +141,7 @@ def joint_vs_sin_q3(samples: Samples, out_dir, conditioning: dict) -> str:
         ax.grid(alpha=0.3, which="both")
     axes[0].set_ylabel("|joint error| (rad)")
     axes[0].set_ylim(bottom=max(FLOOR, 1e-3 * 2.0**-samples.cfg.frac_angle))
-    axes[0].legend(fontsize=7, markerscale=4)
+    axes[0].legend(fontsize=7, markerscale=4, loc="lower left")
     fig.suptitle(f"Joint error against |sin q3| ({len(idx):,} poses): 1/|sin q3| near the straight/folded elbow")
     return _save(fig, out_dir, "joint_error_vs_sin_q3.png")
 
@@ -164,6 +164,6 @@ def approach_vs_radius(samples: Samples, out_dir) -> str:
     ax.set_xlabel("ρ: distance of the tool point from the base axis (cm)")
     ax.set_ylabel("approach-direction error (rad)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=8, markerscale=4)
+    ax.legend(fontsize=8, markerscale=4, loc="upper right")
     ax.set_title(f"Approach error against ρ ({len(idx):,} poses): q1 is conditioned by 1/ρ")
     return _save(fig, out_dir, "approach_error_vs_radius.png")

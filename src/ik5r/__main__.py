@@ -1,0 +1,7 @@
+"""python -m ik5r: the same command line as the ik5r script."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())
