@@ -299,7 +299,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     t0 = time.perf_counter()
     if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
         from .softcpu import soc_design
-        dsp = "generic"
+        dsp, options = "generic", {}
         text, pmap = soc_design(k, arch)
     else:
         arch = resolve_arch(block, arch)
