@@ -77,7 +77,9 @@ def config_for(width: int, iterations: int | None = None, internal_guard_bits: i
         "cordic": {"iterations": iters, "guard_bits": guard_bits_for(width),
                    "angle_guard_bits": ANGLE_GUARD_BITS},
         "ik": {"rounding": "nearest", "singular_sin_q3": 1e-3,
-               "internal_guard_bits": internal_guard_bits or 0},
+               "internal_guard_bits": internal_guard_bits or 0,
+               # The format's reach tolerance 2**(10 - width), to two digits as the configs state it.
+               "reach_tolerance": float(f"{2.0 ** (10 - width):.2g}")},
     }
     return parse_config(doc, f"<sweep {name}>")
 
