@@ -87,3 +87,41 @@ def test_cli_serial_beat_bits_checked(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["sim", "--block", "ik", "--arch", "compact", "--serial", "0"])
     assert exc.value.code == 2 and "argument --serial: must be in [1, 32]" in capsys.readouterr().err
+
+
+#: The bench's self-test: 8-bit beats (3 per q18 word, 6 padding bits in each word's last beat),
+#: its own build directory; 4 directed poses + 1 random per run.
+SELFTEST = dict(config="q18", sim="icarus", serial=8, stream_vectors=1, edge_stride=100)
+
+
+def _selftest_run(fault):
+    from ik5r.hdl.tb.runner import run_block, simulator_missing
+
+    missing = simulator_missing(SELFTEST["sim"])
+    if missing:
+        pytest.fail(f"{missing} (CI installs both simulators)", pytrace=False)
+    opts = {k: v for k, v in SELFTEST.items() if k not in ("config", "sim")}
+    return run_block("ik", "compact", SELFTEST["config"], SELFTEST["sim"], bulk_vectors=0, seed=5,
+                     fault=fault, **opts)
+
+
+@pytest.mark.sim
+def test_serial_bench_catches_a_padding_bit():
+    """Another beat width runs clean; a bit set above a word's fields fails the run."""
+    clean = _selftest_run(None)
+    assert clean["mismatches"] == 0, clean["first_mismatch"]
+    assert clean["latency_cycles"] == clean["latency_cycles_portmap"]
+    assert clean["stream"]["resets"] == 1
+    padding = _selftest_run({"kind": "flip", "at": 2, "bit": 7})     # q1's top beat: word bit 23
+    assert padding["mismatches"] >= 1 and padding["first_mismatch"]["kind"] == "padding"
+    assert "q1 word" in padding["first_mismatch"]["got"]
+
+
+@pytest.mark.sim
+@pytest.mark.slow
+def test_serial_bench_catches_a_lost_beat():
+    """A beat lost on the way out (q2's first): the pose's words never complete; the run stops
+    with no progress (after ~46,000 clocks) and fails."""
+    drop = _selftest_run({"kind": "drop", "at": 3})
+    assert drop["mismatches"] >= 1 and drop["first_mismatch"]["kind"] == "aborted"
+    assert drop["stream"]["aborted"] is True

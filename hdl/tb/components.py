@@ -124,8 +124,8 @@ class Monitor:
     the clock edge after it and only then releases the item).
 
     ``fault`` (the testbench self-test) corrupts the monitor's view: ``{"kind": "flip", "at": n}``
-    flips bit 0 of the n-th taken payload, ``"drop"`` swallows the n-th taken item (a lost tag),
-    ``"unstable"`` flips bit 0 of the payload in the n-th held cycle."""
+    flips bit 0 (or ``"bit": b``) of the n-th taken payload, ``"drop"`` swallows the n-th taken
+    item (a lost tag), ``"unstable"`` flips bit 0 of the payload in the n-th held cycle."""
 
     def __init__(self, dut, job: Job, bp: BackPressure, fault: dict | None = None):
         self.valid = _sig(dut, job.pm.o.valid)
@@ -144,7 +144,7 @@ class Monitor:
         kind, at = self.fault.get("kind"), int(self.fault.get("at", 0))
         if (kind == "flip" and not held and self.taken == at) or \
                 (kind == "unstable" and held and self.held_cycles == at):
-            return value ^ 1
+            return value ^ (1 << int(self.fault.get("bit", 0)))
         return value
 
     def _check_held(self, cycle: int, valid: int, payload):
@@ -239,18 +239,20 @@ class Scoreboard:
         self.results.mismatch("output changed while held (o.valid & ~o.ready the cycle before)",
                               None, held, now if now is not None else "o.valid low or X")
 
-    def output(self, cycle, values, problem):
+    def output(self, cycle, values, problem, kind: str = "x"):
+        """An output item (its fields), or a ``problem`` with it (X/Z on the bus, or what ``kind``
+        names): a mismatch of the next pending item."""
         r, job = self.results, self.job
-        if problem is not None:       # X/Z on the bus: a mismatch of the next pending item
+        if problem is not None:
             if self.pending:
                 _, index, seq = self.pending.popleft()
                 inputs = {role: int(v[index]) for role, v in self.inputs.items()}
                 self.got[index] = None
                 r.compared += 1
                 want = {self.job.bind_out[role]: int(v[index]) for role, v in self.expected.items()}
-                r.mismatch("x", inputs, want, problem, index)
+                r.mismatch(kind, inputs, want, problem, index)
             else:
-                r.mismatch("x", None, None, problem)
+                r.mismatch(kind, None, None, problem)
             return
         if not self.pending:
             r.stale_outputs += 1

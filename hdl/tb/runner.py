@@ -370,7 +370,7 @@ def _collect(work: Path, stream_vectors: int, bulk_vectors: int, tests: int, fai
     stream = parts.get("stream", {}).get("stream", {})
     bulk = parts.get("bulk", {}).get("bulk", {})
     expected_runs = int(bool(stream_vectors)) + int(bool(bulk_vectors))
-    if len(parts) < expected_runs and not merged["mismatches"]:
+    if (len(parts) < expected_runs or failed) and not merged["mismatches"]:
         merged["mismatches"] = 1
         merged["first_mismatch"] = {"kind": "testbench", "got": f"{failed} of {tests} cocotb tests failed; "
                                     f"log: {work / 'sim.log'}"}

@@ -168,7 +168,10 @@ class BeatMonitor(Monitor):
         if len(self.beats) == self.fmt.out_beats * (len(OUT_WORDS) + 1):
             values, problem = self.fmt.output_item(self.beats, self.tag)
             self.beats = []
-            self.callback(cycle, None if problem else values, problem)
+            if problem:
+                self.callback(cycle, None, problem, "padding")
+            else:
+                self.callback(cycle, values, None)
 
 
 def word_portmap(beat_map: dict, k, tag_width: int) -> dict:

@@ -75,6 +75,10 @@ async def test_stream(dut):
     lat = job.pm.latency_cycles or 0
     try:
         await _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order, lat, t0)
+    except AssertionError as error:
+        if not results.mismatches:      # stopped before any mismatch (no progress): that is one
+            results.mismatch("aborted", None, None, str(error))
+        raise
     finally:
         if "stream" not in results.sections:       # failed part-way: still report what was seen
             results.sections["stream"] = {"vectors": n, "cycles": tb.cycle, "aborted": True}
