@@ -62,6 +62,8 @@ def test_serial_wrapper_matches_model(sim_pool, config, size, sim):
     assert set(r["field_mismatches"]) == {"q1", "q2", "q3", "q4", "q5", "status"}
     # A reset while poses were in flight and an output beat was held; the stream rule checked.
     assert s["resets"] == 1 and s["reset_while_held"] is True and s["held_cycles"] > 0
+    # ... with a pose half sent (its beats dropped, the pose sent again with a new tag).
+    assert s["beats_dropped_by_reset"]["input"] > 0
     assert r["latency_cycles"] == r["latency_cycles_portmap"]
     assert r["cycles_per_result"] == r["cycles_per_result_portmap"]
 

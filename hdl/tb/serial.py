@@ -102,6 +102,7 @@ class BeatDriver(Driver):
         self.next_beat = 0
         self.first_beat_cycle = 0
         self.on_bus = False             # a beat is on the bus
+        self.beats_dropped = 0          # beats of poses half sent when a reset came
 
     def _pause(self) -> bool:
         if self._idle > 0:
@@ -141,6 +142,8 @@ class BeatDriver(Driver):
 
     def requeue(self, items):
         """As :meth:`Driver.requeue`; the pose half sent starts again from its first beat."""
+        if self.offering is not None:
+            self.beats_dropped += self.next_beat
         self.on_bus = False
         super().requeue(items)
 
@@ -154,9 +157,11 @@ class BeatMonitor(Monitor):
         self.fmt = SerialFormat.of(job.pm, int(job.serial["beat_bits"]))
         self.tag = job.tag
         self.beats: list[int] = []
+        self.beats_dropped = 0          # beats of results half received when a reset came
 
     def sample(self, cycle: int, in_reset: bool):
         if in_reset:
+            self.beats_dropped += len(self.beats)
             self.beats.clear()
         super().sample(cycle, in_reset)
 

@@ -136,6 +136,9 @@ async def _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order
                                   "reset_while_held": held_at_reset, "held_cycles": tb.monitor.held_cycles,
                                   "latency_cycles": latency, "cycles_per_result": cpr,
                                   "wall_seconds": wall}
+    if job.serial:
+        results.sections["stream"]["beats_dropped_by_reset"] = {"input": tb.driver.beats_dropped,
+                                                                "output": tb.monitor.beats_dropped}
     doc = results.write(job.work / "result_stream.json")
     dut._log.info("stream: %d compared, %d mismatches, latency %s, cycles/result %s, %.0f cycles/s",
                   results.compared, results.mismatches, latency, cpr, tb.cycle / wall)
