@@ -68,19 +68,24 @@ def test_serial_wrapper_matches_model(sim_pool, config, size, sim):
     assert r["cycles_per_result"] == r["cycles_per_result_portmap"]
 
 
-@pytest.mark.parametrize("argv,message", [
+#: Misuses of ``ik5r sim --serial`` and the line each must give (not parametrised: the module's
+#: parametrised tests are the simulation cases of ``sim_pool``).
+CLI_MISUSES = [
     (["--block", "atan2", "--serial", "16"], "use it with --block ik --arch compact"),
     (["--block", "ik", "--arch", "pipelined", "--serial", "16"], "use it with --block ik --arch compact"),
     (["--block", "ik", "--arch", "compact", "--serial", "16", "--stream-vectors", "0"], "must be > 0"),
-])
-def test_cli_serial_needs_the_compact_core(capsys, argv, message):
+]
+
+
+def test_cli_serial_needs_the_compact_core(capsys):
     """``ik5r sim --serial`` on anything but the compact IK core, or with nothing to run: one line,
     exit 2, before any generation or build."""
     from ik5r.cli import main
 
-    assert main(["sim", *argv]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and message in err[0]
+    for argv, message in CLI_MISUSES:
+        assert main(["sim", *argv]) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and message in err[0], (argv, err)
 
 
 def test_cli_serial_beat_bits_checked(capsys):
