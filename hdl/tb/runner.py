@@ -281,6 +281,7 @@ def _wave_file(sim: str, bdir: Path, work: Path) -> str:
 
 
 def _serial_check(block: str, arch: str, serial: int | None, bulk_vectors: int) -> None:
+    """Raises unless ``serial`` is None or asks for the compact IK core's wrapper, stream run only."""
     if serial is None:
         return
     if (block, arch) != ("ik", "compact"):
@@ -360,7 +361,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
 
 
 def _collect(work: Path, stream_vectors: int, bulk_vectors: int, tests: int, failed: int) -> dict:
-    """The merged result of the runs' JSON files; a missing one (the test died) is a mismatch."""
+    """The merged result of the runs' JSON files; a missing one (the test died) or a failed cocotb
+    test with no mismatch counted (e.g. stopped with no progress) is a mismatch."""
     parts = {}
     for name in ("stream", "bulk"):
         p = work / f"result_{name}.json"
