@@ -59,20 +59,25 @@ class Driver:
     def word(self, index: int, seq: int) -> int:
         return self.stream.pack(self.values(index, seq))
 
+    def _pause(self) -> bool:
+        """True in an idle cycle: one left of a pause, or a new pause of 1 + 0..idle_max cycles."""
+        if self._idle > 0:
+            self._idle -= 1
+            return True
+        if self.idle_prob and self.rng.random() < self.idle_prob:
+            self._idle = self.rng.randint(0, self.idle_max)
+            return True
+        return False
+
     def drive(self, in_reset: bool):
         if in_reset:
             self.valid.value = 0
             return
-        if self.offering is None and self.queue:
-            if self._idle > 0:
-                self._idle -= 1
-            elif self.idle_prob and self.rng.random() < self.idle_prob:
-                self._idle = self.rng.randint(0, self.idle_max)
-            else:
-                index = self.queue.popleft()
-                self.offering = (index, self.seq)
-                self.seq += 1
-                self.payload.value = self.word(*self.offering)
+        if self.offering is None and self.queue and not self._pause():
+            index = self.queue.popleft()
+            self.offering = (index, self.seq)
+            self.seq += 1
+            self.payload.value = self.word(*self.offering)
         self.valid.value = 1 if self.offering is not None else 0
 
     def sample(self, cycle: int, in_reset: bool):

@@ -104,15 +104,6 @@ class BeatDriver(Driver):
         self.on_bus = False             # a beat is on the bus
         self.beats_dropped = 0          # beats of poses half sent when a reset came
 
-    def _pause(self) -> bool:
-        if self._idle > 0:
-            self._idle -= 1
-            return True
-        if self.idle_prob and self.rng.random() < self.idle_prob:
-            self._idle = self.rng.randint(0, self.idle_max)
-            return True
-        return False
-
     def drive(self, in_reset: bool):
         if in_reset:
             self.valid.value = 0
