@@ -300,6 +300,7 @@ class StreamTB:
         self.cycle = 0
         self.was_reset = False
         self.trace = int(os.environ.get("IK5R_TB_TRACE", "0") or 0)    # log the handshakes of N cycles
+        self.progress = None        # a tqdm bar of the items compared, if any
 
     def load(self, inputs, expected):
         self.driver.inputs = inputs
@@ -322,6 +323,8 @@ class StreamTB:
                                self.monitor.valid.value, self.bp.ready.value)
         self.driver.sample(self.cycle, in_reset)
         self.monitor.sample(self.cycle, in_reset)
+        if self.progress is not None and self.cycle % 1024 == 0:
+            self.progress.update(len(self.sb.got) - self.progress.n)
 
     def idle(self) -> bool:
         return not self.driver.queue and self.driver.offering is None and not self.sb.pending

@@ -344,7 +344,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
         (work / name).unlink(missing_ok=True)
     job = {"portmap": str(tb_map), "block": block, "arch": arch, "config": config, "seed": seed,
            "work_dir": str(work), "serial": None if serial is None else {"beat_bits": serial},
-           "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride},
+           "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride,
+                           "progress": progress and not bulk_vectors},
                           **({"fault": fault} if fault else {})) if stream_vectors else None,
            "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
            if bulk_vectors else None}

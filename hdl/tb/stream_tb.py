@@ -21,6 +21,7 @@ tag (a running sequence number) for order and loss:
 
 from __future__ import annotations
 
+import sys
 import time
 
 import cocotb
@@ -73,6 +74,10 @@ async def test_stream(dut):
     n = len(next(iter(inputs.values())))
     order = list(range(n))
     lat = job.pm.latency_cycles or 0
+    if opts.get("progress"):
+        from tqdm import tqdm
+        tb.progress = tqdm(total=n, unit="item", desc=f"{job.doc['block']} {job.doc.get('arch', '')} stream",
+                           file=sys.stderr, dynamic_ncols=True, mininterval=0.5)
     try:
         await _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order, lat, t0)
     except AssertionError as error:
@@ -80,6 +85,8 @@ async def test_stream(dut):
             results.mismatch("aborted", None, None, str(error))
         raise
     finally:
+        if tb.progress is not None:
+            tb.progress.close()
         if "stream" not in results.sections:       # failed part-way: still report what was seen
             results.sections["stream"] = {"vectors": n, "cycles": tb.cycle, "aborted": True}
             results.write(job.work / "result_stream.json")
