@@ -58,8 +58,9 @@ def default_simulator() -> str:
     return os.environ.get("SIM", "icarus") or "icarus"
 
 
-def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "generic") -> Path:
-    variant = "" if dsp == "generic" else f"_dsp{dsp}"
+def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "generic",
+                  serial: int | None = None) -> Path:
+    variant = ("" if dsp == "generic" else f"_dsp{dsp}") + ("" if serial is None else f"_serial{serial}")
     return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_{sim}"
 
 
@@ -113,13 +114,14 @@ def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> 
 
 def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
                      portmap: str | Path | None = None, verilog: str | Path | None = None,
-                     dsp: str = "generic") -> tuple[Path, Path]:
-    """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, or given files)."""
+                     dsp: str = "generic", serial: int | None = None) -> tuple[Path, Path]:
+    """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, or given files);
+    ``serial``: the compact IK core's word-serial wrapper with beats of that many bits."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
-        options = {} if dsp == "generic" else {"dsp": dsp}
+        options = ({} if dsp == "generic" else {"dsp": dsp}) | ({} if serial is None else {"serial": serial})
         vtext, pmdoc = generate_cached(block, arch, constants(load_config(config)), tag_width, **options)
     vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
     _write_if_changed(vpath, vtext)
@@ -278,49 +280,90 @@ def _wave_file(sim: str, bdir: Path, work: Path) -> str:
     return wave_file
 
 
+def _serial_check(block: str, arch: str, serial: int | None, bulk_vectors: int) -> None:
+    """Raises unless ``serial`` is None or asks for the compact IK core's wrapper, stream run only."""
+    if serial is None:
+        return
+    if (block, arch) != ("ik", "compact"):
+        raise ValueError(f"serial: the word-serial wrapper is the compact IK core's (--block ik --arch compact), "
+                         f"not {block} {arch}")
+    if bulk_vectors:
+        raise ValueError("serial: the word-serial wrapper has no bulk run (bulk_vectors must be 0)")
+
+
+def _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial):
+    """(Verilog files, the block's port map file, the testbench's port map file): for the serial
+    wrapper the testbench's is the word-level one (:func:`.serial.word_portmap`)."""
+    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp, serial)
+    pm = load_portmap(jpath)
+    wpath = bdir / "src" / "ik5r_tb_top.v"
+    _write_if_changed(wpath, wrapper.generate_wrapper(pm))
+    tb_map = jpath
+    if serial is not None:
+        from .serial import word_portmap
+        words = word_portmap(json.loads(jpath.read_text()), constants(load_config(config)), tag_width)
+        tb_map = bdir / "src" / f"{block}_words.json"
+        _write_if_changed(tb_map, json.dumps(words, indent=1, sort_keys=True))
+    return [vpath, wpath, *PRIMITIVE_MODELS.get(dsp, [])], pm, tb_map
+
+
 def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str | None = None, *,
               stream_vectors: int = 1000, bulk_vectors: int = 0, seed: int = 1, pattern: str = "random",
               waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
-              cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None) -> dict:
+              cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None,
+              serial: int | None = None, edge_stride: int = 1) -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
     ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
     with their models in ``hdl/sim/``. ``fault`` (testbench self-test): corrupt the stream
-    monitor's view (:class:`~ik5r.hdl.tb.stream_tb.Monitor`); the run must then fail."""
+    monitor's view (:class:`~ik5r.hdl.tb.components.Monitor`); the run must then fail.
+    ``serial=b`` (the compact IK core only): its word-serial wrapper with ``b``-bit beats, in the
+    stream test only (:mod:`.serial`). ``edge_stride``: the stream test takes every n-th item of
+    the edge set."""
     from ik5r.hdl.generate import resolve_arch
 
     arch = resolve_arch(block, arch)
+    _serial_check(block, arch, serial, bulk_vectors)
     sim = sim or default_simulator()
     if sim not in SIMULATORS:
         raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")
     cfg_name = load_config(config).name
     waves = bool(int(os.environ.get("WAVES", "0") or 0)) if waves is None else waves
-    bdir = build_dir_for(block, arch, cfg_name, sim, dsp)
+    bdir = build_dir_for(block, arch, cfg_name, sim, dsp, serial)
     bdir.mkdir(parents=True, exist_ok=True)
     t_gen = time.perf_counter()
-    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp)
-    pm = load_portmap(jpath)
-    wpath = bdir / "src" / "ik5r_tb_top.v"
-    _write_if_changed(wpath, wrapper.generate_wrapper(pm))
+    sources, pm, tb_map = _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial)
     t_gen = time.perf_counter() - t_gen
-    build_seconds = _build(sim, [vpath, wpath, *PRIMITIVE_MODELS.get(dsp, [])], bdir, waves, verbose, cflags)
+    build_seconds = _build(sim, sources, bdir, waves, verbose, cflags)
 
     work = bdir / "run"
     work.mkdir(exist_ok=True)
     for name in ("result_stream.json", "result_bulk.json"):
         (work / name).unlink(missing_ok=True)
-    job = {"portmap": str(jpath), "block": block, "arch": arch, "config": config, "seed": seed,
-           "work_dir": str(work),
-           "stream": dict({"vectors": stream_vectors, "reset": reset}, **({"fault": fault} if fault else {}))
-           if stream_vectors else None,
+    job = {"portmap": str(tb_map), "block": block, "arch": arch, "config": config, "seed": seed,
+           "work_dir": str(work), "serial": None if serial is None else {"beat_bits": serial},
+           "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride,
+                           "progress": progress and not bulk_vectors},
+                          **({"fault": fault} if fault else {})) if stream_vectors else None,
            "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
            if bulk_vectors else None}
     t0 = time.perf_counter()
     tests, failed = _run_cocotb(sim, bdir, work, job, waves, seed, quiet=not (verbose or progress))
     sim_wall = time.perf_counter() - t0
+    return {"block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed, "dsp": dsp,
+            "serial": serial, **_collect(work, stream_vectors, bulk_vectors, tests, failed),
+            "latency_cycles_portmap": pm.latency_cycles, "cycles_per_result_portmap": pm.cycles_per_result,
+            "cocotb_tests": tests, "cocotb_failed": failed,
+            "generate_seconds": t_gen, "build_seconds": build_seconds, "sim_wall_seconds": sim_wall,
+            "build_dir": str(bdir), "waves": _wave_file(sim, bdir, work) if waves else None,
+            "log": str(work / "sim.log")}
 
+
+def _collect(work: Path, stream_vectors: int, bulk_vectors: int, tests: int, failed: int) -> dict:
+    """The merged result of the runs' JSON files; a missing one (the test died) or a failed cocotb
+    test with no mismatch counted (e.g. stopped with no progress) is a mismatch."""
     parts = {}
     for name in ("stream", "bulk"):
         p = work / f"result_{name}.json"
@@ -329,25 +372,15 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     merged = _merge(parts)
     stream = parts.get("stream", {}).get("stream", {})
     bulk = parts.get("bulk", {}).get("bulk", {})
-    wave_file = _wave_file(sim, bdir, work) if waves else None
     expected_runs = int(bool(stream_vectors)) + int(bool(bulk_vectors))
-    if len(parts) < expected_runs and not merged["mismatches"]:
+    if (len(parts) < expected_runs or failed) and not merged["mismatches"]:
         merged["mismatches"] = 1
         merged["first_mismatch"] = {"kind": "testbench", "got": f"{failed} of {tests} cocotb tests failed; "
                                     f"log: {work / 'sim.log'}"}
-    return {
-        "block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed, "dsp": dsp,
-        **merged,
-        "latency_cycles": stream.get("latency_cycles"),
-        "cycles_per_result": stream.get("cycles_per_result"),
-        "latency_cycles_portmap": pm.latency_cycles,
-        "cycles_per_result_portmap": pm.cycles_per_result,
-        "stream": stream or None, "bulk": bulk or None,
-        "cocotb_tests": tests, "cocotb_failed": failed,
-        "generate_seconds": t_gen, "build_seconds": build_seconds, "sim_wall_seconds": sim_wall,
-        "bulk_vectors_per_second": bulk.get("vectors_per_second"),
-        "build_dir": str(bdir), "waves": wave_file, "log": str(work / "sim.log"),
-    }
+    return {**merged, "latency_cycles": stream.get("latency_cycles"),
+            "cycles_per_result": stream.get("cycles_per_result"),
+            "stream": stream or None, "bulk": bulk or None,
+            "bulk_vectors_per_second": bulk.get("vectors_per_second")}
 
 
 def _merge(parts: dict) -> dict:

@@ -18,6 +18,10 @@ poses both solve with no status bit) are reported in output LSB. Exit status 1 o
 ``--block ik`` is the IK core (``hdl/ik_core.py``): random reachable poses (one in ten rows random
 words) plus the directed set, checked against the vectorised model ``vector.solve_batch``
 (itself checked against ``model.ik_solve`` on the edge set and a sample).
+
+``--block ik --arch compact --serial 16`` simulates the compact core's word-serial wrapper with
+16-bit beats (as placed on the iCE40 UP5K) in the cocotb-driven stream run only (it has no bulk
+run): poses go in as beats, results are reassembled from beats (``hdl/tb/serial.py``).
 """
 
 from __future__ import annotations
@@ -40,6 +44,16 @@ def _count(text: str) -> int:
         raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _beat_bits(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 1 <= value <= 32:
+        raise argparse.ArgumentTypeError(f"must be in [1, 32], got {value}")
     return value
 
 
@@ -75,6 +89,11 @@ def register(subparsers) -> None:
                         help="primitives of the pipelined arch: generic operators, or ECP5 "
                              "MULT18X18D (with their registers) and CCU2C instances (simulated "
                              "with their models in hdl/sim/) (default: generic)")
+    parser.add_argument("--serial", type=_beat_bits, default=None, metavar="B",
+                        help="--block ik --arch compact only: simulate its word-serial wrapper with "
+                             "B-bit beats (16 as placed on the iCE40 UP5K), in the stream run only: "
+                             "--stream-vectors random poses (default: min(--vectors, 1000)) plus the "
+                             "directed set")
     cliopts.add_common(parser)
     parser.set_defaults(run=run)
 
@@ -85,19 +104,27 @@ def run(args) -> int:
     from ik5r.hdl.tb.runner import default_simulator, run_block
 
     cfg = load_config(args.config)          # InputError (exit 2) on a bad config
+    if args.serial is not None and (args.block != "ik" or args.arch not in ("compact", "iterative")):
+        print("ik5r sim: --serial is the compact IK core's wrapper: use it with --block ik --arch compact",
+              file=sys.stderr)
+        return 2
     sim = args.simulator or default_simulator()
     stream_vectors = min(args.vectors, 1000) if args.stream_vectors is None else args.stream_vectors
+    if args.serial is not None and not stream_vectors:
+        print("ik5r sim: --serial runs the stream run only: --stream-vectors must be > 0", file=sys.stderr)
+        return 2
     waves = True if args.waves else None
     t0 = time.perf_counter()
     result = run_block(args.block, args.arch, args.config or cfg.name, sim,
-                       stream_vectors=stream_vectors, bulk_vectors=max(args.vectors, 1), seed=args.seed,
+                       stream_vectors=stream_vectors, seed=args.seed, serial=args.serial,
+                       bulk_vectors=0 if args.serial else max(args.vectors, 1),
                        pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
                        tag_width=args.tag_width, chunk=max(50000, args.vectors // 10), dsp=args.dsp)
     wall = time.perf_counter() - t0
     bulk = result.get("bulk") or {}
     doc = {
         "block": result["block"], "arch": result["arch"], "config": result["config"],
-        "simulator": result["simulator"], "seed": args.seed, "dsp": args.dsp,
+        "simulator": result["simulator"], "seed": args.seed, "dsp": args.dsp, "serial": args.serial,
         "vectors": result["vectors"], "mismatches": result["mismatches"],
         "first_mismatch": result["first_mismatch"], "field_mismatches": result["field_mismatches"],
         "tag_errors": result["tag_errors"], "stale_outputs": result["stale_outputs"],
@@ -121,8 +148,15 @@ def run(args) -> int:
     print(f"{verdict}: {doc['block']} {doc['arch']} {doc['config']} on {sim}: {doc['vectors']} vectors, "
           f"{doc['mismatches']} mismatches, max error {doc['max_error_lsb']} LSB, "
           f"rms {doc['rms_error_lsb']} LSB, latency {doc['latency_cycles']}, "
-          f"cycles/result {doc['cycles_per_result']}, {doc['vectors_per_second'] or 0:.0f} vectors/s "
-          f"(bulk), wall {wall:.1f} s")
+          f"cycles/result {doc['cycles_per_result']}, {_rate(doc)}, wall {wall:.1f} s")
     if doc["first_mismatch"]:
         print("first mismatch:", json.dumps(doc["first_mismatch"]), file=sys.stderr)
     return 0 if doc["mismatches"] == 0 else 1
+
+
+def _rate(doc: dict) -> str:
+    """Vectors per second of the bulk run, or of the stream run when there is no bulk run."""
+    stream = doc["stream"] or {}
+    if doc["vectors_per_second"] is None and stream.get("wall_seconds"):
+        return f"{stream['vectors'] / stream['wall_seconds']:.0f} vectors/s (stream)"
+    return f"{doc['vectors_per_second'] or 0:.0f} vectors/s (bulk)"
