@@ -8,7 +8,8 @@ component across the plane, and the seed paper's pose q = [0, -pi/2, 0, -pi/2, 0
 
 :func:`directed_poses` is a small directed set (a few hundred rows, part of :func:`edge_poses`)
 for the runs that cannot afford the whole edge set: the HDL simulations of the IK core. The IK
-core's payload fields are the names of :data:`FIELDS` (:meth:`Poses.fields`).
+core's payload fields are the names of :data:`ik5r.firmware.poses.FIELDS`: every set is a
+:class:`~ik5r.firmware.poses.PoseBatch`.
 """
 
 from __future__ import annotations
@@ -19,79 +20,21 @@ import numpy as np
 
 from ik5r import reference
 from ik5r.fxconfig import Constants, quantize
+from ik5r.firmware.poses import PoseBatch, concat, every_branch, pose_words
 from ik5r.status_cases import status_cases
 
 
-#: Field names of a pose (the IK core's input payload), in the order of :meth:`Poses.fields`.
-FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
-          "has_roll", "shoulder_back", "elbow_down", "q5_default")
-
-
-class Poses:
-    """Pose rows as word arrays: p, a, n, o (N, 3), roll, back, down (N,) bool, q5 (N,)."""
-
-    def __init__(self, p, a, n, o, roll, back, down, q5):
-        self.p, self.a, self.n, self.o = (np.asarray(v, dtype=np.int64).reshape(-1, 3) for v in (p, a, n, o))
-        self.roll, self.back, self.down = (np.asarray(v, dtype=bool) for v in (roll, back, down))
-        self.q5 = np.asarray(q5, dtype=np.int64)
-
-    def __len__(self):
-        return len(self.p)
-
-    def args(self):
-        return self.p, self.a, self.n, self.o, self.roll, self.back, self.down, self.q5
-
-    def __getitem__(self, index):
-        return Poses(*(v[index] for v in self.args()))
-
-    def fields(self) -> dict[str, np.ndarray]:
-        """int64 columns by :data:`FIELDS` name."""
-        cols = [*self.p.T, *self.a.T, *self.n.T, *self.o.T, self.roll, self.back, self.down, self.q5]
-        return {name: np.asarray(col, dtype=np.int64) for name, col in zip(FIELDS, cols)}
-
-    @classmethod
-    def from_fields(cls, f: dict[str, np.ndarray]) -> "Poses":
-        def vec(name):
-            return np.stack([f[name + axis] for axis in "xyz"], axis=1)
-        return cls(vec("p"), vec("a"), vec("n"), vec("o"), np.asarray(f["has_roll"]) != 0,
-                   np.asarray(f["shoulder_back"]) != 0, np.asarray(f["elbow_down"]) != 0, f["q5_default"])
-
-    def driver_lines(self):
-        cols = np.column_stack([self.p, self.a, self.n, self.o, self.roll, self.back, self.down, self.q5])
-        return ["S " + " ".join(map(str, row)) for row in cols.tolist()]
-
-
-def concat(*poses: Poses) -> Poses:
-    return Poses(*(np.concatenate(cols) for cols in zip(*(p.args() for p in poses))))
-
-
-def every_branch(p, a, n, o, q5):
-    """Each pose with the 4 branches, with and without n/o: 8 rows per pose."""
-    count = len(p)
-    rep = lambda v: np.repeat(np.asarray(v), 8, axis=0)  # noqa: E731
-    variant = np.tile(np.arange(8), count)
-    return Poses(rep(p), rep(a), rep(n), rep(o), (variant & 4) != 0, (variant & 2) != 0,
-                 (variant & 1) != 0, rep(q5))
-
-
-def quantize_pose(k: Constants, p, a, n, o):
-    """Float poses (cm, unit vectors) to words: (p_l, a_u, n_u, o_u)."""
-    c = k.cfg
-    return (quantize(p, c.frac_length, c)[0], quantize(a, c.frac_unit, c)[0],
-            quantize(n, c.frac_unit, c)[0], quantize(o, c.frac_unit, c)[0])
-
-
-def random_poses(k: Constants, count: int, seed: int) -> Poses:
+def random_poses(k: Constants, count: int, seed: int) -> PoseBatch:
     """Reachable poses: FK of random joints within the limits, quantised; every branch/roll."""
     rng = np.random.default_rng(seed)
     q = reference.random_joints(k.arm, count, rng)
     p, n, o, a = reference.fk(k.arm, q)
-    words = quantize_pose(k, p, a, n, o)
+    words = pose_words(k.cfg, p, a, n, o)[:4]
     q5 = rng.integers(-k.pi_a, k.pi_a + 1, count)
     return every_branch(*words, q5)
 
 
-def directed_poses(k: Constants) -> Poses:
+def directed_poses(k: Constants) -> PoseBatch:
     """The small directed set, each pose in every branch, with and without n/o: the paper's pose
     q = [0, -pi/2, 0, -pi/2, 0]; tool point on the base axis with vertical (q1 free) and horizontal
     approach; nothing at all; straight and folded elbow; unreachable (too far, too close);
@@ -144,7 +87,7 @@ def directed_poses(k: Constants) -> Poses:
         w = [int(rng.choice([lo, hi, 0, 1, -1, int(rng.integers(lo, hi, endpoint=True))])) for _ in range(13)]
         words.append((w[0:3], w[3:6], w[6:9], w[9:12], w[12]))
     cols = [np.array([r[i] for r in real], dtype=float) for i in range(4)]
-    p_w, a_w, n_w, o_w = quantize_pose(k, *cols)
+    p_w, a_w, n_w, o_w = pose_words(k.cfg, *cols)[:4]
     q5 = quantize(np.array([r[4] for r in real]), c.frac_angle, c)[0]
     wcols = [np.array([r[i] for r in words], dtype=np.int64) for i in range(5)]
     return every_branch(np.concatenate([p_w, wcols[0]]), np.concatenate([a_w, wcols[1]]),
@@ -152,13 +95,13 @@ def directed_poses(k: Constants) -> Poses:
                         np.concatenate([q5, wcols[4]]))
 
 
-def edge_poses(k: Constants) -> Poses:
+def edge_poses(k: Constants) -> PoseBatch:
     """Directed edge set (each pose in every branch, with and without n/o), :func:`directed_poses`
     first."""
     return concat(directed_poses(k), _more_edges(k))
 
 
-def _more_edges(k: Constants) -> Poses:
+def _more_edges(k: Constants) -> PoseBatch:
     arm = k.arm
     a1, a4, d1, d5 = arm.a[0], arm.a[3], arm.d[0], arm.d[4]
     real = []  # (p, a, n, o) in cm / unit vectors
@@ -204,7 +147,7 @@ def _more_edges(k: Constants) -> Poses:
         add(p, (c1, s1, 0), (0, 0, 0), (0, 0, 0))
     cols = [np.array([r[i] for r in real], dtype=float) for i in range(4)]
     norm = lambda v: v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)  # noqa: E731
-    p_w, a_w, n_w, o_w = quantize_pose(k, cols[0], norm(cols[1]), norm(cols[2]), norm(cols[3]))
+    p_w, a_w, n_w, o_w = pose_words(k.cfg, cols[0], norm(cols[1]), norm(cols[2]), norm(cols[3]))[:4]
     q5 = np.zeros(len(p_w), dtype=np.int64)
 
     # Raw words: zeros, full scale, the most negative word in every input slot.

@@ -18,7 +18,8 @@ import pytest
 
 from ik5r import status as st
 from ik5r.firmware import codegen, csolver, model
-from ik5r.firmware.vectors import Poses, concat, edge_poses, random_poses
+from ik5r.firmware.poses import PoseBatch, concat
+from ik5r.firmware.vectors import edge_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 
 CONFIGS = ("q32", "q24", "q18", "q32w")
@@ -366,7 +367,7 @@ def test_slow_sanitizer_driver_random_words(name):
     rng = np.random.default_rng(77 + CONFIGS.index(name))
     count = 200_000
     w = lambda *shape: rng.integers(k.word_min, k.word_max + 1, shape)  # noqa: E731
-    poses = Poses(w(count, 3), w(count, 3), w(count, 3), w(count, 3), rng.random(count) < 0.5,
+    poses = PoseBatch(w(count, 3), w(count, 3), w(count, 3), w(count, 3), rng.random(count) < 0.5,
                   rng.random(count) < 0.5, rng.random(count) < 0.5, w(count))
     out = csolver.run_test_driver(csolver.build_test_driver(k), poses.driver_lines(), timeout=1800)
     rows = np.array([list(map(int, line.split())) for line in out], dtype=np.int64)

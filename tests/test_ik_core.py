@@ -20,7 +20,8 @@ import re
 import pytest
 
 from ik5r.firmware import model
-from ik5r.firmware.vectors import FIELDS, concat, directed_poses, random_poses
+from ik5r.firmware.poses import FIELDS, concat
+from ik5r.firmware.vectors import directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.ik_core import IKCore
 from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream

@@ -20,7 +20,8 @@ from amaranth.sim import Simulator
 
 from ik5r import status as st
 from ik5r.firmware import model
-from ik5r.firmware.vectors import Poses, concat, directed_poses, random_poses
+from ik5r.firmware.poses import PoseBatch, concat
+from ik5r.firmware.vectors import directed_poses, random_poses
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl import seq_isa
 from ik5r.hdl.generate import generate
@@ -81,7 +82,7 @@ def _frame_noise(k, poses, seed):
     for key in "noa":
         for j, axis in enumerate("xyz"):
             f[f"{key}{axis}"] = np.clip(np.rint(vec[key][:, j]), k.word_min, k.word_max).astype(np.int64)
-    return Poses.from_fields(f)
+    return PoseBatch.from_fields(f)
 
 
 @pytest.mark.parametrize("cfg", ("q18", "q32w"))

@@ -20,7 +20,8 @@ from ik5r import status as st
 from ik5r.arm import load_arm
 from ik5r.cli import main
 from ik5r.firmware import csolver, model, vector
-from ik5r.fxconfig import constants, load_config, pose_words
+from ik5r.firmware.poses import pose_words
+from ik5r.fxconfig import constants, load_config
 from ik5r.status_cases import SEED_CHECK_POSE, status_cases
 
 ARM = load_arm()

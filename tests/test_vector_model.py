@@ -18,7 +18,8 @@ import pytest
 
 from ik5r.arm import load_arm
 from ik5r.firmware import model, vector
-from ik5r.firmware.vectors import Poses, edge_poses, random_poses
+from ik5r.firmware.poses import PoseBatch
+from ik5r.firmware.vectors import edge_poses, random_poses
 from ik5r.fxconfig import Constants, constants, load_config
 from ik5r.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
 
@@ -260,7 +261,7 @@ def test_sqrt_word_exhaustive_q18():
 # Poses
 
 
-def _compare_poses(k, poses: Poses) -> np.ndarray:
+def _compare_poses(k, poses: PoseBatch) -> np.ndarray:
     """vector == model on every pose row (branch, roll and q5 per row); returns the statuses."""
     q_s, st_s = model.solve_batch(k, *poses.args())
     q_v, st_v = vector.solve_batch(k, *poses.args())
@@ -288,7 +289,7 @@ def test_edge_poses(k):
     # Cross the q5 input with its extremes too.
     q5_values = np.array([0, k.pi_a, -k.pi_a, k.word_min, k.word_max])
     rows = np.arange(len(poses)).repeat(len(q5_values))
-    crossed = Poses(*(v[rows] for v in poses.args()[:-1]), np.tile(q5_values, len(poses)))
+    crossed = PoseBatch(*(v[rows] for v in poses.args()[:-1]), np.tile(q5_values, len(poses)))
     status = _compare_poses(k, crossed)
     # The edge set does reach the flags it is meant to.
     for bit in (UNREACHABLE, SINGULAR_ELBOW, SINGULAR_BASE, SATURATED, INVALID):

@@ -13,15 +13,18 @@ the tests pick it up by name.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from typing import Callable
 
 import numpy as np
 from ik5r.firmware import model as M
 from ik5r.firmware import vector as V
 from ik5r.firmware import vectors
+from ik5r.firmware.poses import FIELDS, PoseBatch
 
 from ik5r import status as st
 from ik5r.fxconfig import Constants
+from ik5r.pose_fields import SOLUTION_NAMES
 
 from .portmap import PortMap
 
@@ -227,20 +230,20 @@ def _acos_err(x, got, pm, k):
 
 # ---- ik (the IK core, hdl/ik_core.py) ----------------------------------------------------------
 
-IK_OUTPUTS = ("q1", "q2", "q3", "q4", "q5", "status")
+IK_OUTPUTS = SOLUTION_NAMES
 
 
-def ik_outputs(k, poses: vectors.Poses, solve_batch) -> Arrays:
+def ik_outputs(k, poses: PoseBatch, solve_batch) -> Arrays:
     """``solve_batch`` (``model.solve_batch``, the specification, or ``vector.solve_batch``) over
     ``poses``: the IK core's output fields."""
-    q, status = solve_batch(k, *poses.args())
+    q, status = poses.solve(partial(solve_batch, k))
     out = {f"q{j + 1}": np.asarray(q[:, j], dtype=np.int64) for j in range(5)}
     out["status"] = np.asarray(status, dtype=np.int64)
     return out
 
 
 def _ik_vec(x, pm, k):
-    return ik_outputs(k, vectors.Poses.from_fields(x), V.solve_batch)
+    return ik_outputs(k, PoseBatch.from_fields(x), V.solve_batch)
 
 
 def _ik_scalar(x, pm, k):
@@ -260,7 +263,7 @@ def _ik_random(rng, n, pm, k):
     rows is random words instead (any input, saturation and invalid paths)."""
     out = vectors.random_poses(k, -(-n // 8), rng)[:n].fields()
     wild = rng.random(n) < 0.1
-    for name in vectors.FIELDS:
+    for name in FIELDS:
         f = pm.i.fields[name]
         out[name] = np.where(wild, _words(rng, n, max(f.lo, k.word_min), min(f.hi, k.word_max), k),
                              out[name]).astype(np.int64)
@@ -360,8 +363,8 @@ BLOCKS: dict[str, BlockSpec] = {
                       {"angle": ("angle", "angle_a"), "sine": ("sine", "sine_u", "sin", "s"),
                        "saturated": ("saturated", "sat", "flags")},
                       _acos_vec, _acos_scalar, _acos_random, _acos_edges, _acos_err),
-    # The IK core: fields are the roles (ik5r.firmware.vectors.FIELDS, IK_OUTPUTS).
-    "ik": BlockSpec("ik", {name: (name,) for name in vectors.FIELDS},
+    # The IK core: fields are the roles (ik5r.firmware.FIELDS, IK_OUTPUTS).
+    "ik": BlockSpec("ik", {name: (name,) for name in FIELDS},
                     {name: (name,) for name in IK_OUTPUTS},
                     _ik_vec, _ik_scalar, _ik_random, _ik_edges, _ik_err),
 }

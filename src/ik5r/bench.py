@@ -29,7 +29,8 @@ import numpy as np
 
 from . import reference
 from .arm import Arm, load_arm
-from .fxconfig import Constants, constants, load_config, quantize
+from .firmware.poses import PoseBatch
+from .fxconfig import Constants, constants, load_config
 
 
 def _timed(fn, repeat: int) -> tuple[float, float]:
@@ -43,12 +44,9 @@ def _timed(fn, repeat: int) -> tuple[float, float]:
 
 def fixed_inputs(k: Constants, p, n, o, a, rng):
     """solve_batch arguments for float poses: words, random branch bits, roll given on every row."""
-    c = k.cfg
     count = len(p)
-    p_l = quantize(p, c.frac_length, c)[0]
-    a_u, n_u, o_u = (quantize(v, c.frac_unit, c)[0] for v in (a, n, o))
-    return (p_l, a_u, n_u, o_u, np.ones(count, bool), rng.random(count) < 0.5, rng.random(count) < 0.5,
-            np.zeros(count, np.int64))
+    poses, _ = PoseBatch.quantise(k.cfg, p, a, n, o, back=rng.random(count) < 0.5, down=rng.random(count) < 0.5)
+    return poses.args()
 
 
 def _dh_robot(arm: Arm):

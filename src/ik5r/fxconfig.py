@@ -328,30 +328,3 @@ def quantize(values, frac: int, cfg: FixedConfig):
     lo, hi = -(2 ** (cfg.width - 1)), 2 ** (cfg.width - 1) - 1
     saturated = finite & ((scaled < lo) | (scaled > hi))
     return np.clip(np.round(scaled), lo, hi).astype(np.int64), saturated
-
-
-def pose_words(cfg: FixedConfig, p, a, n=None, o=None):
-    """Poses (N, 3) floats to the solvers' input words, and the per-row input status.
-
-    Returns (p_l, a_u, n_u, o_u, input_status): words (n_u, o_u None without n, o) and
-    ``INVALID | SATURATED`` on rows with a value outside the word range (the pose cannot be given
-    to the solver), ``INVALID`` on rows with a non-finite value, else 0.
-    """
-    import numpy as np
-
-    from . import status as st
-
-    values = [np.asarray(v, dtype=np.float64) for v in (p, a, n, o) if v is not None]
-    fracs = [cfg.frac_length] + [cfg.frac_unit] * (len(values) - 1)
-    count = len(values[0])
-    finite = np.ones(count, dtype=bool)
-    saturated = np.zeros(count, dtype=bool)
-    words = []
-    for value, frac in zip(values, fracs):
-        finite &= np.isfinite(value).all(axis=1)
-        word, sat = quantize(value, frac, cfg)
-        saturated |= sat.any(axis=1)
-        words.append(word)
-    input_status = np.where(saturated, st.INVALID | st.SATURATED, np.where(finite, 0, st.INVALID))
-    words += [None] * (4 - len(words))
-    return (*words, input_status.astype(np.int64))

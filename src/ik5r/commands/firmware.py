@@ -54,9 +54,10 @@ def poses_for(k, vectors: int, seed: int, directed: bool):
     """``vectors`` random reachable pose rows (every branch and roll of random joints, cut to
     ``vectors``) followed by the directed set."""
     from ik5r.firmware import vectors as vec
+    from ik5r.firmware.poses import concat
 
     rows = vec.random_poses(k, max(1, math.ceil(vectors / 8)), seed)[:vectors]
-    return vec.concat(rows, vec.directed_poses(k)) if directed else rows
+    return concat(rows, vec.directed_poses(k)) if directed else rows
 
 
 def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, progress=None) -> dict:

@@ -210,27 +210,22 @@ def _solve_chunk(table, arm, cfg, solve, args) -> list:
 
 def _fixed_chunk(solve, cfg, res, p, a, n, o, near, all_branches):
     """(rows, branch, q, q_raw, status) of the fixed-point solver on one chunk."""
-    from ik5r import reference
     from ik5r import status as st
-    from ik5r.fxconfig import pose_words, quantize
+    from ik5r.firmware.poses import PoseBatch
+    from ik5r.fxconfig import quantize
 
     count = len(p)
     harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
-    p_l, a_u, n_u, o_u, input_status = pose_words(cfg, p, a, n, o)
-    has_roll = n_u is not None
     q5_raw, q5_sat = quantize(0.0 if near is None else near[4], cfg.frac_angle, cfg)
     if bool(q5_sat):
         print("ik5r solve: --near q5 saturates the angle format", file=sys.stderr)
+    poses, input_status = PoseBatch.quantise(cfg, p, a, n, o, q5=int(q5_raw))
     if all_branches:
         rows = np.repeat(np.arange(count), 4)
         branch = np.tile(np.arange(4), count)
     else:
         rows, branch = np.arange(count), res.choose(near)
-    shoulder_back, elbow_down = reference.branch_bits(branch)
-    m = len(rows)
-    q_raw, status = solve(p_l[rows], a_u[rows], None if n_u is None else n_u[rows],
-                          None if o_u is None else o_u[rows], np.full(m, has_roll),
-                          shoulder_back, elbow_down, np.full(m, int(q5_raw), dtype=np.int64))
+    q_raw, status = poses[rows].with_branch(branch).solve(solve)
     q_raw = np.asarray(q_raw, dtype=np.int64).copy()
     status = np.asarray(status, dtype=np.int64).copy()
     bad = input_status[rows] != 0

@@ -98,7 +98,8 @@ def build_full_report(out_dir, vectors: int = 1_000_000, config=None, arm=None, 
                       hdl: bool = True, hdl_poses: int = 10_000, block_vectors: int = 5_000,
                       simulator: str = "verilator", worst: int = 20, progress: bool = False, log=print):
     """The report, with the HDL simulated when ``hdl``: (JSON doc, summary text, bit-accuracy data)."""
-    from ..firmware.vectors import concat, edge_poses, random_poses
+    from ..firmware.poses import concat
+    from ..firmware.vectors import edge_poses, random_poses
 
     out_dir = Path(out_dir)
     cfg = config if isinstance(config, FixedConfig) else load_config(config)

@@ -21,13 +21,15 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
 from .. import reference as ref
 from .. import status as st
 from ..arm import Arm
-from ..fxconfig import FixedConfig, constants, quantize
+from ..firmware.poses import PoseBatch
+from ..fxconfig import FixedConfig, constants
 
 JOINTS = ("q1", "q2", "q3", "q4", "q5")
 #: Subsets of poses by |sin q3| (q2, q3 errors scale with 1 / |sin q3|): key -> lower bound.
@@ -111,18 +113,16 @@ def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
 
     # Fixed point: quantise, solve the branch, dequantise.
     t0 = time.perf_counter()
-    p_l, sat_p = quantize(p, cfg.frac_length, cfg)
-    units = [quantize(v, cfg.frac_unit, cfg) for v in (a, n, o)]
-    (a_u, sat_a), (n_u, sat_n), (o_u, sat_o) = units
-    out["input_saturated"] = int(np.count_nonzero(sat_p.any(1) | sat_a.any(1) | sat_n.any(1) | sat_o.any(1)))
+    poses, input_status = PoseBatch.quantise(cfg, p, a, n, o)
+    poses = poses.with_branch(branch)
+    out["input_saturated"] = int(np.count_nonzero(input_status & st.SATURATED))
     t1 = time.perf_counter()
-    q_a, status = solve_batch(k, p_l, a_u, n_u, o_u, np.ones(count, dtype=bool), branch >= 2,
-                              (branch & 1).astype(bool), np.zeros(count, dtype=np.int64))
+    q_a, status = poses.solve(partial(solve_batch, k))
     timing["fixed_solver_s"] = timing.get("fixed_solver_s", 0.0) + time.perf_counter() - t1
     q_fx = np.asarray(q_a, dtype=np.float64) * 2.0**-cfg.frac_angle
     out["status_fixed"] = np.asarray(status, dtype=np.int64)
     deq_l, deq_u = 2.0**-cfg.frac_length, 2.0**-cfg.frac_unit
-    r_deq = ref.ik(arm, p_l * deq_l, a_u * deq_u, n_u * deq_u, o_u * deq_u, confirm_tolerance_cm=None)
+    r_deq = ref.ik(arm, poses.p * deq_l, poses.a * deq_u, poses.n * deq_u, poses.o * deq_u, confirm_tolerance_cm=None)
     q64_deq = _take(r_deq.q, branch)
     out["fixed_vs_exact"] = ref.wrap(q_fx - q64)
     out["fixed_vs_quantised"] = ref.wrap(q_fx - q64_deq)
