@@ -44,6 +44,29 @@ def _bit_length_ones_abs(x, y) -> np.ndarray:
 # CORDIC
 
 
+def _iterate(xs, ys, z, atan_table, vectoring: bool) -> None:
+    """The CORDIC iterations, in place on int64 arrays: vectoring (atan2) steers ys to 0 by
+    d = sign(ys), rotation steers z to 0 by d = sign(z) (sign(0) = +1); the micro-rotation turns
+    the vector by -d atan(2**-i) (vectoring) or +d atan(2**-i) (rotation) and z follows."""
+    steer = ys if vectoring else z
+    # Vectoring: xs += d (ys >> i), ys -= d (xs >> i), z += d step; rotation: the signs swapped.
+    turn_x, turn_y = (np.add, np.subtract) if vectoring else (np.subtract, np.add)
+    tx = np.empty_like(xs)
+    ty = np.empty_like(xs)
+    d = np.empty_like(xs)
+    for i, step_z in enumerate(atan_table):
+        np.right_shift(steer, 63, out=d)
+        np.bitwise_or(d, 1, out=d)
+        np.right_shift(ys, i, out=tx)
+        np.right_shift(xs, i, out=ty)
+        tx *= d
+        ty *= d
+        turn_x(xs, tx, out=xs)
+        turn_y(ys, ty, out=ys)
+        d *= step_z
+        turn_x(z, d, out=z)
+
+
 def _atan2_core(y, x, k: Constants):
     """Vectoring CORDIC shared by :func:`cordic_atan2` and the solver.
 
@@ -67,21 +90,7 @@ def _atan2_core(y, x, k: Constants):
     shift = norm + c.guard_bits
     xs = xs << shift
     ys = ys << shift
-    tx = np.empty_like(xs)
-    ty = np.empty_like(xs)
-    d = np.empty_like(xs)
-    for i, step_z in enumerate(k.atan_table):
-        # d = +1 where ys >= 0 (rotate clockwise), -1 where ys < 0.
-        np.right_shift(ys, 63, out=d)
-        np.bitwise_or(d, 1, out=d)
-        np.right_shift(ys, i, out=tx)
-        np.right_shift(xs, i, out=ty)
-        tx *= d
-        ty *= d
-        xs += tx
-        ys -= ty
-        d *= step_z
-        z += d
+    _iterate(xs, ys, z, k.atan_table, vectoring=True)
     angle_a = rshift_round(z, c.angle_guard_bits, c.round_nearest)
     angle_a = np.where(zero, 0, angle_a)
     return angle_a, xs, norm, zero
@@ -132,21 +141,7 @@ def cordic_rotate(x, y, angle_a, k: Constants) -> tuple[np.ndarray, np.ndarray, 
     shift = k.inv_gain_frac - c.guard_bits
     xs = mul_round(x, k.inv_gain, shift, nearest, k)
     ys = mul_round(y, k.inv_gain, shift, nearest, k)
-    tx = np.empty_like(xs)
-    ty = np.empty_like(xs)
-    d = np.empty_like(xs)
-    for i, step_z in enumerate(k.atan_table):
-        # d = +1 where z >= 0 (rotate counter-clockwise), -1 where z < 0.
-        np.right_shift(z, 63, out=d)
-        np.bitwise_or(d, 1, out=d)
-        np.right_shift(ys, i, out=tx)
-        np.right_shift(xs, i, out=ty)
-        tx *= d
-        ty *= d
-        xs -= tx
-        ys += ty
-        d *= step_z
-        z -= d
+    _iterate(xs, ys, z, k.atan_table, vectoring=False)
     xo, sat_x = saturate(rshift_round(xs, c.guard_bits, nearest), k)
     yo, sat_y = saturate(rshift_round(ys, c.guard_bits, nearest), k)
     return xo, yo, sat_x | sat_y

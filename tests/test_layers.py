@@ -18,7 +18,8 @@ from pathlib import Path
 from ik5r.sources import all_modules, closure, imports_of
 
 CORE = {"ik5r", "ik5r.fxconfig", "ik5r.arm", "ik5r.reference", "ik5r.status", "ik5r.csvio",
-        "ik5r.errors", "ik5r.fixedpoint", "ik5r.fixedpoint_np", "ik5r.data", "ik5r.status_cases"}
+        "ik5r.errors", "ik5r.fixedpoint", "ik5r.fixedpoint_np", "ik5r.reference_kernel",
+        "ik5r.data", "ik5r.status_cases"}
 #: What each layer may import (besides third-party packages).
 ALLOWED = {"core": {"core"}, "firmware": {"core", "firmware"}, "hdl": {"core", "hdl"},
            "tools": {"core", "firmware", "hdl", "tools"}}
