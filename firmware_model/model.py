@@ -15,7 +15,10 @@ their own work on the config's words; :func:`ik_solve` runs on the internal form
 and the CORDIC iterations widened alike; ``k`` itself when that is 0): it shifts its input words
 up, and rounds the joint angles back to words, saturated. The helpers the C has too
 (``rshift_round``, ``saturate``, ``mul_const``, ``wrap_angle``, ``opposite``) are the fixed-point
-vocabulary of :mod:`ik5r.fixedpoint`, shared with the HDL.
+vocabulary of :mod:`ik5r.fixedpoint`, shared with the HDL. The IK body is written once, in that
+vocabulary, in :mod:`ik5r.firmware.ik` (with the orientation checks ``check_word``, ``beyond``,
+``off_plane``, ``frame_is_bad``, re-exported here); :func:`ik_solve` runs it on Python integers
+and this module's CORDIC and square-root kernels (:data:`KERNELS`), the vectorised model on arrays.
 """
 
 from __future__ import annotations

@@ -60,7 +60,8 @@ class Kernel:
             q5_b = _opposite(q5_f)
             invalid_rows = no_direction | no_roll
         else:
-            q5_f = np.broadcast_to(np.asarray(_wrap_scalar(near4 + self.offsets[4]), dtype=self.dt), (P.shape[1],))
+            q5 = np.asarray(_wrap_scalar(near4 + self.offsets[4]), dtype=self.dt)
+            q5_f = np.broadcast_to(q5, (P.shape[1],))
             q5_b = q5_f
             invalid_rows = no_direction
         if any_bad:
