@@ -1,136 +1,37 @@
 """Bit-accurate numpy-vectorised model of the C solver: the same outputs as ``model.py``, bit for bit.
 
 Every function mirrors the scalar function of the same name in :mod:`ik5r.firmware.model` (the
-specification) over int64 numpy arrays, one element per call of the scalar function. Where the
-scalar model relies on Python's unbounded integers, the bound of every product and sum is noted
-(for the widest config, width = 32, frac.unit = 30, 32 CORDIC iterations and 4 guard bits; the
-narrower configs have smaller values) and the two places that can reach 2**63 are computed in
-uint64 or reordered.
-
-numpy's ``>>`` on int64 is an arithmetic shift, i.e. it floors like Python's; ``&`` works on the
-two's complement like Python's infinite one, so bit extraction agrees for any int64.
+specification) over int64 numpy arrays, one element per call of the scalar function; the IK body
+itself is one, :func:`ik5r.firmware.ik.solve`, run here on :mod:`ik5r.fixedpoint_np` (the numpy
+twin of the fixed-point vocabulary, re-exported here) and this module's CORDIC and square-root
+kernels. Where the scalar model relies on Python's unbounded integers, the bound of every product
+and sum is noted (for the widest config, width = 32, frac.unit = 30, 32 CORDIC iterations and 4
+guard bits; the narrower configs have smaller values); the internal format of a config with
+internal guard bits (words of up to 40 bits) forms its products as wide pairs
+(:mod:`ik5r.fixedpoint_np`).
 
 Inputs must be words (signed ``width``-bit integers): that is the C solver's interface (int32_t
 words) and what the bounds below assume; :func:`solve_batch` checks it and raises ``ValueError``.
-
-The IK runs on the internal format ``k.internal`` (see ``model.py``). When that is wider than a
-word (``ik.internal_guard_bits`` > 0: words of up to 40 bits), products of two values exceed int64:
-they are formed exactly as *wide* pairs (hi, lo) of int64 arrays, value = hi * 2**32 + lo with
-0 <= lo < 2**32 (limb arithmetic: :func:`wide_mul`, :func:`wide_add`, :func:`wide_sub`,
-:func:`wide_rshift_round`), for operands below 2**46 in magnitude. The word configs keep the plain
-int64 arithmetic (faster), whose bounds are noted below.
 """
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
-from ik5r.fxconfig import MAX_WIDTH, Constants
-from ik5r.status import BAD_ORIENTATION, INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
+from ik5r import fixedpoint_np
+from ik5r.fixedpoint_np import (  # noqa: F401 (the vocabulary, re-exported as the model does)
+    I64, LIMB_BITS, LIMB_MASK, U64, as_array as _arr, bit_length, bit_length_search as _bit_length_search,
+    dot_round, mul_const, mul_round, opposite, rshift_round, saturate, wide_add, wide_from, wide_less,
+    wide_mul, wide_products, wide_rshift_round, wide_sub, wrap_angle)
+from ik5r.fxconfig import Constants
+from ik5r.status import SATURATED
 
-I64 = np.int64
-U64 = np.uint64
+from . import ik
+
 #: Poses per chunk of :func:`solve_batch`: the working set (~30 int64 arrays) stays in L2/L3.
 CHUNK = 32768
-#: Low limb of a wide pair.
-LIMB_BITS = 32
-LIMB_MASK = (1 << LIMB_BITS) - 1
-
-
-def _arr(value) -> np.ndarray:
-    """An int64 array (uint64 arrays are kept: they carry radicands up to 2**64 - 1)."""
-    value = np.asarray(value)
-    if value.dtype == U64:
-        return value
-    if value.dtype.kind not in "biu" and value.size:
-        raise TypeError(f"integer array expected, got {value.dtype}")
-    return value.astype(I64, copy=False)
-
-
-# --------------------------------------------------------------------------------------------
-# Helpers
-
-
-def rshift_round(value, shift, nearest: bool) -> np.ndarray:
-    """value * 2**-shift, rounded half up (nearest) or floored (truncate); shift scalar or array.
-
-    The caller guarantees value + 2**(shift - 1) fits its dtype (bounds noted at each call).
-    A wide pair goes to :func:`wide_rshift_round` (shift scalar, >= 0).
-    """
-    if isinstance(value, tuple):
-        return wide_rshift_round(value, shift, nearest)
-    value = _arr(value)
-    if np.ndim(shift) == 0:
-        shift = int(shift)
-        if shift <= 0:
-            return value << -shift
-        if nearest:
-            value = value + (1 << (shift - 1))
-        return value >> shift
-    shift = np.asarray(shift, dtype=I64)
-    right = np.maximum(shift, 0)
-    left = np.maximum(-shift, 0)
-    if nearest:
-        # 1 << (right - 1) where right > 0, else 0 (a shift by -1 is avoided).
-        value = value + ((right > 0).astype(I64) << np.maximum(right - 1, 0))
-    return (value >> right) << left
-
-
-def saturate(value, k: Constants) -> tuple[np.ndarray, np.ndarray]:
-    """Clip to the word range; returns (value, SATURATED or 0) per element."""
-    value = _arr(value)
-    flags = np.where((value > k.word_max) | (value < k.word_min), SATURATED, 0).astype(I64)
-    return np.clip(value, k.word_min, k.word_max).astype(I64), flags
-
-
-def mul_const(value, m, nearest: bool) -> np.ndarray:
-    """value * c for a ConstMul m; value an int64 array or a wide pair.
-
-    Mantissas below 2**31 (word configs): the caller keeps rshift(value, pre) below 2**31 in
-    magnitude, so the product is below 2**62. Wider mantissas (internal format): the product is
-    formed wide (pre-shifted operand and mantissa below 2**46)."""
-    operand = rshift_round(value, m.pre, nearest)
-    if abs(m.mant) < 1 << 31:
-        return rshift_round(operand * m.mant, m.post, nearest)
-    return wide_rshift_round(wide_mul(operand, m.mant), m.post, nearest)
-
-
-def wrap_angle(angle_a, k: Constants) -> np.ndarray:
-    """Bring an angle within one turn of zero back to [-pi, pi] (one correction)."""
-    angle_a = _arr(angle_a)
-    two_pi = 2 * k.pi_a
-    return np.where(angle_a > k.pi_a, angle_a - two_pi,
-                    np.where(angle_a < -k.pi_a, angle_a + two_pi, angle_a))
-
-
-def opposite(angle_a, k: Constants) -> np.ndarray:
-    """The angle of the opposite vector: atan2(-y, -x) from atan2(y, x)."""
-    angle_a = _arr(angle_a)
-    return np.where(angle_a > 0, angle_a - k.pi_a, angle_a + k.pi_a)
-
-
-def bit_length(value) -> np.ndarray:
-    """Exact ``int.bit_length`` of non-negative int64 (or any uint64) values.
-
-    Below 2**53 (the CORDIC's case: at most 2**32) the conversion to float64 is exact, and so is
-    frexp's exponent, which is then the bit length (frexp(0) = (0, 0)). Larger values go through an
-    exact binary search on the integers.
-    """
-    v = _arr(value)
-    if v.size == 0 or v.max() < (1 << 53):
-        return np.frexp(v.astype(np.float64))[1].astype(I64)
-    return _bit_length_search(v)
-
-
-def _bit_length_search(value) -> np.ndarray:
-    """Exact bit length by binary search with shifts and comparisons (any uint64)."""
-    v = _arr(value).astype(U64)
-    n = np.zeros(v.shape, dtype=I64)
-    for s in (32, 16, 8, 4, 2, 1):
-        big = v >= U64(1 << s)
-        v = np.where(big, v >> U64(s), v)
-        n += big * s
-    return n + (v != 0)
 
 
 def _bit_length_ones_abs(x, y) -> np.ndarray:
@@ -140,85 +41,30 @@ def _bit_length_ones_abs(x, y) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
-# Wide (limb) arithmetic: exact products and sums beyond int64
-
-
-def wide_products(k: Constants) -> bool:
-    """Whether products of two values of k's format exceed int64 (only a format wider than the
-    widest word config, i.e. an internal format, has them)."""
-    return k.cfg.width > MAX_WIDTH
-
-
-def wide_from(value):
-    """An int64 array, or a Python int below 2**94 in magnitude (a constant), as a wide pair."""
-    if isinstance(value, int):
-        return np.int64(value >> LIMB_BITS), np.int64(value & LIMB_MASK)
-    value = _arr(value)
-    return value >> LIMB_BITS, value & LIMB_MASK
-
-
-def wide_mul(a, b):
-    """The exact product a * b as a wide pair, |a|, |b| < 2**46 (int64 arrays or ints).
-
-    a = ah 2**32 + al, b = bh 2**32 + bl with 0 <= al, bl < 2**32 and |ah|, |bh| < 2**14:
-    al * bl < 2**64 is formed in uint64; the other partial products and their sum stay below 2**61.
-    """
-    a, b = _arr(a), _arr(b)
-    ah, al = a >> LIMB_BITS, a & LIMB_MASK
-    bh, bl = b >> LIMB_BITS, b & LIMB_MASK
-    low = al.view(U64) * bl.view(U64)
-    hi = ((ah * bh) << LIMB_BITS) + ah * bl + al * bh + (low >> U64(LIMB_BITS)).view(I64)
-    return hi, (low & U64(LIMB_MASK)).view(I64)
-
-
-def wide_add(x, y):
-    """x + y of two wide pairs."""
-    lo = x[1] + y[1]
-    return x[0] + y[0] + (lo >> LIMB_BITS), lo & LIMB_MASK
-
-
-def wide_sub(x, y):
-    """x - y of two wide pairs (the borrow is the floor of the low difference)."""
-    lo = x[1] - y[1]
-    return x[0] - y[0] + (lo >> LIMB_BITS), lo & LIMB_MASK
-
-
-def wide_less(x, y) -> np.ndarray:
-    """x < y of two wide pairs (lo normalised to [0, 2**32): lexicographic)."""
-    return (x[0] < y[0]) | ((x[0] == y[0]) & (x[1] < y[1]))
-
-
-def wide_rshift_round(x, shift: int, nearest: bool) -> np.ndarray:
-    """rshift_round of a wide pair by a scalar shift >= 0, whose result fits int64."""
-    hi, lo = x
-    if nearest and shift > 0:
-        bias = shift - 1
-        if bias >= LIMB_BITS:
-            hi = hi + (1 << (bias - LIMB_BITS))
-        else:
-            lo = lo + (1 << bias)
-            hi, lo = hi + (lo >> LIMB_BITS), lo & LIMB_MASK
-    if shift >= LIMB_BITS:
-        return hi >> (shift - LIMB_BITS)
-    return (hi << (LIMB_BITS - shift)) + (lo >> shift)
-
-
-def _mul_round(a, b, shift: int, nearest: bool, wide: bool) -> np.ndarray:
-    """rshift_round(a * b, shift): in int64 (the caller's bound) or, when ``wide``, exactly."""
-    if wide:
-        return wide_rshift_round(wide_mul(a, b), shift, nearest)
-    return rshift_round(_arr(a) * b, shift, nearest)
-
-
-def _dot_round(a1, b1, a2, b2, shift: int, nearest: bool, wide: bool) -> np.ndarray:
-    """rshift_round(a1 * b1 + a2 * b2, shift): in int64 (the caller's bound) or exactly."""
-    if wide:
-        return wide_rshift_round(wide_add(wide_mul(a1, b1), wide_mul(a2, b2)), shift, nearest)
-    return rshift_round(_arr(a1) * b1 + _arr(a2) * b2, shift, nearest)
-
-
-# --------------------------------------------------------------------------------------------
 # CORDIC
+
+
+def _iterate(xs, ys, z, atan_table, vectoring: bool) -> None:
+    """The CORDIC iterations, in place on int64 arrays: vectoring (atan2) steers ys to 0 by
+    d = sign(ys), rotation steers z to 0 by d = sign(z) (sign(0) = +1); the micro-rotation turns
+    the vector by -d atan(2**-i) (vectoring) or +d atan(2**-i) (rotation) and z follows."""
+    steer = ys if vectoring else z
+    # Vectoring: xs += d (ys >> i), ys -= d (xs >> i), z += d step; rotation: the signs swapped.
+    turn_x, turn_y = (np.add, np.subtract) if vectoring else (np.subtract, np.add)
+    tx = np.empty_like(xs)
+    ty = np.empty_like(xs)
+    d = np.empty_like(xs)
+    for i, step_z in enumerate(atan_table):
+        np.right_shift(steer, 63, out=d)
+        np.bitwise_or(d, 1, out=d)
+        np.right_shift(ys, i, out=tx)
+        np.right_shift(xs, i, out=ty)
+        tx *= d
+        ty *= d
+        turn_x(xs, tx, out=xs)
+        turn_y(ys, ty, out=ys)
+        d *= step_z
+        turn_x(z, d, out=z)
 
 
 def _atan2_core(y, x, k: Constants):
@@ -244,21 +90,7 @@ def _atan2_core(y, x, k: Constants):
     shift = norm + c.guard_bits
     xs = xs << shift
     ys = ys << shift
-    tx = np.empty_like(xs)
-    ty = np.empty_like(xs)
-    d = np.empty_like(xs)
-    for i, step_z in enumerate(k.atan_table):
-        # d = +1 where ys >= 0 (rotate clockwise), -1 where ys < 0.
-        np.right_shift(ys, 63, out=d)
-        np.bitwise_or(d, 1, out=d)
-        np.right_shift(ys, i, out=tx)
-        np.right_shift(xs, i, out=ty)
-        tx *= d
-        ty *= d
-        xs += tx
-        ys -= ty
-        d *= step_z
-        z += d
+    _iterate(xs, ys, z, k.atan_table, vectoring=True)
     angle_a = rshift_round(z, c.angle_guard_bits, c.round_nearest)
     angle_a = np.where(zero, 0, angle_a)
     return angle_a, xs, norm, zero
@@ -307,23 +139,9 @@ def cordic_rotate(x, y, angle_a, k: Constants) -> tuple[np.ndarray, np.ndarray, 
     x, y = np.where(hi, -y, np.where(lo, y, x)), np.where(hi, x, np.where(lo, -x, y))
     z = np.where(hi, z - k.half_pi_z, np.where(lo, z + k.half_pi_z, z))
     shift = k.inv_gain_frac - c.guard_bits
-    xs = _mul_round(x, k.inv_gain, shift, nearest, wide_products(k))
-    ys = _mul_round(y, k.inv_gain, shift, nearest, wide_products(k))
-    tx = np.empty_like(xs)
-    ty = np.empty_like(xs)
-    d = np.empty_like(xs)
-    for i, step_z in enumerate(k.atan_table):
-        # d = +1 where z >= 0 (rotate counter-clockwise), -1 where z < 0.
-        np.right_shift(z, 63, out=d)
-        np.bitwise_or(d, 1, out=d)
-        np.right_shift(ys, i, out=tx)
-        np.right_shift(xs, i, out=ty)
-        tx *= d
-        ty *= d
-        xs -= tx
-        ys += ty
-        d *= step_z
-        z -= d
+    xs = mul_round(x, k.inv_gain, shift, nearest, k)
+    ys = mul_round(y, k.inv_gain, shift, nearest, k)
+    _iterate(xs, ys, z, k.atan_table, vectoring=False)
     xo, sat_x = saturate(rshift_round(xs, c.guard_bits, nearest), k)
     yo, sat_y = saturate(rshift_round(ys, c.guard_bits, nearest), k)
     return xo, yo, sat_x | sat_y
@@ -420,144 +238,29 @@ def cordic_acos(x_u, k: Constants) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 # The solver
 
 
+def atan2_angle(y, x, k: Constants):
+    """(angle_a, zero): cordic_atan2 without the magnitude (which the IK never uses)."""
+    angle_a, _, _, zero = _atan2_core(y, x, k)
+    return angle_a, zero
+
+
+#: The kernels :func:`ik5r.firmware.ik.solve` runs on, over arrays (the names of ``model.KERNELS``).
+KERNELS = SimpleNamespace(atan2_angle=atan2_angle, cordic_rotate=cordic_rotate, isqrt=isqrt,
+                          cordic_acos=cordic_acos, acos_of_complements=acos_of_complements)
+
+
 def _check_words(name: str, value: np.ndarray, k: Constants) -> None:
     if value.size and (value.min() < k.word_min or value.max() > k.word_max):
         raise ValueError(f"{name}: values outside the {k.cfg.width}-bit word range")
 
 
 def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_a):
-    c = k.cfg
-    ki = k.internal          # the format the IK runs on (k itself without internal guard bits)
-    guard = c.internal_guard_bits
-    wide = wide_products(ki)
-    nearest = c.round_nearest
-    fu = ki.cfg.frac_unit
-    # Input words to internal words: exact (|word| <= 2**31, shifted by at most 8 bits).
-    px, py, pz = (p_l[:, i] << guard for i in range(3))
-    ax, ay, az = (a_u[:, i] << guard for i in range(3))
-
-    # Joint 1. Words: px*px, py*py <= 2**62 each (|word| <= 2**31); the sum reaches 2**63 for
-    # px = py = word_min, one past int64: summed in uint64 (< 2**64).
-    if wide:
-        radicand = wide_add(wide_mul(px, px), wide_mul(py, py))
-    else:
-        radicand = (px * px).view(U64) + (py * py).view(U64)
-    rho_l, status = saturate(isqrt(radicand, 2 * ki.cfg.width, nearest), ki)
-    on_axis = rho_l == 0          # isqrt(r) >= 1 for r >= 1: only px == py == 0
-    # The point's atan2, or the approach's on the axis (one CORDIC for both cases).
-    theta1_a, vertical = _atan2_angle(np.where(on_axis, ay, py), np.where(on_axis, ax, px), ki)
-    status |= np.where(vertical, SINGULAR_BASE, 0)   # zero implies on_axis, as in the model
-    q1_a = np.where(back, opposite(theta1_a, ki), theta1_a)
-    r_l = np.where(back, -rho_l, rho_l)
-    c1_u, s1_u, sat = cordic_rotate(ki.one_u, 0, q1_a, ki)
-    status |= sat
-
-    # Pitch. Words: |c1|, |s1| <= one_u + a few LSB, (c1, s1) a unit vector: |ax c1 + ay s1| <=
-    # |(ax, ay)| * |(c1, s1)| <= 2**31.5 * 2**30 (+ tiny) < 2**61.6; + 2**29 rounding bias.
-    a_radial_u, sat = saturate(_dot_round(ax, c1_u, ay, s1_u, fu, nearest, wide), ki)
-    status |= sat
-    pitch_a, no_direction = _atan2_angle(a_radial_u, az, ki)
-    status |= np.where(no_direction, INVALID, 0)
-    status |= np.where(_off_plane(ax, ay, c1_u, s1_u, ki), BAD_ORIENTATION, 0)
-    phi_a = opposite(pitch_a, ki)
-
-    # Wrist centre: words, differences of three words < 2**(width + 1).
-    off_x_l, off_y_l, sat = cordic_rotate(ki.a4_l, ki.d5_l, phi_a, ki)
-    status |= sat
-    xw_l, sat = saturate(r_l - ki.a1_l - off_x_l, ki)
-    status |= sat
-    yw_l, sat = saturate(ki.d1_l - pz - off_y_l, ki)
-    status |= sat
-
-    # Elbow.
-    if guard == 0:
-        # xw^2 + yw^2 reaches 2**63 (both word_min): summed as (xw^2 - links_sq) + yw^2, which
-        # is the model's d_sq - links_sq exactly: xw^2 - links_sq in (-2**56, 2**62], + yw^2 <= 2**62
-        # stays < 2**63 - links_sq (links_sq_l2 > 0).
-        num_l2 = xw_l * xw_l - ki.links_sq_l2 + yw_l * yw_l
-        reach = int(ki.reach_limit_l2)
-        out_of_reach = (num_l2 > reach) | (num_l2 < -reach)
-        num_l2 = np.clip(num_l2, -ki.twice_a2a3_l2, ki.twice_a2a3_l2)
-        # |num_l2| <= twice_a2a3_l2: rshift by pre < 2**31 (ConstMul contract), product < 2**62.
-        c3_u = np.clip(mul_const(num_l2, ki.c3_from_l2, nearest), -ki.one_u, ki.one_u)
-        elbow_a, s3_u, _ = cordic_acos(c3_u, ki)
-    else:
-        # Wide: num = xw^2 - links_sq + yw^2 (< 2**81), clipped to [-2 a2 a3, 2 a2 a3]; then
-        # 1 -+ c3 from 2 a2 a3 -+ num, as the model.
-        num_l2 = wide_add(wide_sub(wide_mul(xw_l, xw_l), wide_from(int(ki.links_sq_l2))), wide_mul(yw_l, yw_l))
-        twice = wide_from(int(ki.twice_a2a3_l2))
-        minus_twice = wide_sub(wide_from(0), twice)
-        too_far, too_near = wide_less(twice, num_l2), wide_less(num_l2, minus_twice)
-        reach = wide_from(int(ki.reach_limit_l2))
-        out_of_reach = wide_less(reach, num_l2) | wide_less(num_l2, wide_sub(wide_from(0), reach))
-        num_l2 = tuple(np.where(too_far, t, np.where(too_near, m, v))
-                       for t, m, v in zip(twice, minus_twice, num_l2))
-        two_u = 2 * ki.one_u
-        one_minus_c3_u = np.minimum(two_u, mul_const(wide_sub(twice, num_l2), ki.c3_complement_from_l2, nearest))
-        one_plus_c3_u = np.minimum(two_u, mul_const(wide_add(twice, num_l2), ki.c3_complement_from_l2, nearest))
-        c3_u = ki.one_u - one_minus_c3_u
-        elbow_a, s3_u = acos_of_complements(one_minus_c3_u, one_plus_c3_u, ki)
-    status |= np.where(out_of_reach, UNREACHABLE, 0)
-    status |= np.where(s3_u <= ki.singular_s3_u, SINGULAR_ELBOW, 0)
-    q3_a = np.where(down, -elbow_a, elbow_a)
-
-    # Shoulder. Words: s3_u, |c3_u| <= one_u = 2**30 < 2**31 (a3_from_u.pre = 0): products < 2**61.3.
-    gamma_a = _atan2_angle(yw_l, xw_l, ki)[0]
-    beta_a = _atan2_angle(mul_const(s3_u, ki.a3_from_u, nearest),
-                          ki.a2_l + mul_const(c3_u, ki.a3_from_u, nearest), ki)[0]
-    q2_a = wrap_angle(np.where(down, gamma_a + beta_a, gamma_a - beta_a), ki)
-    q4_a = wrap_angle(wrap_angle(phi_a - q2_a, ki) - q3_a, ki)
-
-    # Joint 5 (same bound as a_radial: < 2**61.6). Rows without n, o compute with zeros and are
-    # replaced by the default, their flags masked.
-    nx, ny = (n_u[:, i] << guard for i in range(2))
-    ox, oy = (o_u[:, i] << guard for i in range(2))
-    s5_u, sat_s = saturate(_dot_round(nx, s1_u, -ny, c1_u, fu, nearest, wide), ki)
-    c5_u, sat_c = saturate(_dot_round(ox, s1_u, -oy, c1_u, fu, nearest, wide), ki)
-    q5_a, no_roll = _atan2_angle(s5_u, c5_u, ki)
-    roll_flags = sat_s | sat_c | np.where(no_roll, INVALID, 0)
-    roll_flags |= np.where(_frame_is_bad(n_u, o_u, a_u, k), BAD_ORIENTATION, 0)
-    status |= np.where(roll, roll_flags, 0)
-    q5_a = np.where(roll, q5_a, q5_default_a << guard)
-
-    # Joint angles back to words, rounded and saturated.
-    joints = []
-    for q, off in zip((q1_a, q2_a, q3_a, q4_a, q5_a), ki.offset_a):
-        joint_a, sat = saturate(rshift_round(wrap_angle(q - off, ki), guard, nearest), k)
-        joints.append(joint_a)
-        status |= sat
+    """:func:`ik5r.firmware.ik.solve` on (N, 3) word arrays: ((N, 5) angle words, (N,) status)."""
+    def columns(words):
+        return tuple(words[:, i] for i in range(3))
+    joints, status = ik.solve(fixedpoint_np, KERNELS, k, columns(p_l), columns(a_u), columns(n_u),
+                              columns(o_u), roll, back, down, q5_default_a)
     return np.stack(joints, axis=1), status
-
-
-def _beyond(value, centre, k: Constants):
-    return (value > centre + k.check_tol_c2) | (value < centre - k.check_tol_c2)
-
-
-def _off_plane(ax, ay, c1_u, s1_u, ki: Constants):
-    """model.off_plane: ay c1 - ax s1 on check words (products < 2**34) beyond the tolerance."""
-    shift = ki.check_shift
-    return _beyond((ay >> shift) * (c1_u >> shift) - (ax >> shift) * (s1_u >> shift), 0, ki)
-
-
-def _frame_is_bad(n_u, o_u, a_u, k: Constants):
-    """model.frame_is_bad on (N, 3) word arrays (products of check words < 2**34)."""
-    shift = k.check_shift
-    n = [n_u[:, i] >> shift for i in range(3)]
-    o = [o_u[:, i] >> shift for i in range(3)]
-    a = [(a_u[:, i] >> shift) << k.check_frac for i in range(3)]
-    bad = _beyond(n[0] * n[0] + n[1] * n[1] + n[2] * n[2], k.check_one_c2, k)
-    bad |= _beyond(o[0] * o[0] + o[1] * o[1] + o[2] * o[2], k.check_one_c2, k)
-    bad |= _beyond(n[0] * o[0] + n[1] * o[1] + n[2] * o[2], 0, k)
-    bad |= _beyond(n[1] * o[2] - n[2] * o[1] - a[0], 0, k)
-    bad |= _beyond(n[2] * o[0] - n[0] * o[2] - a[1], 0, k)
-    bad |= _beyond(n[0] * o[1] - n[1] * o[0] - a[2], 0, k)
-    return bad
-
-
-def _atan2_angle(y, x, k: Constants):
-    """(angle_a, zero): cordic_atan2 without the magnitude (which the solver never uses)."""
-    angle_a, _, _, zero = _atan2_core(y, x, k)
-    return angle_a, zero
 
 
 def solve_batch(k: Constants, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a):

@@ -101,8 +101,8 @@ def edge_poses(k: Constants) -> PoseBatch:
     return concat(directed_poses(k), _more_edges(k))
 
 
-def _more_edges(k: Constants) -> PoseBatch:
-    arm = k.arm
+def _real_edges(arm) -> list:
+    """The float edge poses (p, a, n, o) in cm / unit vectors (not yet normalised)."""
     a1, a4, d1, d5 = arm.a[0], arm.a[3], arm.d[0], arm.d[4]
     real = []  # (p, a, n, o) in cm / unit vectors
 
@@ -145,6 +145,28 @@ def _more_edges(k: Constants) -> PoseBatch:
         add(p, (0.0 * c1 - 0.99 * s1, 0.99 * c1, 0.141))
         add(p, (c1, s1, 0), (0, 0, 1), (0, 0, -1))  # n, o with no component: q5 invalid
         add(p, (c1, s1, 0), (0, 0, 0), (0, 0, 0))
+    return real
+
+
+def _raw_word_rows(k: Constants, base: np.ndarray) -> np.ndarray:
+    """(m, 13) raw word rows (p, a, n, o, q5): zeros, full scale, every input slot of ``base`` set
+    to each awkward word, and random rows of awkward and of any words."""
+    lo, hi, one, pi = k.word_min, k.word_max, k.one_u, k.pi_a
+    raw = [np.zeros(13, dtype=np.int64), np.full(13, lo), np.full(13, hi)]
+    for slot in range(13):
+        for value in (lo, hi, 0, -1, 1, one, -one):
+            row = base.copy()
+            row[slot] = value
+            raw.append(row)
+    specials = np.array([lo, lo + 1, -one, -1, 0, 1, one, hi - 1, hi, pi, -pi])
+    rng = np.random.default_rng(11)
+    raw.extend(rng.choice(specials, size=(300, 13)))
+    raw.extend(rng.integers(lo, hi + 1, size=(200, 13)))
+    return np.array(raw, dtype=np.int64)
+
+
+def _more_edges(k: Constants) -> PoseBatch:
+    real = _real_edges(k.arm)
     cols = [np.array([r[i] for r in real], dtype=float) for i in range(4)]
     norm = lambda v: v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)  # noqa: E731
     p_w, a_w, n_w, o_w = pose_words(k.cfg, cols[0], norm(cols[1]), norm(cols[2]), norm(cols[3]))[:4]
@@ -165,17 +187,7 @@ def _more_edges(k: Constants) -> PoseBatch:
     o_w = np.concatenate([o_w, lsb_cases[:, 9:12]])
     q5 = np.concatenate([q5, np.zeros(len(lsb_cases), dtype=np.int64)])
     base = np.concatenate([p_w[-1], a_w[-1], n_w[-1], o_w[-1], [pi // 3]])  # a valid-ish pose
-    raw = [np.zeros(13, dtype=np.int64), np.full(13, lo), np.full(13, hi)]
-    for slot in range(13):
-        for value in (lo, hi, 0, -1, 1, one, -one):
-            row = base.copy()
-            row[slot] = value
-            raw.append(row)
-    specials = np.array([lo, lo + 1, -one, -1, 0, 1, one, hi - 1, hi, pi, -pi])
-    rng = np.random.default_rng(11)
-    raw.extend(rng.choice(specials, size=(300, 13)))
-    raw.extend(rng.integers(lo, hi + 1, size=(200, 13)))
-    raw = np.array(raw, dtype=np.int64)
+    raw = _raw_word_rows(k, base)
     p_w = np.concatenate([p_w, raw[:, 0:3]])
     a_w = np.concatenate([a_w, raw[:, 3:6]])
     n_w = np.concatenate([n_w, raw[:, 6:9]])

