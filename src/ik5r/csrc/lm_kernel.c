@@ -60,9 +60,10 @@ static inline void sin_cos_n(int n, const double *x, double *s_out, double *c_ou
 
 /* frames + jacobian of chain.py: tool R, p and the geometric Jacobian (6 x n). */
 static void forward(const lm_chain *c, int n, const double *q, double R[3][3], double p[3],
-                    double J[6][LM_MAX_JOINTS]) {
-    double col[3][3], org[LM_MAX_JOINTS][3], ax[LM_MAX_JOINTS][3], cosv[LM_MAX_JOINTS], sinv[LM_MAX_JOINTS];
-    double angle[LM_MAX_JOINTS];
+                    double J[LM_MAX_TASK][LM_MAX_JOINTS], double w) {
+    /* zeroed: GCC's unrolled loops otherwise see maybe-uninitialized entries beyond n */
+    double col[3][3], org[LM_MAX_JOINTS][3] = {{0}}, ax[LM_MAX_JOINTS][3] = {{0}};
+    double cosv[LM_MAX_JOINTS] = {0}, sinv[LM_MAX_JOINTS] = {0}, angle[LM_MAX_JOINTS] = {0};
     int i, j, k;
     LM_UNROLL
     for (i = 0; i < n; i++) angle[i] = c->offset[i] + c->scale[i] * q[i]; /* unused if prismatic */
@@ -122,12 +123,51 @@ static void forward(const lm_chain *c, int n, const double *q, double R[3][3], d
             J[1][i] = s * (z[2] * d[0] - z[0] * d[2]);
             J[2][i] = s * (z[0] * d[1] - z[1] * d[0]);
             LM_UNROLL
-            for (k = 0; k < 3; k++) J[3 + k][i] = s * z[k];
+            for (k = 0; k < 3; k++) J[3 + k][i] = w * (s * z[k]);
         }
     }
 }
 
 static double chord_angle(double chord) { return 2.0 * asin(fmin(chord / 2.0, 1.0)); }
+
+/* atan2(y, x) for y >= 0, within an ulp: fdlibm's atan (four reduction intervals, an 11-term
+ * polynomial), inlined: libm's atan2 was a tenth of the run time. */
+static double atan2_upper(double y, double x) {
+    static const double HI[4] = {4.63647609000806093515e-01, 7.85398163397448278999e-01,
+                                 9.82793723247329054082e-01, 1.57079632679489655800e+00};
+    static const double LO[4] = {2.26987774529616870924e-17, 3.06161699786838301793e-17,
+                                 1.39033110312309984516e-17, 6.12323399573676603587e-17};
+    static const double T[11] = {3.33333333333329318027e-01, -1.99999999998764832476e-01,
+                                 1.42857142725034663711e-01, -1.11111104054623557880e-01,
+                                 9.09088713343650656196e-02, -7.69187620504482999495e-02,
+                                 6.66107313738753120669e-02, -5.83357013379057348645e-02,
+                                 4.97687799461593236017e-02, -3.65315727442169155270e-02,
+                                 1.62858201153657823623e-02};
+    static const double PI_HI = 3.1415926535897931160e+00, PI_LO = 1.2246467991473531772e-16;
+    double t, z, w, s1, s2, r;
+    int id;
+    if (!(y >= 0.0) || !(fabs(x) < 1e300) || !(y < 1e300)) return atan2(y, x); /* NaN, inf: libm */
+    if (y == 0.0) return x < 0.0 || (x == 0.0 && signbit(x)) ? PI_HI : 0.0;
+    if (x == 0.0) return 0.5 * PI_HI;
+    t = y / fabs(x);
+    if (t > 1e18) return 0.5 * PI_HI; /* as libm to rounding */
+    if (t < 0.4375) {
+        id = -1;
+    } else if (t < 1.1875) {
+        if (t < 0.6875) { id = 0; t = (2.0 * t - 1.0) / (2.0 + t); }
+        else { id = 1; t = (t - 1.0) / (t + 1.0); }
+    } else if (t < 2.4375) {
+        id = 2; t = (t - 1.5) / (1.0 + 1.5 * t);
+    } else {
+        id = 3; t = -1.0 / t;
+    }
+    z = t * t;
+    w = z * z;
+    s1 = z * (T[0] + w * (T[2] + w * (T[4] + w * (T[6] + w * (T[8] + w * T[10])))));
+    s2 = w * (T[1] + w * (T[3] + w * (T[5] + w * (T[7] + w * T[9]))));
+    r = id < 0 ? t - t * (s1 + s2) : HI[id] - ((t * (s1 + s2) - LO[id]) - t);
+    return x > 0.0 ? r : PI_HI - (r - PI_LO);
+}
 
 /* numeric.rotation_log: rotation vector of Rerr (axis times angle in [0, pi]). */
 static void rotation_log(double Rerr[3][3], double out[3]) {
@@ -138,7 +178,7 @@ static void rotation_log(double Rerr[3][3], double out[3]) {
     v[2] = 0.5 * (Rerr[1][0] - Rerr[0][1]);
     s = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     c = 0.5 * (Rerr[0][0] + Rerr[1][1] + Rerr[2][2] - 1.0);
-    angle = atan2(s, c);
+    angle = atan2_upper(s, c);
     f = s > 1e-300 ? angle / s : 1.0;
     for (k = 0; k < 3; k++) out[k] = v[k] * f;
     if (c < 0 && s < 1e-6) { /* sin ~ 0: the axis is the largest column of (R + I), sign from v */
@@ -159,15 +199,13 @@ static void rotation_log(double Rerr[3][3], double out[3]) {
 /* numeric._evaluate: FK, weighted task error and Jacobian, residuals, cost, for target i. */
 static void evaluate(const lm_chain *c, int n, const double *tp, const double *tR, const double *ta,
                      const double *q, lm_eval *ev) {
-    double J[6][LM_MAX_JOINTS], d2 = 0.0;
+    double d2 = 0.0;
     int i, j, k, m = task_rows(c->mode);
-    forward(c, n, q, ev->R, ev->p, J);
+    forward(c, n, q, ev->R, ev->p, ev->J, c->mode == LM_POSE ? c->weight : 1.0); /* J: weighted in pose mode */
     LM_UNROLL
     for (k = 0; k < 3; k++) {
         ev->e[k] = tp[k] - ev->p[k];
         d2 += ev->e[k] * ev->e[k];
-        LM_UNROLL
-        for (i = 0; i < n; i++) ev->J[k][i] = J[k][i];
     }
     ev->pos = sqrt(d2);
     if (c->mode == LM_POSE) {
@@ -181,11 +219,7 @@ static void evaluate(const lm_chain *c, int n, const double *tp, const double *t
             }
         rotation_log(Rerr, er);
         LM_UNROLL
-        for (k = 0; k < 3; k++) {
-            ev->e[3 + k] = c->weight * er[k];
-            LM_UNROLL
-            for (i = 0; i < n; i++) ev->J[3 + k][i] = c->weight * J[3 + k][i];
-        }
+        for (k = 0; k < 3; k++) ev->e[3 + k] = c->weight * er[k];
         ev->rot = chord_angle(sqrt(f2) / sqrt(2.0));
     } else if (c->mode == LM_DIRECTION) {
         double z[3] = {ev->R[0][2], ev->R[1][2], ev->R[2][2]}, f2 = 0.0;
@@ -196,7 +230,7 @@ static void evaluate(const lm_chain *c, int n, const double *tp, const double *t
         }
         LM_UNROLL
         for (i = 0; i < n; i++) { /* Jw x z */
-            double w0 = J[3][i], w1 = J[4][i], w2 = J[5][i];
+            double w0 = ev->J[3][i], w1 = ev->J[4][i], w2 = ev->J[5][i];
             ev->J[3][i] = c->weight * (w1 * z[2] - w2 * z[1]);
             ev->J[4][i] = c->weight * (w2 * z[0] - w0 * z[2]);
             ev->J[5][i] = c->weight * (w0 * z[1] - w1 * z[0]);
@@ -251,7 +285,7 @@ static void ldl_solve(double A[LM_MAX_JOINTS][LM_MAX_JOINTS], double *b, int k) 
 
 /* numeric._step: damped step h and g = J^T e; returns the predicted decrease. */
 static double damped_step(const lm_eval *ev, int m, int n, double mu, double *h) {
-    double A[LM_MAX_JOINTS][LM_MAX_JOINTS], g[LM_MAX_JOINTS], pred = 0.0;
+    double A[LM_MAX_JOINTS][LM_MAX_JOINTS] = {{0}}, g[LM_MAX_JOINTS] = {0}, pred = 0.0; /* zeroed: as in forward */
     int i, j, r;
     LM_UNROLL
     for (i = 0; i < n; i++) {
@@ -310,8 +344,10 @@ static void clamp_joints(const lm_chain *c, int n, double *q) {
     int i;
     LM_UNROLL
     for (i = 0; i < n; i++) {
-        if (c->kind[i] == LM_WRAPPED)
-            q[i] = c->lower[i] + py_mod(q[i] - c->lower[i], 2.0 * LM_PI);
+        if (c->kind[i] == LM_WRAPPED) { /* fmod only when out of the turn: fmod(t, b) = t in [0, b) */
+            double t = q[i] - c->lower[i];
+            q[i] = c->lower[i] + (t >= 0.0 && t < 2.0 * LM_PI ? t : py_mod(t, 2.0 * LM_PI));
+        }
         else
             q[i] = fmin(fmax(q[i], c->lower[i]), c->upper[i]);
     }
