@@ -13,13 +13,6 @@ process, one core each; ik5r and every ik_LM variant run ``--repeat`` times, int
 see the same background load, and the median of each is kept. Writes bench_arms.json / bench_arms.md.
 """
 
-NOTE = ("ik5r: `multistart.solve` in pose mode, one solution per pose, the given start first, then rounds of "
-        "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-10 (C kernel, one core). "
-        "ik_LM: roboticstoolbox's C++ `ik_LM` (Chan's damping, ilimit 30, slimit 100 random restarts, joint "
-        "limits) on an ETS robot of the same chain; with its default tol 1e-6 it stops short of 1e-9, so the "
-        "ratio that counts is against tol 1e-20 (at least as many poses solved to 1e-9). Solved: ik5r's FK of "
-        "the answer within 1e-9 cm and 1e-9 rad. CPU times, median of the interleaved runs.")
-
 from __future__ import annotations
 
 import argparse
@@ -36,6 +29,12 @@ from .chain import Chain, fk, load_chain, random_joints, shipped_arm
 
 ARMS = ("toz-6r", "puma560")
 TOL = 1e-9
+NOTE = ("ik5r: `multistart.solve` in pose mode, one solution per pose, the given start first, then rounds of "
+        "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-10 (C kernel, one core). "
+        "ik_LM: roboticstoolbox's C++ `ik_LM` (Chan's damping, ilimit 30, slimit 100 random restarts, joint "
+        "limits) on an ETS robot of the same chain; with its default tol 1e-6 it stops short of 1e-9, so the "
+        "ratio that counts is against tol 1e-20 (at least as many poses solved to 1e-9). Solved: ik5r's FK of "
+        "the answer within 1e-9 cm and 1e-9 rad. CPU times, median of the interleaved runs.")
 
 
 def _rtb_robot(chain: Chain):
