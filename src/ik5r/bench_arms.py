@@ -30,7 +30,7 @@ from .chain import Chain, fk, load_chain, random_joints, shipped_arm
 ARMS = ("toz-6r", "puma560")
 TOL = 1e-9
 NOTE = ("ik5r: `multistart.solve` in pose mode, one solution per pose, the given start first, then rounds of "
-        "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-10 (C kernel, one core). "
+        "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-11 (C kernel, one core). "
         "ik_LM: roboticstoolbox's C++ `ik_LM` (Chan's damping, ilimit 30, slimit 100 random restarts, joint "
         "limits) on an ETS robot of the same chain; with its default tol 1e-6 it stops short of 1e-9, so the "
         "ratio that counts is against tol 1e-20 (at least as many poses solved to 1e-9). Solved: ik5r's FK of "

@@ -30,7 +30,8 @@ STATUS_NAMES = ("ok", "not_converged", "singular", "unreachable", "invalid")
 OK, NOT_CONVERGED, SINGULAR, UNREACHABLE, INVALID = range(5)
 TOL_CM = 1e-9
 TOL_RAD = 1e-9
-_STOP = 1e-10  # iterate a little past the tolerance: a margin of 10 for FK rounding elsewhere
+_STOP = 1e-11  # iterate past the tolerance: a margin for FK rounding elsewhere, and --all needs it: at 1e-10
+# the joints of an ill-conditioned pose (PUMA near a shoulder singularity) spread over 1e-6, DISTINCT
 _CLOSE = 1e-3  # residual (cm, rad) under which a start gets _EXTRA times the iterations
 _EXTRA = 8
 _HOPELESS = 1.0  # residual (cm, rad) of a start given up after _GIVE_UP steps: on Toz's 6R 95% of
