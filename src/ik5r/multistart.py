@@ -17,10 +17,12 @@ import numpy as np
 
 from . import lmkernel
 from . import numeric as nm
+from . import start_table
 from .chain import Chain
 
 DISTINCT = 1e-6
 WARM_DAMPING = 1e-6  # initial LM damping (relative) from a start known to be close
+TABLE_DAMPING = 1e-3  # initial LM damping from the start table's entry (PUMA 560: 10 steps against 12 at 0.1)
 DEFAULT_STARTS = {"first": 32, "all": 128}
 _ROUNDS = (1,) * 8 + (2, 4, 8)  # starts per pose in successive rounds of the first-solution search:
 # one at a time while many poses are open (a wider round runs starts past the one that converges:
@@ -64,6 +66,16 @@ def _round_starts(chain: Chain, keys: np.ndarray, poses: np.ndarray, first: int,
     if q0 is not None and first == 0:
         q0 = np.asarray(q0, dtype=np.float64)
         q[:, 0] = q0[poses] if q0.ndim == 2 else q0
+    return q
+
+
+def _table_starts(chain, targets, keys, todo) -> np.ndarray:
+    """(N, n) first starts: the start table's entry of each valid pose's cell (:mod:`ik5r.start_table`),
+    start 0 of the uniform draw where the cell is empty (or the pose invalid)."""
+    q = _uniform(chain, keys, 0, 1)[:, 0]
+    if len(todo):
+        near, found = start_table.table_for(chain, targets.mode).lookup(targets.take(todo))
+        q[todo[found]] = near[found]
     return q
 
 
@@ -190,11 +202,15 @@ def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int
 
 
 def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, warm=False,
-                **kw) -> nm.Solutions:
+                table=True, **kw) -> nm.Solutions:
     """One solution per pose: the first start (in order) that converges. ``warm``: q0 is close to
-    the solution (e.g. the previous point of a path): its first step is barely damped."""
+    the solution (e.g. the previous point of a path): its first step is barely damped. ``table``
+    (when q0 is not given): start 0 is the start table's entry of the pose's cell."""
     todo, rejected = _prechecked(chain, targets)
     keys = pose_keys(targets, seed)
+    first_damping = {"damping": WARM_DAMPING} if warm else {}
+    if q0 is None and table:
+        q0, first_damping = _table_starts(chain, targets, keys, todo), {"damping": TABLE_DAMPING}
     n = chain.n
     best_q = np.full((len(todo), n), np.nan)
     best_pos = np.full(len(todo), np.inf)
@@ -211,7 +227,7 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         qs = _round_starts(chain, keys, todo[open_], begin, width, q0)
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
                                        qs.reshape(-1, n), polish=begin == 0,
-                                       **({"damping": WARM_DAMPING} if warm and begin == 0 else {}), **kw)
+                                       **(first_damping if begin == 0 else {}), **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
         any_conv = conv.any(axis=1)
@@ -231,10 +247,10 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
 
 
 def solve(chain: Chain, targets: nm.Targets, *, all_solutions=False, starts=None, q0=None, seed=0, warm=False,
-          **kw):
+          table=True, **kw):
     """Numeric IK of a batch; see the module docstring."""
     if starts is None:
         starts = DEFAULT_STARTS["all" if all_solutions else "first"]
     if all_solutions:
         return solve_all(chain, targets, starts, q0=q0, seed=seed, **kw)
-    return solve_first(chain, targets, starts, q0=q0, seed=seed, warm=warm and q0 is not None, **kw)
+    return solve_first(chain, targets, starts, q0=q0, seed=seed, warm=warm and q0 is not None, table=table, **kw)

@@ -1,0 +1,94 @@
+"""A table of first starts for :mod:`ik5r.multistart`: joint vectors whose FK lands near each target.
+
+Built once per arm and mode (cached in the process): ``SIZE`` joint vectors drawn uniformly in the
+limits from a fixed seed, their FK, and a grid over the task space: the tool point in ``POINT_CELLS``
+cells per axis of the table's bounding box, and (pose mode) the orientation as a unit quaternion
+(sign fixed by w >= 0) in ``TURN_CELLS`` cells per component, or (direction mode) the tool z axis in
+``TURN_CELLS`` cells per component. Each occupied cell keeps its first table entry. A target's start
+is the entry of its own cell, found by a sorted-array search (vectorised, about 0.5 us per pose; a
+k-d tree on the same features costs 4 to 10 us per pose and gives no better starts); a target whose
+cell is empty gets none (the caller draws a uniform start instead). The lookup depends on the
+target alone, so a pose gets the same start whatever else is in the batch.
+
+Why: from a uniform start LM needs about 14 steps on the PUMA 560 and 7% of starts fail; from the
+table's start (in the same branch and within a cell of the target) about 10, and 1.5% fail.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from . import numeric as nm
+from .chain import Chain, fk
+
+SIZE = 50_000
+POINT_CELLS = 6
+TURN_CELLS = 4
+_SEED = 0x5EED7AB1E
+_CACHE: dict[tuple, "StartTable"] = {}
+
+
+def _turn_features(mode: str, R, a) -> np.ndarray | None:
+    """(N, k) orientation features in [-1, 1]: the quaternion (w >= 0) in pose mode, the tool z
+    axis in direction mode, none in position mode."""
+    if mode == "pose":
+        quat = Rotation.from_matrix(R).as_quat()
+        return quat * np.where(quat[:, 3:] < 0.0, -1.0, 1.0)
+    if mode == "direction":
+        return a
+    return None
+
+
+class StartTable:
+    """The table of one arm and mode; ``lookup(targets)`` gives (starts (N, n), found (N,))."""
+
+    def __init__(self, chain: Chain, mode: str, size: int = SIZE):
+        if mode not in nm.MODES:
+            raise ValueError(f"mode must be one of {nm.MODES}, got {mode!r}")
+        self.mode = mode
+        unit = np.random.default_rng(_SEED).random((size, chain.n))
+        q = chain.lower + unit * (chain.upper - chain.lower)
+        R, p = fk(chain, q)
+        self.low = p.min(axis=0)
+        self.span = np.maximum(p.max(axis=0) - self.low, 1e-12)
+        keys = self._keys(p, R, R[:, :, 2])
+        self.keys, first = np.unique(keys, return_index=True)
+        self.q = q[first]
+
+    def _keys(self, p, R, a) -> np.ndarray:
+        cell = np.clip(((p - self.low) / self.span * POINT_CELLS).astype(np.int64), 0, POINT_CELLS - 1)
+        key = np.zeros(len(p), dtype=np.int64)
+        for column in cell.T:
+            key = key * POINT_CELLS + column
+        turn = _turn_features(self.mode, R, a)
+        if turn is not None:
+            for column in np.clip(((turn + 1.0) * 0.5 * TURN_CELLS).astype(np.int64), 0, TURN_CELLS - 1).T:
+                key = key * TURN_CELLS + column
+        return key
+
+    def lookup(self, targets: nm.Targets) -> tuple[np.ndarray, np.ndarray]:
+        """Each target's start (the entry of its cell; NaN where the cell is empty) and whether found."""
+        if targets.mode != self.mode:
+            raise ValueError(f"table of mode {self.mode}, targets of mode {targets.mode}")
+        p = np.nan_to_num(targets.p)  # invalid rows are rejected before the lookup is used
+        R = None if targets.R is None else np.nan_to_num(targets.R)
+        a = None if targets.a is None else np.nan_to_num(targets.a)
+        key = self._keys(p, R, a)
+        at = np.minimum(np.searchsorted(self.keys, key), len(self.keys) - 1)
+        found = self.keys[at] == key
+        return np.where(found[:, None], self.q[at], np.nan), found
+
+
+def _chain_key(chain: Chain, mode: str) -> tuple:
+    parts = [np.asarray(c).tobytes() for c in chain.consts]
+    return (mode, chain.prismatic, chain.offset, chain.scale, chain.lower.tobytes(), chain.upper.tobytes(),
+            tuple(parts))
+
+
+def table_for(chain: Chain, mode: str) -> StartTable:
+    """The cached table of this arm (by its numbers) and mode, built on first use."""
+    key = _chain_key(chain, mode)
+    if key not in _CACHE:
+        _CACHE[key] = StartTable(chain, mode)
+    return _CACHE[key]
