@@ -19,6 +19,8 @@ def test_each_start_lands_in_its_targets_cell(mode):
     R, p = fk(chain, random_joints(chain, 400, np.random.default_rng(5)))
     table = StartTable(chain, mode)
     q, found = table.lookup(_targets(mode, R, p))
+    assert np.isfinite(q[found, 1]).mean() > 0.8  # most cells hold a second entry
+    q = q[:, 0]
     assert found.mean() > 0.9
     assert np.isnan(q[~found]).all() and np.isfinite(q[found]).all()
     R2, p2 = fk(chain, q[found])
@@ -41,10 +43,10 @@ def test_table_starts_converge_more_often_in_fewer_steps(name):
     rng = np.random.default_rng(11)
     R, p = fk(chain, random_joints(chain, 2000, rng))
     targets = nm.Targets("pose", p, R)
-    keys = multistart.pose_keys(targets, 0)
     rows = np.arange(len(p))
-    table_q = multistart._table_starts(chain, targets, keys, rows)
     uniform_q = random_joints(chain, len(p), rng)
+    table_q = multistart._table_starts(chain, targets, rows)[:, 0]
+    table_q = np.where(np.isnan(table_q), uniform_q, table_q)  # an empty cell: a uniform start, as solve does
     *_, conv_t, _, steps_t = lmkernel.levenberg_marquardt(chain, targets, table_q, rows=rows, return_iterations=True,
                                                           damping=multistart.TABLE_DAMPING)
     *_, conv_u, _, steps_u = lmkernel.levenberg_marquardt(chain, targets, uniform_q, rows=rows, return_iterations=True)

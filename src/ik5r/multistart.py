@@ -59,24 +59,30 @@ def _uniform(chain: Chain, keys: np.ndarray, first: int, width: int) -> np.ndarr
     return chain.lower + unit * (chain.upper - chain.lower)
 
 
-def _round_starts(chain: Chain, keys: np.ndarray, poses: np.ndarray, first: int, width: int, q0) -> np.ndarray:
+def _round_starts(chain: Chain, keys: np.ndarray, poses: np.ndarray, first: int, width: int, q0,
+                  near=None) -> np.ndarray:
     """(len(poses), width, n) starts first .. first + width - 1 of the given poses (drawn only for
-    the poses still open: a pose solved by its first start costs no draw); start 0 is q0 when given."""
+    the poses still open: a pose solved by its first start costs no draw); start k < DEPTH is the
+    start table's entry ``near`` (N, DEPTH, n) where it has one; start 0 is q0 when given."""
     q = _uniform(chain, keys[poses], first, width)
+    if near is not None:
+        for k in range(first, min(first + width, near.shape[1])):
+            entry = near[poses, k]
+            has = ~np.isnan(entry[:, 0])
+            q[has, k - first] = entry[has]
     if q0 is not None and first == 0:
         q0 = np.asarray(q0, dtype=np.float64)
         q[:, 0] = q0[poses] if q0.ndim == 2 else q0
     return q
 
 
-def _table_starts(chain, targets, keys, todo) -> np.ndarray:
-    """(N, n) first starts: the start table's entry of each valid pose's cell (:mod:`ik5r.start_table`),
-    start 0 of the uniform draw where the cell is empty (or the pose invalid)."""
-    q = _uniform(chain, keys, 0, 1)[:, 0]
+def _table_starts(chain, targets, todo) -> np.ndarray:
+    """(N, DEPTH, n): the start table's entries of each valid pose's cell (:mod:`ik5r.start_table`),
+    NaN where it has none (or the pose is invalid)."""
+    near = np.full((len(targets), start_table.DEPTH, chain.n), np.nan)
     if len(todo):
-        near, found = start_table.table_for(chain, targets.mode).lookup(targets.take(todo))
-        q[todo[found]] = near[found]
-    return q
+        near[todo] = start_table.table_for(chain, targets.mode).lookup(targets.take(todo))[0]
+    return near
 
 
 def _rank_lost_at(chain, targets, rows, q) -> np.ndarray:
@@ -205,12 +211,10 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
                 table=True, **kw) -> nm.Solutions:
     """One solution per pose: the first start (in order) that converges. ``warm``: q0 is close to
     the solution (e.g. the previous point of a path): its first step is barely damped. ``table``
-    (when q0 is not given): start 0 is the start table's entry of the pose's cell."""
+    (when q0 is not given): the first starts are the start table's entries of the pose's cell."""
     todo, rejected = _prechecked(chain, targets)
     keys = pose_keys(targets, seed)
-    first_damping = {"damping": WARM_DAMPING} if warm else {}
-    if q0 is None and table:
-        q0, first_damping = _table_starts(chain, targets, keys, todo), {"damping": TABLE_DAMPING}
+    near = _table_starts(chain, targets, todo) if q0 is None and table else None
     n = chain.n
     best_q = np.full((len(todo), n), np.nan)
     best_pos = np.full(len(todo), np.inf)
@@ -224,10 +228,12 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         open_ = np.nonzero(~solved)[0]
         if width <= 0 or not len(open_):
             break
-        qs = _round_starts(chain, keys, todo[open_], begin, width, q0)
+        qs = _round_starts(chain, keys, todo[open_], begin, width, q0, near)
+        damping = (WARM_DAMPING if warm and begin == 0 else
+                   TABLE_DAMPING if near is not None and begin < start_table.DEPTH else None)
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
                                        qs.reshape(-1, n), polish=begin == 0,
-                                       **(first_damping if begin == 0 else {}), **kw)
+                                       **({} if damping is None else {"damping": damping}), **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
         any_conv = conv.any(axis=1)
