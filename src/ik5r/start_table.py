@@ -23,10 +23,10 @@ import numpy as np
 from . import numeric as nm
 from .chain import Chain, fk
 
-SIZE = 50_000
+SIZE = 100_000
 POINT_CELLS = 6
 TURN_CELLS = 4
-DEPTH = 2  # entries kept per cell: the first start of a pose, and its second
+DEPTH = 4  # entries kept per cell: the first starts of a pose
 _SEED = 0x5EED7AB1E
 _CACHE: dict[tuple, "StartTable"] = {}
 
@@ -56,10 +56,10 @@ def _turn_features(mode: str, R, a) -> np.ndarray | None:
 class StartTable:
     """The table of one arm and mode; ``lookup(targets)`` gives (starts (N, n), found (N,))."""
 
-    def __init__(self, chain: Chain, mode: str, size: int = SIZE):
+    def __init__(self, chain: Chain, mode: str, size: int | None = None):
         if mode not in nm.MODES:
             raise ValueError(f"mode must be one of {nm.MODES}, got {mode!r}")
-        self.mode = mode
+        self.mode, size = mode, SIZE if size is None else size
         unit = np.random.default_rng(_SEED).random((size, chain.n))
         q = chain.lower + unit * (chain.upper - chain.lower)
         R, p = fk(chain, q)
