@@ -31,9 +31,10 @@ from .chain import Chain, fk, load_chain, random_joints, shipped_arm
 
 ARMS = ("toz-6r", "puma560")
 TOL = 1e-9
-NOTE = ("ik5r: `multistart.solve` in pose mode, one solution per pose, its own seeding: first the start table's "
-        "entry of the pose's cell (`ik5r.start_table`: 50,000 FK samples of the arm, built once per arm and "
-        "process, {build}; the lookup is inside the timed solve), then rounds of "
+NOTE = ("ik5r: `multistart.solve` in pose mode, one solution per pose, its own seeding (ik_LM and ikpy keep "
+        "the given random first start): first the start table's entries of the pose's cell (`ik5r.start_table`: "
+        "{size:,} FK samples of the arm, up to {depth} per cell, built once per arm and process, {build}; the "
+        "lookup is inside the timed solve), then rounds of "
         "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-11 (C kernel, one core); "
         "the row 'incl. table build' charges the whole build to this one batch. "
         "ik_LM: roboticstoolbox's C++ `ik_LM` (Chan's damping, ilimit 30, slimit 100 random restarts, joint "
@@ -197,7 +198,8 @@ def table(result: dict) -> str:
             lines.append(f"| {r['arm']} | {label} | {s['poses']:,} | {s['success']:.3%}{own} | "
                          f"{s['max_pos_err_cm']:.1e} | {s['poses_per_s']:,.0f} | {ratio} |")
     builds = ", ".join(f"{r['arm']} {r['table_build_s'] * 1e3:.0f} ms" for r in result["arms"])
-    return "\n".join(lines + ["", NOTE.format(build=f"build CPU time {builds}")])
+    return "\n".join(lines + ["", NOTE.format(build=f"build CPU time {builds}", size=start_table.SIZE,
+                                                 depth=start_table.DEPTH)])
 
 
 def main(argv=None) -> int:
