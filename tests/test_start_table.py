@@ -63,3 +63,25 @@ def test_quaternion_matches_scipy():
     want = np.roll(rot.as_quat(), 1, axis=1)  # scipy: x, y, z, w
     want *= np.where(want[:, :1] < 0, -1.0, 1.0)
     assert np.allclose(_quaternion(rot.as_matrix()), want, atol=1e-12)
+
+
+def test_table_is_stored_on_disk_and_loads_the_same_numbers(tmp_path, monkeypatch):
+    from ik5r import start_table
+
+    monkeypatch.setenv("IK5R_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(start_table, "_CACHE", {})
+    chain = load_chain(shipped_arm("puma560"))
+    built = start_table.table_for(chain, "direction")
+    stored = list(tmp_path.glob("start-table-*.npz"))
+    assert len(stored) == 1
+    monkeypatch.setattr(start_table, "_CACHE", {})
+    loaded = start_table.table_for(chain, "direction")
+    assert loaded is not built
+    for name in start_table._STORED:
+        assert np.array_equal(getattr(loaded, name), getattr(built, name), equal_nan=True)
+    R, p = fk(chain, random_joints(chain, 50, np.random.default_rng(2)))
+    targets = _targets("direction", R, p)
+    assert np.array_equal(loaded.lookup(targets)[0], built.lookup(targets)[0], equal_nan=True)
+    stored[0].write_bytes(b"not a table")  # a damaged file is rebuilt, not trusted
+    monkeypatch.setattr(start_table, "_CACHE", {})
+    assert np.array_equal(start_table.table_for(chain, "direction").q, built.q, equal_nan=True)
