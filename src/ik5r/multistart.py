@@ -1,7 +1,8 @@
 """Many seeded starts per pose for :mod:`ik5r.numeric`: the first solution, or every distinct one.
 
 ``solve(chain, targets, starts=S)`` runs Levenberg-Marquardt from S joint vectors per pose (start 0
-is ``q0`` when given, the others uniform in the limits). Start k of a pose is a fixed function of
+is ``q0`` when given; for one solution per pose without it, the first starts are the entries of the
+pose's cell in the arm's start table, :mod:`ik5r.start_table`; the others uniform in the limits). Start k of a pose is a fixed function of
 ``seed``, the pose's own numbers (their float64 bits) and k (a splitmix64 hash): a pose gets the
 same starts, hence the same answer, whatever else is in the batch and wherever it sits in it. With
 ``all_solutions`` every start runs and the converged ones are
