@@ -11,7 +11,7 @@ cell is empty gets none (the caller draws a uniform start instead). The lookup d
 target alone, so a pose gets the same start whatever else is in the batch.
 
 Why: from a uniform start LM needs about 14 steps on the PUMA 560 and 7% of starts fail; from the
-table's start (in the same branch and within a cell of the target) about 9, and 1.3% fail. On
+table's start (within a cell of the target) about 9, and 1.3% fail. On
 Toz's 6R 39% of uniform starts fail, 25% of the table's first, and where that one fails the
 cell's second entry converges 59% of the time against 51% for a uniform start.
 
