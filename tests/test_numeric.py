@@ -132,6 +132,25 @@ def test_numeric_agrees_with_the_closed_form_on_the_5r():
             assert any(_same(qc, qn) for qn in mine), (i, qc, mine)
 
 
+@pytest.mark.parametrize("all_solutions", [False, True])
+def test_answers_do_not_depend_on_the_rest_of_the_batch(all_solutions):
+    """A pose's starts come from its own numbers and the seed: solved alone, among others, or
+    elsewhere in the batch, it gets the same rows; another seed gives other starts."""
+    chain = load_chain(shipped_arm("toz-6r"))
+    R, p = fk(chain, random_joints(chain, 24, np.random.default_rng(11)))
+    targets = nm.Targets("pose", p, R)
+    kw = {"all_solutions": all_solutions, "starts": 12 if all_solutions else None}
+    whole = multistart.solve(chain, targets, **kw)
+    order = np.arange(len(p))[::-1]
+    for part in (np.array([5]), order, np.arange(3, 17)):
+        alone = multistart.solve(chain, targets.take(part), **kw)
+        for j, i in enumerate(part):
+            assert np.array_equal(alone.q[alone.row == j], whole.q[whole.row == i])
+            assert np.array_equal(alone.status[alone.row == j], whole.status[whole.row == i])
+    keys = multistart.pose_keys(targets, 0)
+    assert len(np.unique(keys)) == len(p) and not np.array_equal(keys, multistart.pose_keys(targets, 1))
+
+
 def test_puma_all_finds_eight_solutions():
     chain = load_chain(shipped_arm("puma560"))
     q = random_joints(chain, 12, np.random.default_rng(4))

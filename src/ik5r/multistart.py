@@ -1,8 +1,11 @@
 """Many seeded starts per pose for :mod:`ik5r.numeric`: the first solution, or every distinct one.
 
 ``solve(chain, targets, starts=S)`` runs Levenberg-Marquardt from S joint vectors per pose (start 0
-is ``q0`` when given, the others uniform in the limits from ``numpy.random.default_rng(seed)``, so a
-run is reproducible; in rounds they are drawn only for the poses still open). With ``all_solutions`` every start runs and the converged ones are
+is ``q0`` when given; for one solution per pose without it, the first starts are the entries of the
+pose's cell in the arm's start table, :mod:`ik5r.start_table`; the others uniform in the limits). Start k of a pose is a fixed function of
+``seed``, the pose's own numbers (their float64 bits) and k (a splitmix64 hash): a pose gets the
+same starts, hence the same answer, whatever else is in the batch and wherever it sits in it. With
+``all_solutions`` every start runs and the converged ones are
 de-duplicated (two solutions are the same when every joint differs by less than ``DISTINCT``, angles
 of full-turn joints compared modulo 2 pi); otherwise starts run in rounds, each round only on the
 poses still unsolved, and the first converged start answers. Poses with no converged start get one
@@ -15,35 +18,72 @@ import numpy as np
 
 from . import lmkernel
 from . import numeric as nm
+from . import start_table
 from .chain import Chain
 
 DISTINCT = 1e-6
 WARM_DAMPING = 1e-6  # initial LM damping (relative) from a start known to be close
+TABLE_DAMPING = 1e-3  # initial LM damping from the start table's entry (PUMA 560: 10 steps against 12 at 0.1)
 DEFAULT_STARTS = {"first": 32, "all": 128}
-_ROUNDS = (1, 1, 2, 4, 8)  # starts per pose in successive rounds of the first-solution search: small
-# first rounds, as most poses converge from their first or second start (a wider round wastes starts)
+_ROUNDS = (1,) * 8 + (2, 4, 8)  # starts per pose in successive rounds of the first-solution search:
+# one at a time while many poses are open (a wider round runs starts past the one that converges:
+# on Toz's 6R, where 40% of random starts fail, eight rounds of one are 10% faster than 1, 1, 2, 4, 8)
 _POLISH_AFTER = 4  # starts tried before the close-but-unsolved poses are polished
 
 
-def _starts(chain: Chain, todo: np.ndarray, starts: int, q0, rng) -> np.ndarray:
-    """(len(todo), starts, n) start joint vectors; q0 (n,) for every pose or (N, n) per pose."""
-    q = rng.uniform(chain.lower, chain.upper, size=(len(todo), starts, chain.n))
-    if q0 is not None:
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+
+
+def _splitmix(x: np.ndarray) -> np.ndarray:
+    """splitmix64's finaliser on uint64 arrays (wrapping arithmetic): a well-mixed 64-bit hash."""
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return x ^ (x >> np.uint64(31))
+
+
+def pose_keys(targets: nm.Targets, seed: int) -> np.ndarray:
+    """(N,) uint64: a hash of seed and each pose's numbers (p, and R or a), the key of its starts."""
+    parts = [targets.p] + [x.reshape(len(targets), -1) for x in (targets.R, targets.a) if x is not None]
+    bits = np.ascontiguousarray(np.concatenate(parts, axis=1), dtype=np.float64).view(np.uint64)
+    key = np.full(len(targets), _splitmix(np.array([seed & (2**64 - 1)], dtype=np.uint64) + _GOLDEN)[0])
+    for column in bits.T:
+        key = _splitmix((key ^ column) + _GOLDEN)
+    return key
+
+
+def _uniform(chain: Chain, keys: np.ndarray, first: int, width: int) -> np.ndarray:
+    """(len(keys), width, n): starts first .. first + width - 1 of each key, uniform in the limits."""
+    index = (np.arange(first, first + width, dtype=np.uint64)[:, None] * np.uint64(chain.n)
+             + np.arange(chain.n, dtype=np.uint64)[None, :] + np.uint64(1))
+    bits = _splitmix(keys[:, None, None] + index[None] * _GOLDEN)
+    unit = (bits >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
+    return chain.lower + unit * (chain.upper - chain.lower)
+
+
+def _round_starts(chain: Chain, keys: np.ndarray, poses: np.ndarray, first: int, width: int, q0,
+                  near=None) -> np.ndarray:
+    """(len(poses), width, n) starts first .. first + width - 1 of the given poses (drawn only for
+    the poses still open: a pose solved by its first start costs no draw); start k < DEPTH is the
+    start table's entry ``near`` (N, DEPTH, n) where it has one; start 0 is q0 when given."""
+    q = _uniform(chain, keys[poses], first, width)
+    if near is not None:
+        for k in range(first, min(first + width, near.shape[1])):
+            entry = near[poses, k]
+            has = ~np.isnan(entry[:, 0])
+            q[has, k - first] = entry[has]
+    if q0 is not None and first == 0:
         q0 = np.asarray(q0, dtype=np.float64)
-        q[:, 0] = q0[todo] if q0.ndim == 2 else q0
+        q[:, 0] = q0[poses] if q0.ndim == 2 else q0
     return q
 
 
-def _round_starts(chain: Chain, poses: np.ndarray, width: int, q0, rng) -> np.ndarray:
-    """(len(poses), width, n) starts of one round, drawn only for the poses still open (a pose
-    solved by its first start costs no draw); start 0 is q0 in the first round when given."""
-    if q0 is None:
-        return rng.uniform(chain.lower, chain.upper, size=(len(poses), width, chain.n))
-    q = np.empty((len(poses), width, chain.n))
-    q0 = np.asarray(q0, dtype=np.float64)
-    q[:, 0] = q0[poses] if q0.ndim == 2 else q0
-    q[:, 1:] = rng.uniform(chain.lower, chain.upper, size=(len(poses), width - 1, chain.n))
-    return q
+def _table_starts(chain, targets, todo) -> np.ndarray:
+    """(N, DEPTH, n): the start table's entries of each valid pose's cell (:mod:`ik5r.start_table`),
+    NaN where it has none (or the pose is invalid)."""
+    near = np.full((len(targets), start_table.DEPTH, chain.n), np.nan)
+    if len(todo):
+        near[todo] = start_table.table_for(chain, targets.mode).lookup(targets.take(todo))[0]
+    return near
 
 
 def _rank_lost_at(chain, targets, rows, q) -> np.ndarray:
@@ -151,8 +191,7 @@ def _prechecked(chain, targets):
 def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, **kw) -> nm.Solutions:
     """Every distinct converged solution of every pose."""
     todo, rejected = _prechecked(chain, targets)
-    rng = np.random.default_rng(seed)
-    qs = _starts(chain, todo, starts, q0, rng)
+    qs = _round_starts(chain, pose_keys(targets, seed), todo, 0, starts, q0)
     rows = np.repeat(todo, starts)
     q, pos, rot, conv, sing = _run(chain, targets, rows, qs.reshape(-1, chain.n), polish=False, **kw)
     close = np.nonzero(~conv & (pos + np.where(np.isnan(rot), 0.0, rot) <= nm._CLOSE))[0]
@@ -170,11 +209,13 @@ def solve_all(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int
 
 
 def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: int = 0, warm=False,
-                **kw) -> nm.Solutions:
+                table=True, **kw) -> nm.Solutions:
     """One solution per pose: the first start (in order) that converges. ``warm``: q0 is close to
-    the solution (e.g. the previous point of a path): its first step is barely damped."""
+    the solution (e.g. the previous point of a path): its first step is barely damped. ``table``
+    (when q0 is not given): the first starts are the start table's entries of the pose's cell."""
     todo, rejected = _prechecked(chain, targets)
-    rng = np.random.default_rng(seed)
+    keys = pose_keys(targets, seed)
+    near = _table_starts(chain, targets, todo) if q0 is None and table else None
     n = chain.n
     best_q = np.full((len(todo), n), np.nan)
     best_pos = np.full(len(todo), np.inf)
@@ -188,10 +229,12 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
         open_ = np.nonzero(~solved)[0]
         if width <= 0 or not len(open_):
             break
-        qs = _round_starts(chain, todo[open_], width, q0 if begin == 0 else None, rng)
+        qs = _round_starts(chain, keys, todo[open_], begin, width, q0, near)
+        damping = (WARM_DAMPING if warm and begin == 0 else
+                   TABLE_DAMPING if near is not None and begin < start_table.DEPTH else None)
         q, pos, rot, conv, sing = _run(chain, targets, np.repeat(todo[open_], width),
                                        qs.reshape(-1, n), polish=begin == 0,
-                                       **({"damping": WARM_DAMPING} if warm and begin == 0 else {}), **kw)
+                                       **({} if damping is None else {"damping": damping}), **kw)
         shape = (len(open_), width)
         conv, score = conv.reshape(shape), (pos + np.where(np.isnan(rot), 0.0, rot)).reshape(shape)
         any_conv = conv.any(axis=1)
@@ -211,10 +254,10 @@ def solve_first(chain: Chain, targets: nm.Targets, starts: int, q0=None, seed: i
 
 
 def solve(chain: Chain, targets: nm.Targets, *, all_solutions=False, starts=None, q0=None, seed=0, warm=False,
-          **kw):
+          table=True, **kw):
     """Numeric IK of a batch; see the module docstring."""
     if starts is None:
         starts = DEFAULT_STARTS["all" if all_solutions else "first"]
     if all_solutions:
         return solve_all(chain, targets, starts, q0=q0, seed=seed, **kw)
-    return solve_first(chain, targets, starts, q0=q0, seed=seed, warm=warm and q0 is not None, **kw)
+    return solve_first(chain, targets, starts, q0=q0, seed=seed, warm=warm and q0 is not None, table=table, **kw)
