@@ -6,7 +6,9 @@ from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from ik5r.fxconfig import Constants
 
-from .common import Datapath, StreamBlock, drop
+from .datapath import Datapath, adders_for
+from .expr import drop
+from .stream_block import StreamBlock
 
 __all__ = ["Sqrt", "add_isqrt", "isqrt_root_bits", "fit"]
 
@@ -108,7 +110,7 @@ class Sqrt(StreamBlock):
     Throughput: ``"pipelined"`` one result per cycle, never stalling: results queue in the output
     FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items (65 in q32 word
     mode, 33 in q18) are inside (see
-    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one digit per cycle, one result every
+    :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one digit per cycle, one result every
     ``latency`` cycles.
 
     Parameters
@@ -131,7 +133,7 @@ class Sqrt(StreamBlock):
         if isinstance(constants, Constants):
             c = constants.cfg
             width = c.width
-            dp = Datapath("sqrt")
+            dp = Datapath("sqrt", adders=adders_for(dsp))
             if radicand_bits is None:
                 if frac is None:
                     frac = c.frac_length
