@@ -36,10 +36,9 @@ class Acos(StreamBlock):
 
     Timing: ``latency`` = 2 + multiplier stages (4 up to 34-bit factors) + (fu + 1) digits + 2
     (rounding to nearest; 0 when truncating) + 4 + iterations + 1 stages, plus 3 for the output FIFO
-    of the pipelined architecture and the register in front of it: pipelined q32 79 cycles, q18 51
-    (iterative: 3 fewer). Throughput: ``"pipelined"`` one result per cycle, never stalling: results
+    of the pipelined architecture and the register in front of it. Throughput: ``"pipelined"`` one result per cycle, never stalling: results
     queue in the output FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items
-    (129 in q32, 65 in q18) are inside (see :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"``
+    are inside (see :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"``
     one square-root digit or micro-rotation per cycle, one result every ``latency`` cycles.
 
     Parameters

@@ -27,7 +27,8 @@ __all__ = ["namespaced", "concat", "compose", "append_chains", "add_selecting"]
 def namespaced(chain: Datapath, prefix: str) -> Datapath:
     """``chain``'s stages seeing only the keys under ``prefix`` (without it); others pass through."""
     size = len(prefix)
-    out = Datapath(chain.name, adders=chain.adders)
+    out = Datapath(chain.name, adders=chain.adders, inputs=[prefix + key for key in chain.inputs],
+                   outputs=[prefix + key for key in chain.outputs])
     out.shapes = {prefix + key: shape for key, shape in chain.shapes.items()}
 
     def split(s):
@@ -171,8 +172,8 @@ def add_selecting(dp: Datapath, name: str, compares: dict, fn, *, registered: bo
 
     ``registered`` (the pipelined core): the compares run one stage earlier, in ``name_cmp``, and
     reach ``fn`` from registers. On ECP5 a compare's carry chain followed by a select as wide as
-    the word took 10.1 ns (the q32w core's critical path at 98.9 MHz); split, each stage is one
-    carry chain or one select behind a register.
+    the word was the pipelined core's critical path (see the records in docs/results/records);
+    split, each stage is one carry chain or one select behind a register.
     """
     if not registered:
         dp.add(name, lambda s: fn(s, {key: compare(s) for key, compare in compares.items()}))

@@ -123,10 +123,35 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     and (xs >> g) < 2**(W+1) is the unsigned multiplicand of 1/K.
     """
     c = k.cfg
-    width, guard, nearest = c.width, c.guard_bits, c.round_nearest
-    add_sub = dp.adders.add_sub
     dp.declare(**atan2_widths(k))
+    dp.add("at_coarse", _coarse(k, dp.adders.add_sub, y=y, x=x))
+    byte_counts, normalise_shift_bytes, normalise_shift_fine = _normalisation(k)
+    dp.add("at_lzc", byte_counts)
+    dp.add("at_norm", normalise_shift_bytes)
+    dp.add("at_norm_fine", normalise_shift_fine)
+    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False, adders=dp.adders), c.iterations)
+    nearest = c.round_nearest
 
+    def angle(s):
+        # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
+        return {"angle": Mux(s["czero"], 0, rshift_round(s["cz"], c.angle_guard_bits, nearest))}
+
+    keep_zero = {"zero": lambda s: s["czero"]} if zero else {}
+
+    if not magnitude:
+        def post(s):
+            out = drop(s, "cx", "cy", "cz", "norm", "czero")
+            out.update(angle(s))
+            out.update({key: fn(s) for key, fn in keep_zero.items()})
+            return out
+        dp.add("at_angle", post)
+        return
+
+    _add_magnitude(dp, k, angle, keep_zero)
+
+
+def _coarse(k: Constants, add_sub, *, y: str, x: str):
+    """The coarse stage of :func:`add_atan2` (``add_sub``: the datapath's adders)."""
     def coarse(s):
         # Rotation by -+90 degrees into the right half-plane; zero flag.
         xv, yv = s[x], s[y]
@@ -141,6 +166,13 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         out["czero"] = (xv == 0) & (yv == 0)
         return out
 
+    return coarse
+
+
+def _normalisation(k: Constants):
+    """The three normalisation stages of :func:`add_atan2`."""
+    c = k.cfg
+    width, guard = c.width, c.guard_bits
     # norm = max(0, W - 1 - bit_length(xs | ones_abs(ys))) in three stages, over bytes of
     # u = v[:W-1] (v = xs | ones_abs(ys)) padded at the LSB end with 1 0..0 to whole bytes (so a
     # zero u counts W - 1): each byte's zero flag and leading-zero count; then the first non-zero
@@ -178,27 +210,14 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         by = s["norm"][:3]
         return dict(s, cx=s["cx"] << by, cy=s["cy"] << by)
 
-    dp.add("at_coarse", coarse)
-    dp.add("at_lzc", byte_counts)
-    dp.add("at_norm", normalise_shift_bytes)
-    dp.add("at_norm_fine", normalise_shift_fine)
-    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False, adders=dp.adders), c.iterations)
+    return byte_counts, normalise_shift_bytes, normalise_shift_fine
 
-    def angle(s):
-        # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
-        return {"angle": Mux(s["czero"], 0, rshift_round(s["cz"], c.angle_guard_bits, nearest))}
 
-    keep_zero = {"zero": lambda s: s["czero"]} if zero else {}
-
-    if not magnitude:
-        def post(s):
-            out = drop(s, "cx", "cy", "cz", "norm", "czero")
-            out.update(angle(s))
-            out.update({key: fn(s) for key, fn in keep_zero.items()})
-            return out
-        dp.add("at_angle", post)
-        return
-
+def _add_magnitude(dp: Datapath, k: Constants, angle, keep_zero):
+    """The magnitude stages of :func:`add_atan2`, the angle (``angle(state)``) and the zero
+    flag (``keep_zero``) computed beside its multiplier."""
+    c = k.cfg
+    width, guard, nearest = c.width, c.guard_bits, c.round_nearest
     # magnitude = sat(rshift_round((xs >> g) * inv_gain, inv_gain_frac + norm)).
     # Rounded: floor((p / 2**(s-1) + 1) / 2) = ((p >> (s-1)) + 1) >> 1, s - 1 = inv_gain_frac - 1 + norm >= 0.
     def product_side(s):
@@ -266,11 +285,11 @@ class Atan2(StreamBlock):
     per byte, normalising shift by whole bytes, then by the rest, micro-rotations, then the angle
     rounding in parallel with the 1/K multiplier (operand register, DSP partial products, two adder
     levels), the de-normalising shift (two stages) and the magnitude rounding/saturation), plus 3
-    for the output FIFO of the pipelined architecture and the register in front of it. Pipelined at
-    32 bits: 40 / 46 cycles; at 18 bits: 26 / 32 (iterative: 3 fewer). Throughput
+    for the output FIFO of the pipelined architecture and the register in front of it (each
+    config's figures: the port map JSON, ``latency_cycles``). Throughput
     (``cycles_per_result``): ``"pipelined"`` one result per cycle; the pipeline never stalls, its
     results queue in an output FIFO while ``o`` is held, and ``i.ready`` drops only when
-    ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
+    ``capacity`` items are inside (see
     :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and one
     item in flight, a new item accepted when idle or as the previous result leaves: one result every
     ``latency`` cycles.
@@ -292,7 +311,8 @@ class Atan2(StreamBlock):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
             c = constants.cfg
-            dp = Datapath("atan2", adders=adders_for(dsp))
+            dp = Datapath("atan2", adders=adders_for(dsp), inputs=("y", "x"),
+                          outputs=("angle", "magnitude", "zero") if magnitude else ("angle", "zero"))
             add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
             word = signed(c.width)
             in_fields = {"y": (word, None, "ordinate, same format as x"),
@@ -341,10 +361,10 @@ class Rotate(StreamBlock):
     iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
     partial products, adder levels), gain rounding, micro-rotations (pipelined: iterations + 1
     skewed stages, see :func:`skewed_rotation`), guard rounding, saturation), plus 3 for the
-    output FIFO of the pipelined architecture and the register in front of it: pipelined at 32
-    bits 45 cycles, at 18 bits 31 (iterative: 4 fewer, one micro-rotation per clock). Throughput: ``"pipelined"`` one result per cycle, never
-    stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready`` drops only
-    when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
+    output FIFO of the pipelined architecture and the register in front of it (iterative: one
+    micro-rotation per clock, iterations stages). Throughput: ``"pipelined"`` one result per
+    cycle, never stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready``
+    drops only when ``capacity`` items are inside (see
     :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles (one
     micro-rotation per cycle).
 

@@ -350,6 +350,12 @@ class Datapath:
         else:
             raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
 
+    def check_chain(self, shape) -> None:
+        """:meth:`check` as a chain: from its declared ``inputs`` (signals of ``shape``) to its
+        declared ``outputs``."""
+        inputs = {key: Signal(shape, name=f"check_{key}") for key in self.inputs}
+        self.check(inputs, lambda s: {key: s[key] for key in self.outputs})
+
     def check(self, inputs: dict, outputs_of) -> None:
         """Trace the stages once on ``inputs`` (each iterated stage step by step, as pipelined):
         raise ValueError naming the key and the stage when a stage reads a value no earlier stage

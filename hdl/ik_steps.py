@@ -28,7 +28,8 @@ def flag(cond, bit: int):
 
 def atan2_chain(k: Constants, prefix: str, *, zero: bool, adders) -> Datapath:
     """atan2(prefix+y, prefix+x) -> prefix+angle (and prefix+zero)."""
-    chain = Datapath(prefix, adders=adders)
+    chain = Datapath(prefix, adders=adders, inputs=("y", "x"),
+                     outputs=("angle", "zero") if zero else ("angle",))
     add_atan2(chain, k, y="y", x="x", magnitude=False, zero=zero)
     return namespaced(chain, prefix)
 
@@ -64,7 +65,7 @@ def rotate_const_chain(k: Constants, prefix: str, vector: tuple[int, int], *,
         out["cz"] = Mux(up, z - h, Mux(down, z + h, z))
         return out
 
-    chain = Datapath(prefix, adders=adders)
+    chain = Datapath(prefix, adders=adders, inputs=("angle",), outputs=("x", "y", "saturated"))
     chain.shapes = dict(rot.shapes)
     add_selecting(chain, "ro_const", {"up": lambda s: z_of(s) > h, "down": lambda s: z_of(s) < -h},
                    quadrant, registered=skewed)

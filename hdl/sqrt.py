@@ -105,11 +105,9 @@ class Sqrt(StreamBlock):
     Both: ``tag`` (only if ``tag_width``) ``unsigned(tag_width)``, carried unchanged.
 
     Timing: ``latency`` = bits/2 stages (+ 2 when rounding to nearest), plus 3 for the output FIFO
-    of the pipelined architecture and the register in front of it: pipelined q32 word mode with
-    frac 24, 28 + 2 + 3 = 33 cycles (q18: 19); R = 64: 37 cycles (iterative: 3 fewer).
+    of the pipelined architecture and the register in front of it.
     Throughput: ``"pipelined"`` one result per cycle, never stalling: results queue in the output
-    FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items (65 in q32 word
-    mode, 33 in q18) are inside (see
+    FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items are inside (see
     :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one digit per cycle, one result every
     ``latency`` cycles.
 

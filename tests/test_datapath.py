@@ -103,3 +103,24 @@ def test_the_adder_mapping_is_explicit():
     a, b, s = Signal(signed(6)), Signal(signed(6)), Signal()
     adders.add_sub(a, b, s)
     assert len(adders.take()) == 1 and adders.take() == []
+
+
+def test_the_chains_declare_what_they_read_and_leave():
+    """Each chain, checked alone from its declared inputs to its declared outputs."""
+    from ik5r.hdl.chains import namespaced
+    from ik5r.hdl.ik_steps import atan2_chain, rotate_const_chain
+    k = constants(load_config("q18"))
+    word = signed(k.cfg.width)
+    for skewed in (True, False):
+        Rotate.chain(k, skewed=skewed).check_chain(word)
+        rotate_const_chain(k, "C1__", (k.one_u, 0), skewed=skewed, adders=adders_for("generic")) \
+            .check_chain(word)
+    Acos.chain(k).check_chain(word)
+    atan2_chain(k, "T1__", zero=True, adders=adders_for("generic")).check_chain(word)
+    chain = namespaced(Acos.chain(k), "EL__")
+    assert chain.inputs == ("EL__x",) and chain.outputs == ("EL__angle", "EL__sine", "EL__saturated")
+    chain.check_chain(word)
+    wrong = Acos.chain(k)
+    wrong.outputs = ("angle", "cosine")
+    with pytest.raises(ValueError, match="the outputs read 'cosine'"):
+        wrong.check_chain(word)

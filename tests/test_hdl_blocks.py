@@ -397,7 +397,8 @@ def test_many_vectors_pipelined(cfg):
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 def test_documented_latencies():
-    """The latencies the class docstrings state (the port maps carry the same numbers)."""
+    """The latencies of the blocks in two shipped configs (the port maps carry the same numbers;
+    the class docstrings give the formulas)."""
     expected = {"q18": (32, 26, 31, 19, 51), "q32": (46, 40, 45, 33, 79)}
     for cfg, (atan2, atan2_nomag, rotate, sqrt, acos) in expected.items():
         k = _k(cfg)
