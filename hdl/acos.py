@@ -6,7 +6,10 @@ from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.fxconfig import Constants
 
-from .common import Datapath, StreamBlock, add_products, drop
+from .datapath import Datapath, adders_for
+from .expr import drop
+from .products import add_products
+from .stream_block import StreamBlock
 from .cordic import add_atan2
 from .sqrt import add_isqrt, fit
 
@@ -33,10 +36,9 @@ class Acos(StreamBlock):
 
     Timing: ``latency`` = 2 + multiplier stages (4 up to 34-bit factors) + (fu + 1) digits + 2
     (rounding to nearest; 0 when truncating) + 4 + iterations + 1 stages, plus 3 for the output FIFO
-    of the pipelined architecture and the register in front of it: pipelined q32 79 cycles, q18 51
-    (iterative: 3 fewer). Throughput: ``"pipelined"`` one result per cycle, never stalling: results
+    of the pipelined architecture and the register in front of it. Throughput: ``"pipelined"`` one result per cycle, never stalling: results
     queue in the output FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items
-    (129 in q32, 65 in q18) are inside (see :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"``
+    are inside (see :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"``
     one square-root digit or micro-rotation per cycle, one result every ``latency`` cycles.
 
     Parameters
@@ -44,7 +46,7 @@ class Acos(StreamBlock):
     constants : Constants
     arch : ``"pipelined"`` or ``"iterative"``
     dsp : ``"generic"`` or ``"ecp5"``
-        Multipliers of the pipelined arch (see :data:`~ik5r.hdl.common.DSPS`).
+        Multipliers of the pipelined arch (see :data:`~ik5r.hdl.modes.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """
@@ -53,7 +55,7 @@ class Acos(StreamBlock):
         dp = in_fields = out_fields = None
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self._datapath(k)
+            dp = self.chain(k, adders=adders_for(dsp))
             word = signed(c.width)
             in_fields = {"x": (word, c.frac_unit, "cosine, unit format")}
             out_fields = {"angle": (word, c.frac_angle, "acos(x), radians, in [0, pi]"),
@@ -63,12 +65,19 @@ class Acos(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants, products: str = "parallel", radicand_bits: int | None = None) -> Datapath:
-        """``radicand_bits``: the square root's (default 2 frac_unit + 2: (1 - x)(1 + x) <= 1;
-        the IK core's internal format takes factors up to 2 each, so 2 frac_unit + 4)."""
+    def chain(k: Constants, products: str = "parallel", radicand_bits: int | None = None, *,
+              adders=None) -> Datapath:
+        """The arc cosine as a chain: input ``x``; outputs ``angle``, ``sine``, ``saturated``.
+        Split points (the IK core composes the parts): ``"factors"`` in front of 1 -+ x (reads
+        the clipped ``ac_x``), ``"radicand"`` in front of their product (reads ``ac_a``,
+        ``ac_b``, ``ac_x``), ``"atan2"`` in front of the vectoring (reads ``at_y``, ``ac_x``).
+        ``radicand_bits``: the square root's (default 2 frac_unit + 2: (1 - x)(1 + x) <= 1;
+        the IK core's internal format takes factors up to 2 each, so 2 frac_unit + 4).
+        ``adders``: the add/subtract mapping (generic when None)."""
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
-        dp = Datapath("acos", products=products)
+        dp = Datapath("acos", products=products, adders=adders, inputs=("x",),
+                      outputs=("angle", "sine", "saturated"))
         dp.declare(ac_x=signed(width))
 
         def clip(s):
@@ -84,7 +93,9 @@ class Acos(StreamBlock):
             return dict(s, ac_a=(one - s["ac_x"])[:fu + 2], ac_b=(one + s["ac_x"])[:fu + 2])
 
         dp.add("ac_clip", clip)
+        dp.mark("factors")
         dp.add("ac_factors", factors)
+        dp.mark("radicand")
         factor = unsigned(fu + 2)
         add_products(dp, "ac_sq", [(lambda s: s["ac_a"], factor,
                                     (lambda s: s["ac_b"], factor), "sq_rad")],
@@ -93,6 +104,7 @@ class Acos(StreamBlock):
         # sine <= 2**fu < 2**(W-1): the same value as a signed word (wiring only).
         dp.add_wiring(lambda s: dict(s, sine=fit(s["sine"], width).as_signed(),
                                      at_y=fit(s["sine"], width).as_signed()))
+        dp.mark("atan2")
         add_atan2(dp, k, y="at_y", x="ac_x", magnitude=False, zero=False)
         return dp
 

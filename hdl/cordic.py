@@ -10,8 +10,10 @@ from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 
 from ik5r.fxconfig import Constants
 
-from .common import (Datapath, SharedStage, StreamBlock, add_products, add_sub, asr, drop,
-                     leading_zeros, rshift_round, saturate, table_entry)
+from .datapath import Datapath, GenericAdders, SharedStage, adders_for
+from .expr import asr, drop, leading_zeros, rshift_round, saturate, table_entry
+from .products import add_products
+from .stream_block import StreamBlock
 
 __all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
 
@@ -34,7 +36,7 @@ def rotate_z_bound(k: Constants) -> int:
     return (1 << (c.width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
 
 
-def cordic_unit(k: Constants, *, rotate: bool) -> SharedStage:
+def cordic_unit(k: Constants, *, rotate: bool, adders=None) -> SharedStage:
     """The circular CORDIC micro-rotation as a functional unit, shared in the compact IK core.
 
     Keys ``cx``, ``cy``, ``cz`` and ``rotate``: vectoring (``rotate`` 0: turn towards y = 0, by
@@ -42,8 +44,10 @@ def cordic_unit(k: Constants, *, rotate: bool) -> SharedStage:
     :class:`Rotate`). Its registers are wide enough for both (see their bounds). With ``rotate``
     a constant the step is exactly the vectoring or the rotation one; as a value (the shared unit)
     both in one: direction d = rotate ? z >= 0 : y < 0, then x -+ (y >> i), y +- (x >> i),
-    z -+ step, which is each of them for its value of ``rotate``.
+    z -+ step, which is each of them for its value of ``rotate``. ``adders``: the datapath's
+    add/subtract mapping (generic when None).
     """
+    add_sub = (adders or GenericAdders()).add_sub
     c = k.cfg
     xy = signed(c.width + c.guard_bits + 3)
     z_width = max(atan2_widths(k)["cz"].width, rotate_z_bound(k).bit_length() + 1)
@@ -72,7 +76,7 @@ def cordic_unit(k: Constants, *, rotate: bool) -> SharedStage:
                        {"cx": "cx", "cy": "cy", "cz": "cz", "rotate": rotate}, shapes)
 
 
-def skewed_rotation(k: Constants):
+def skewed_rotation(k: Constants, adders):
     """The rotation micro-rotations as ``iterations + 1`` stages ``fn(state, i)`` with the angle
     one step ahead of the vector: stage i takes z through micro-rotation i (while i <
     iterations) and (x, y) through micro-rotation i - 1 (from stage 1), by the sign of z_(i-1)
@@ -83,8 +87,10 @@ def skewed_rotation(k: Constants):
     pipelined Rotate's slowest path. Here the sign of z steers the z adder only; x and y read
     copies registered a stage later, one each (``cpos`` is the complement, so the two copies
     have different inputs and synthesis cannot merge them back into one). Pipelined only (``i``
-    an int): one step per clock gains nothing from it.
+    an int): one step per clock gains nothing from it. ``adders``: the datapath's add/subtract
+    mapping.
     """
+    add_sub = adders.add_sub
     count = k.cfg.iterations
 
     def step(s, i: int):
@@ -117,9 +123,35 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     and (xs >> g) < 2**(W+1) is the unsigned multiplicand of 1/K.
     """
     c = k.cfg
-    width, guard, nearest = c.width, c.guard_bits, c.round_nearest
     dp.declare(**atan2_widths(k))
+    dp.add("at_coarse", _coarse(k, dp.adders.add_sub, y=y, x=x))
+    byte_counts, normalise_shift_bytes, normalise_shift_fine = _normalisation(k)
+    dp.add("at_lzc", byte_counts)
+    dp.add("at_norm", normalise_shift_bytes)
+    dp.add("at_norm_fine", normalise_shift_fine)
+    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False, adders=dp.adders), c.iterations)
+    nearest = c.round_nearest
 
+    def angle(s):
+        # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
+        return {"angle": Mux(s["czero"], 0, rshift_round(s["cz"], c.angle_guard_bits, nearest))}
+
+    keep_zero = {"zero": lambda s: s["czero"]} if zero else {}
+
+    if not magnitude:
+        def post(s):
+            out = drop(s, "cx", "cy", "cz", "norm", "czero")
+            out.update(angle(s))
+            out.update({key: fn(s) for key, fn in keep_zero.items()})
+            return out
+        dp.add("at_angle", post)
+        return
+
+    _add_magnitude(dp, k, angle, keep_zero)
+
+
+def _coarse(k: Constants, add_sub, *, y: str, x: str):
+    """The coarse stage of :func:`add_atan2` (``add_sub``: the datapath's adders)."""
     def coarse(s):
         # Rotation by -+90 degrees into the right half-plane; zero flag.
         xv, yv = s[x], s[y]
@@ -134,6 +166,13 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         out["czero"] = (xv == 0) & (yv == 0)
         return out
 
+    return coarse
+
+
+def _normalisation(k: Constants):
+    """The three normalisation stages of :func:`add_atan2`."""
+    c = k.cfg
+    width, guard = c.width, c.guard_bits
     # norm = max(0, W - 1 - bit_length(xs | ones_abs(ys))) in three stages, over bytes of
     # u = v[:W-1] (v = xs | ones_abs(ys)) padded at the LSB end with 1 0..0 to whole bytes (so a
     # zero u counts W - 1): each byte's zero flag and leading-zero count; then the first non-zero
@@ -171,27 +210,14 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
         by = s["norm"][:3]
         return dict(s, cx=s["cx"] << by, cy=s["cy"] << by)
 
-    dp.add("at_coarse", coarse)
-    dp.add("at_lzc", byte_counts)
-    dp.add("at_norm", normalise_shift_bytes)
-    dp.add("at_norm_fine", normalise_shift_fine)
-    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False), c.iterations)
+    return byte_counts, normalise_shift_bytes, normalise_shift_fine
 
-    def angle(s):
-        # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
-        return {"angle": Mux(s["czero"], 0, rshift_round(s["cz"], c.angle_guard_bits, nearest))}
 
-    keep_zero = {"zero": lambda s: s["czero"]} if zero else {}
-
-    if not magnitude:
-        def post(s):
-            out = drop(s, "cx", "cy", "cz", "norm", "czero")
-            out.update(angle(s))
-            out.update({key: fn(s) for key, fn in keep_zero.items()})
-            return out
-        dp.add("at_angle", post)
-        return
-
+def _add_magnitude(dp: Datapath, k: Constants, angle, keep_zero):
+    """The magnitude stages of :func:`add_atan2`, the angle (``angle(state)``) and the zero
+    flag (``keep_zero``) computed beside its multiplier."""
+    c = k.cfg
+    width, guard, nearest = c.width, c.guard_bits, c.round_nearest
     # magnitude = sat(rshift_round((xs >> g) * inv_gain, inv_gain_frac + norm)).
     # Rounded: floor((p / 2**(s-1) + 1) / 2) = ((p >> (s-1)) + 1) >> 1, s - 1 = inv_gain_frac - 1 + norm >= 0.
     def product_side(s):
@@ -259,12 +285,12 @@ class Atan2(StreamBlock):
     per byte, normalising shift by whole bytes, then by the rest, micro-rotations, then the angle
     rounding in parallel with the 1/K multiplier (operand register, DSP partial products, two adder
     levels), the de-normalising shift (two stages) and the magnitude rounding/saturation), plus 3
-    for the output FIFO of the pipelined architecture and the register in front of it. Pipelined at
-    32 bits: 40 / 46 cycles; at 18 bits: 26 / 32 (iterative: 3 fewer). Throughput
+    for the output FIFO of the pipelined architecture and the register in front of it (each
+    config's figures: the port map JSON, ``latency_cycles``). Throughput
     (``cycles_per_result``): ``"pipelined"`` one result per cycle; the pipeline never stalls, its
     results queue in an output FIFO while ``o`` is held, and ``i.ready`` drops only when
-    ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
-    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and one
+    ``capacity`` items are inside (see
+    :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one micro-rotation per cycle and one
     item in flight, a new item accepted when idle or as the previous result leaves: one result every
     ``latency`` cycles.
 
@@ -285,7 +311,8 @@ class Atan2(StreamBlock):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
             c = constants.cfg
-            dp = Datapath("atan2")
+            dp = Datapath("atan2", adders=adders_for(dsp), inputs=("y", "x"),
+                          outputs=("angle", "magnitude", "zero") if magnitude else ("angle", "zero"))
             add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
             word = signed(c.width)
             in_fields = {"y": (word, None, "ordinate, same format as x"),
@@ -334,11 +361,11 @@ class Rotate(StreamBlock):
     iterations stages (angle compare, quadrant rotation, 1/K multiplier (operand register, DSP
     partial products, adder levels), gain rounding, micro-rotations (pipelined: iterations + 1
     skewed stages, see :func:`skewed_rotation`), guard rounding, saturation), plus 3 for the
-    output FIFO of the pipelined architecture and the register in front of it: pipelined at 32
-    bits 45 cycles, at 18 bits 31 (iterative: 4 fewer, one micro-rotation per clock). Throughput: ``"pipelined"`` one result per cycle, never
-    stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready`` drops only
-    when ``capacity`` items (65 at 32 bits, 33 at 18) are inside (see
-    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles (one
+    output FIFO of the pipelined architecture and the register in front of it (iterative: one
+    micro-rotation per clock, iterations stages). Throughput: ``"pipelined"`` one result per
+    cycle, never stalling: results queue in the output FIFO while ``o`` is held, and ``i.ready``
+    drops only when ``capacity`` items are inside (see
+    :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one result every ``latency`` cycles (one
     micro-rotation per cycle).
 
     Parameters
@@ -348,7 +375,7 @@ class Rotate(StreamBlock):
     dsp : ``"generic"`` or ``"ecp5"``
         Pipelined arch: the partial products as ``*`` or as ECP5 ``MULT18X18D`` instances using
         their input and output registers, the micro-rotations as ``CCU2C`` chains (see
-        :data:`~ik5r.hdl.common.DSPS`).
+        :data:`~ik5r.hdl.modes.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """
@@ -356,7 +383,7 @@ class Rotate(StreamBlock):
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self._datapath(k, skewed=arch == "pipelined")
+            dp = self.chain(k, skewed=arch == "pipelined", adders=adders_for(dsp))
             word = signed(c.width)
             in_fields = {"x": (word, None, "abscissa, same format as y"),
                          "y": (word, None, "ordinate, same format as x"),
@@ -370,8 +397,12 @@ class Rotate(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def _datapath(k: Constants, *, skewed: bool) -> Datapath:
-        """The rotation datapath; ``skewed`` (pipelined): the micro-rotations as
+    def chain(k: Constants, *, skewed: bool, adders=None) -> Datapath:
+        """The rotation datapath as a chain: inputs ``x``, ``y``, ``angle``; outputs ``x``, ``y``,
+        ``saturated``; split point ``"micro_rotations"`` in front of the micro-rotations (which
+        read ``cx``, ``cy``, ``cz``: the IK core's constant rotations start there).
+        ``adders``: the add/subtract mapping (generic when None). ``skewed`` (pipelined): the
+        micro-rotations as
         :func:`skewed_rotation` (one stage more, a shorter critical path), else on
         ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in
         :class:`~ik5r.hdl.ik_core.IKCore` compact).
@@ -384,7 +415,8 @@ class Rotate(StreamBlock):
         """
         c = k.cfg
         width, guard, nearest = c.width, c.guard_bits, c.round_nearest
-        dp = Datapath("rotate")
+        dp = Datapath("rotate", adders=adders, inputs=("x", "y", "angle"),
+                      outputs=("x", "y", "saturated"))
         z_bound = rotate_z_bound(k)
         dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),
                    cz=signed(z_bound.bit_length() + 1),
@@ -432,10 +464,11 @@ class Rotate(StreamBlock):
             return out
 
         dp.add("ro_gain_round", gain_round)
+        dp.mark("micro_rotations")
         if skewed:
-            dp.add_iter("ro_it", *skewed_rotation(k))
+            dp.add_iter("ro_it", *skewed_rotation(k, dp.adders))
         else:
-            dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True), c.iterations)
+            dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True, adders=dp.adders), c.iterations)
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)
         return dp

@@ -1,39 +1,18 @@
-"""The ECP5 primitives the pipelined datapaths map to with ``dsp="ecp5"`` (``ik5r.hdl.common``):
-``CCU2C`` carry chains for :func:`~ik5r.hdl.common.add_sub` and ``MULT18X18D`` multipliers for the
+"""The ECP5 primitives the pipelined datapaths map to with ``dsp="ecp5"`` (``ik5r.hdl.datapath``):
+``CCU2C`` carry chains for :func:`~ik5r.hdl.expr.add_sub` and ``MULT18X18D`` multipliers for the
 partial products. Same latency, same bits as the generic operators; simulated with the models in
 ``hdl/sim/``.
 """
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-from contextvars import ContextVar
-
 from amaranth.hdl import ClockSignal, Const, Instance, Signal, signed
 
-__all__ = ["ECP5_ADD_SUB_MODULE", "CCU2C_ADD_SUB_INIT", "MULT_BITS", "ecp5_add_sub", "carry_chains",
-           "ccu2c_add_sub", "ecp5_add_sub_verilog", "mult18x18d"]
+__all__ = ["ECP5_ADD_SUB_MODULE", "CCU2C_ADD_SUB_INIT", "MULT_BITS", "ccu2c_add_sub",
+           "ecp5_add_sub_verilog", "mult18x18d"]
 
 #: Operand width of a MULT18X18D (signed).
 MULT_BITS = 18
-
-#: Where :func:`~ik5r.hdl.common.add_sub` puts its CCU2C chains inside :func:`ecp5_add_sub`; None outside.
-_ecp5_carry_chains: ContextVar[list | None] = ContextVar("ecp5_carry_chains", default=None)
-
-
-@contextmanager
-def ecp5_add_sub(enabled: bool = True):
-    """While active (and ``enabled``), :func:`~ik5r.hdl.common.add_sub` builds ECP5 ``CCU2C`` chains (instances of
-    :data:`ECP5_ADD_SUB_MODULE`). Yields the list their ``Instance`` objects are appended to (None
-    when not ``enabled``): the caller adds them to its module. ``Datapath.build`` uses it around
-    each stage with ``dsp="ecp5"``."""
-    chains = [] if enabled else None
-    token = _ecp5_carry_chains.set(chains)
-    try:
-        yield chains
-    finally:
-        _ecp5_carry_chains.reset(token)
-
 
 #: CCU2C LUT of one adder bit with inputs A = a, B = b, C = subtract, D = 1: the propagate LUT4
 #: (D = 1 half) is A ^ B ^ C, the generate LUT2 (INIT[3:0], C = D = 0) is A. Generate A is right
@@ -41,12 +20,8 @@ def ecp5_add_sub(enabled: bool = True):
 CCU2C_ADD_SUB_INIT = 0x96AA
 
 
-def carry_chains() -> list | None:
-    """The list :func:`ecp5_add_sub` collects CCU2C chains in; None outside it (generic adders)."""
-    return _ecp5_carry_chains.get()
-
-
-#: The Verilog module of one :func:`add_sub` on a CCU2C chain (:func:`ecp5_add_sub_verilog`).
+#: The Verilog module of one :func:`~ik5r.hdl.expr.add_sub` on a CCU2C chain
+#: (:func:`ecp5_add_sub_verilog`).
 ECP5_ADD_SUB_MODULE = "ik5r_ccu2c_add_sub"
 
 

@@ -21,7 +21,7 @@ from amaranth.lib import wiring
 
 from ik5r.fxconfig import Constants
 
-from .common import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
 from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 from .provenance import verilog_header
 

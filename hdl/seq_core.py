@@ -23,7 +23,7 @@ from ik5r import status as S
 from ik5r.fxconfig import CHECK_BITS, Constants
 
 from . import seq_isa as X
-from .common import add_sub, asr, saturate, select
+from .expr import add_sub, asr, saturate, select
 from .seq_program import ik_program
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]

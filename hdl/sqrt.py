@@ -6,7 +6,9 @@ from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from ik5r.fxconfig import Constants
 
-from .common import Datapath, StreamBlock, drop
+from .datapath import Datapath, adders_for
+from .expr import drop
+from .stream_block import StreamBlock
 
 __all__ = ["Sqrt", "add_isqrt", "isqrt_root_bits", "fit"]
 
@@ -103,12 +105,10 @@ class Sqrt(StreamBlock):
     Both: ``tag`` (only if ``tag_width``) ``unsigned(tag_width)``, carried unchanged.
 
     Timing: ``latency`` = bits/2 stages (+ 2 when rounding to nearest), plus 3 for the output FIFO
-    of the pipelined architecture and the register in front of it: pipelined q32 word mode with
-    frac 24, 28 + 2 + 3 = 33 cycles (q18: 19); R = 64: 37 cycles (iterative: 3 fewer).
+    of the pipelined architecture and the register in front of it.
     Throughput: ``"pipelined"`` one result per cycle, never stalling: results queue in the output
-    FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items (65 in q32 word
-    mode, 33 in q18) are inside (see
-    :class:`~ik5r.hdl.common.StreamBlock`); ``"iterative"`` one digit per cycle, one result every
+    FIFO while ``o`` is held, and ``i.ready`` drops only when ``capacity`` items are inside (see
+    :class:`~ik5r.hdl.stream_block.StreamBlock`); ``"iterative"`` one digit per cycle, one result every
     ``latency`` cycles.
 
     Parameters
@@ -131,7 +131,7 @@ class Sqrt(StreamBlock):
         if isinstance(constants, Constants):
             c = constants.cfg
             width = c.width
-            dp = Datapath("sqrt")
+            dp = Datapath("sqrt", adders=adders_for(dsp))
             if radicand_bits is None:
                 if frac is None:
                     frac = c.frac_length

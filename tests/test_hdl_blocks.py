@@ -26,7 +26,9 @@ from amaranth.hdl import Module, Signal, signed, unsigned
 from ik5r.firmware import model
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.acos import Acos
-from ik5r.hdl.common import OUTPUT_FIFO_LATENCY, add_sub, ecp5_add_sub, ecp5_add_sub_verilog
+from ik5r.hdl.datapath import OUTPUT_FIFO_LATENCY, Ecp5Adders
+from ik5r.hdl.ecp5 import ecp5_add_sub_verilog
+from ik5r.hdl.expr import add_sub
 from ik5r.hdl.cordic import Atan2, Rotate
 from ik5r.hdl.modes import ARCHS
 from ik5r.hdl.sqrt import Sqrt
@@ -334,9 +336,11 @@ def test_ecp5_add_sub_exhaustive(a_shape, b_shape, tmp_path):
         pytest.fail("iverilog not found (make test installs it)")
     m = Module()
     a, b, s = Signal(a_shape, name="a"), Signal(b_shape, name="b"), Signal(name="s")
-    with ecp5_add_sub() as chains:
-        total = add_sub(a, b, s)
+    adders = Ecp5Adders()
+    total = adders.add_sub(a, b, s)
+    chains = adders.take()
     assert chains, "no CCU2C built"
+    assert add_sub(a, b, s, chains=None).shape() == total.shape()
     for index, cell in enumerate(chains):
         m.submodules[f"add_sub{index}"] = cell
     y = Signal(total.shape(), name="y")
@@ -393,7 +397,8 @@ def test_many_vectors_pipelined(cfg):
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
 def test_documented_latencies():
-    """The latencies the class docstrings state (the port maps carry the same numbers)."""
+    """The latencies of the blocks in two shipped configs (the port maps carry the same numbers;
+    the class docstrings give the formulas)."""
     expected = {"q18": (32, 26, 31, 19, 51), "q32": (46, 40, 45, 33, 79)}
     for cfg, (atan2, atan2_nomag, rotate, sqrt, acos) in expected.items():
         k = _k(cfg)

@@ -53,8 +53,8 @@ def test_the_graph_is_read():
     mods = all_modules()
     assert {"ik5r.fxconfig", "ik5r.firmware.model", "ik5r.hdl.ik_core", "ik5r.hdl.tb.runner",
             "ik5r.commands.solve", "ik5r.fixedpoint"} <= set(mods)
-    assert "ik5r.fixedpoint" in imports_of("ik5r.hdl.ik_core", mods["ik5r.hdl.ik_core"])
-    assert "ik5r.hdl.common" in imports_of("ik5r.hdl.cordic", mods["ik5r.hdl.cordic"])
+    assert "ik5r.fixedpoint" in imports_of("ik5r.hdl.ik_steps", mods["ik5r.hdl.ik_steps"])
+    assert "ik5r.hdl.datapath" in imports_of("ik5r.hdl.cordic", mods["ik5r.hdl.cordic"])
     assert layer_of("ik5r.hdl.tb.blocks") == "tools" and layer_of("ik5r.hdl.cordic") == "hdl"
 
 
@@ -79,7 +79,8 @@ def test_cache_key_closures_follow_the_imports():
     """The sweep's cache keys hash these closures: what the Verilog and the error figures come from."""
     mods = all_modules()
     verilog = set(closure(["ik5r.hdl.generate", "ik5r.synth"]))
-    assert {mods[m] for m in ("ik5r.hdl.ik_core", "ik5r.hdl.cordic", "ik5r.hdl.common", "ik5r.status",
+    assert {mods[m] for m in ("ik5r.hdl.ik_core", "ik5r.hdl.cordic", "ik5r.hdl.datapath", "ik5r.hdl.build",
+                              "ik5r.hdl.products", "ik5r.hdl.expr", "ik5r.status",
                               "ik5r.fixedpoint", "ik5r.fxconfig", "ik5r.arm", "ik5r.hdl")} <= verilog
     assert mods["ik5r.firmware.model"] not in verilog and mods["ik5r.hdl.tb.runner"] not in verilog
     errors = set(closure(["ik5r.report.quantisation"]))

@@ -69,7 +69,8 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
 from amaranth.hdl._ast import AnySeq
 
-from ..common import Datapath, SharedStage, StreamBlock
+from ..datapath import Datapath, SharedStage
+from ..stream_block import StreamBlock
 from ..seq_core import SequencedIKCore
 from .sequenced import elaborate_engine, sequencer, tag_queue
 

@@ -1,5 +1,5 @@
 // Behavioural model of the Lattice ECP5 CCU2C (two bits of a carry chain), for simulating the
-// Verilog that ik5r builds with dsp="ecp5" (hdl/common.py, add_sub). Each half has a LUT4 of
+// Verilog that ik5r builds with dsp="ecp5" (hdl/expr.py, add_sub). Each half has a LUT4 of
 // A, B, C, D (the propagate, INITn) and a LUT2 of A, B (the generate, INITn[3:0]); the sum is
 // the propagate XOR the incoming carry, and the carry out is the incoming carry where the
 // propagate is 1, else the generate. INJECT1_n = "YES" gates the incoming carry and the

@@ -1,5 +1,5 @@
 // Behavioural model of the part of the Lattice ECP5 MULT18X18D that ik5r instantiates
-// (hdl/common.py, dsp="ecp5"), for simulating that Verilog: an 18 x 18 multiply, signed or
+// (hdl/products.py, dsp="ecp5"), for simulating that Verilog: an 18 x 18 multiply, signed or
 // unsigned per SIGNEDA / SIGNEDB, with optional input (A, B) and output (P) registers on CLK0,
 // CE0 and a synchronous RST0. Yosys ships the primitive only as a black box; this model covers
 // REG_*_CLK = "NONE" or "CLK0" (with CE0 / RST0) and rejects anything else at time 0.

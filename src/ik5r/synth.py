@@ -89,7 +89,7 @@ class SynthOptions:
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
-    dsp: str | None = None          # multipliers (hdl.common.DSPS); None: ecp5 on ECP5, else generic
+    dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
