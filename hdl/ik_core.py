@@ -13,6 +13,7 @@ from __future__ import annotations
 from amaranth.hdl import signed, unsigned
 
 from ik5r.fxconfig import Constants
+from ik5r.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
 from .datapath import adders_for
 from .ik_datapath import core_datapath
@@ -24,29 +25,21 @@ from .stream_block import StreamBlock
 __all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
 
 
+#: The order of the pose fields in the input payload (bit layout of the Verilog port).
+PAYLOAD_ORDER = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
+                 "has_roll", "q5_default", "shoulder_back", "elbow_down")
+
+
 def core_fields(constants: Constants) -> tuple[dict, dict]:
-    """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out."""
+    """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out:
+    the pose and solution schema of :mod:`ik5r.pose_fields`, in the formats of the config."""
     c = constants.cfg
-    word = signed(c.width)
-    bit = unsigned(1)
-    fl, fu, fa = c.frac_length, c.frac_unit, c.frac_angle
-    in_fields = {
-        "px": (word, fl, "tool point x, cm"), "py": (word, fl, "tool point y, cm"),
-        "pz": (word, fl, "tool point z, cm"),
-        "ax": (word, fu, "approach x"), "ay": (word, fu, "approach y"),
-        "az": (word, fu, "approach z"),
-        "nx": (word, fu, "normal x (read if has_roll)"), "ny": (word, fu, "normal y"),
-        "nz": (word, fu, "normal z (orientation check)"),
-        "ox": (word, fu, "orientation x (read if has_roll)"), "oy": (word, fu, "orientation y"),
-        "oz": (word, fu, "orientation z (orientation check)"),
-        "has_roll": (bit, 0, "q5 from n, o (else q5_default)"),
-        "q5_default": (word, fa, "q5 without roll, rad"),
-        "shoulder_back": (bit, 0, "branch: tool point behind joint 1 (q1 + pi)"),
-        "elbow_down": (bit, 0, "branch: q3 = -acos(c3)"),
-    }
-    out_fields = {f"q{j}": (word, fa, f"joint {j} angle, rad, in [-pi, pi]")
-                  for j in range(1, 6)}
-    out_fields["status"] = (unsigned(STATUS_BITS), 0, "ik5r.status bits")
+    formats = {Format.LENGTH: (signed(c.width), c.frac_length), Format.UNIT: (signed(c.width), c.frac_unit),
+               Format.ANGLE: (signed(c.width), c.frac_angle), Format.BIT: (unsigned(1), 0),
+               Format.STATUS: (unsigned(STATUS_BITS), 0)}
+    pose = {f.name: f for f in POSE_FIELDS}
+    in_fields = {name: (*formats[pose[name].format], pose[name].doc) for name in PAYLOAD_ORDER}
+    out_fields = {f.name: (*formats[f.format], f.doc) for f in SOLUTION_FIELDS}
     return in_fields, out_fields
 
 
