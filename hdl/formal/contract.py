@@ -43,8 +43,10 @@ reset.
   is empty only while at most one item is queued) these are inductive.
 
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
-yet taken, :mod:`.sequenced`; the others: bounded model checking from reset; Wolper's data-independence argument: a component
-that never reads its tags keeps order for all data iff it does for two marked items): the
+yet taken, :mod:`.sequenced`; the pipelined blocks (``inductive_order``): k-induction with the
+marks' places tracked, :mod:`.pipelined`; the others: bounded model checking from reset; Wolper's
+data-independence argument: a component that never reads its tags keeps order for all data iff
+it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,
 others 0, at free times:
 

@@ -82,7 +82,8 @@ def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payloa
     latency = len(stages)
     write = find(inner, f"{name}_fifo_write")
     write_tag = data.View(dut.o.payload.shape(), find(inner, f"{name}_fifo_data")).tag
-    shadow, produce, consume, inner_level, reading, depth = _shadow(m, fifo, fifo_module, find, dut.o.payload.shape(), o_payload.tag)
+    shadow, produce, consume, inner_level, reading, depth = _shadow(
+        m, fifo, fifo_module, find, dut.o.payload.shape(), o_payload.tag)
     bits = (depth - 1).bit_length()
     lives = [((j - consume)[:bits] < inner_level) if bits else (inner_level != 0) for j in range(depth)]
     # Only the marks 0, 1, 2 are inside: an item tagged 3 would come out as an invented mark.
