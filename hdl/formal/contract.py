@@ -1,12 +1,12 @@
 """The stream contract of an ik5r block or IK core as Amaranth ``Assert``/``Assume`` properties.
 
-:class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.common.StreamBlock`: the four
+:class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.stream_block.StreamBlock`: the four
 blocks in both architectures and the IK core: pipelined, staged, and the compact arch's
 sequenced engine, :class:`~ik5r.hdl.seq_core.SequencedIKCore`, see :mod:`.sequenced`) for SymbiYosys.
 
 **Data abstraction.** The contract is about control, and the datapaths (dozens of adders and
 multipliers a stage, up to 190 stages) would drown a solver. :func:`abstract_datapath` keeps the
-component's own :class:`~ik5r.hdl.common.Datapath`: the same stages, counts, iterated and shared
+component's own :class:`~ik5r.hdl.datapath.Datapath`: the same stages, counts, iterated and shared
 stages, stashes and the same ``Datapath.build`` (valid chain, credits, output FIFO, step counters,
 shared-unit sequencing), but every value a stage computes, except the ``tag``, is a free value
 (``$anyseq``) of the register's shape. So the registers, their enables and the tag path are the

@@ -1,6 +1,6 @@
 """The sequenced IK core (:class:`~ik5r.hdl.seq_core.SequencedIKCore`) under the stream contract.
 
-The engine has no :class:`~ik5r.hdl.common.Datapath`; its control is the program counter, the
+The engine has no :class:`~ik5r.hdl.datapath.Datapath`; its control is the program counter, the
 instruction ROM's read register and the two instruction registers (``fetched``, ``exe``), the
 ``started``/``booted`` bits and the core's input register (``full``, ``full_q``, ``in_q``) and
 output register (``valid``, ``out``). The program has no branches: which instruction executes is
