@@ -47,6 +47,7 @@ TARGETS = {
             "um5g-25k": "--um5g-25k", "um5g-45k": "--um5g-45k", "um5g-85k": "--um5g-85k",
         },
         "default_device": "85k",
+        "default_placer": "heap",
         "default_package": "CABGA381",
         "speeds": (6, 7, 8),
         "default_speed": 6,
@@ -57,6 +58,9 @@ TARGETS = {
         "devices": {"lp384": "--lp384", "lp1k": "--lp1k", "lp8k": "--lp8k", "hx1k": "--hx1k",
                     "hx8k": "--hx8k", "up3k": "--up3k", "up5k": "--up5k", "u4k": "--u4k"},
         "default_device": "hx8k",
+        # heap placements of the compact core leave wires over-used on the UP5K for an hour;
+        # simulated annealing routes it in minutes.
+        "default_placer": "sa",
         # The largest package of each device (the blocks have many ports).
         "packages": {"lp384": "qn32", "lp1k": "tq144", "lp8k": "cm225", "hx1k": "tq144",
                      "hx8k": "ct256", "up3k": "sg48", "up5k": "sg48", "u4k": "sg48"},
@@ -84,7 +88,7 @@ class SynthOptions:
     package: str | None = None      # None: the device's default
     speed: int | None = None        # ECP5 speed grade; None: 6
     freq_mhz: float = 150.0         # clock constraint handed to nextpnr (timing-driven placement)
-    placer: str = "heap"
+    placer: str | None = None       # None: the target's default (heap on ECP5, sa on iCE40)
     seed: int = 1
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
@@ -104,12 +108,13 @@ class SynthOptions:
             raise InputError("--speed", f"{self.target} speed grades are {t['speeds']}, got {speed}")
         if not t["speeds"]:
             speed = None
-        if self.placer not in ("heap", "sa", "static"):
-            raise InputError("--placer", f"must be heap, sa or static, got {self.placer!r}")
+        placer = self.placer or t["default_placer"]
+        if placer not in ("heap", "sa", "static"):
+            raise InputError("--placer", f"must be heap, sa or static, got {placer!r}")
         dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
         if dsp not in ("generic", self.target):
             raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
-        return replace(self, device=device, package=package, speed=speed, dsp=dsp)
+        return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)
 
 
 # --- tools ---------------------------------------------------------------------------------------

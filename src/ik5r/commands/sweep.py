@@ -79,8 +79,8 @@ def register(subparsers) -> None:
     parser.add_argument("--speed", type=int, default=None, help="ECP5 speed grade (default: 6)")
     parser.add_argument("--freq", type=float, default=150.0, metavar="MHZ",
                         help="clock constraint for P&R (default: 150)")
-    parser.add_argument("--placer", choices=("heap", "sa", "static"), default="heap",
-                        help="nextpnr placer (default: heap)")
+    parser.add_argument("--placer", choices=("heap", "sa", "static"), default=None,
+                        help="nextpnr placer (default: heap on ECP5, sa on iCE40)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only (no Fmax)")
     parser.add_argument("--synth-cache", default="build/synth", metavar="DIR",
                         help="synthesis cache on each worker's machine (default: build/synth)")

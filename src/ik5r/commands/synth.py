@@ -44,8 +44,8 @@ def register(subparsers) -> None:
     parser.add_argument("--speed", type=int, default=None, help="ECP5 speed grade 6|7|8 (default: 6)")
     parser.add_argument("--freq", type=float, default=150.0, metavar="MHZ",
                         help="clock constraint for timing-driven P&R (default: 150)")
-    parser.add_argument("--placer", choices=("heap", "sa", "static"), default="heap",
-                        help="nextpnr placer (default: heap)")
+    parser.add_argument("--placer", choices=("heap", "sa", "static"), default=None,
+                        help="nextpnr placer (default: heap on ECP5, sa on iCE40)")
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
