@@ -256,13 +256,19 @@ def test_worst_pose_csv_refeeds_into_solve(q32_run, tmp_path, capsys):
         assert all(float(pose[c]) == float(row[c]) for c in ("px", "py", "pz", "ax", "ay", "az"))
 
 
-def test_stale_core_record_left_out():
+def test_stale_core_record_left_out(tmp_path, current_records):
+    """A record made with other config numbers (here: another reach tolerance) is named stale and
+    left out; the same record with today's numbers is the config's own."""
     from ik5r.fxconfig import load_config
     from ik5r.report import hardware
 
-    committed = Path(__file__).resolve().parents[1] / "docs" / "results" / "records" / "synth"
-    own, stale = hardware.records_for(load_config("q32w"), committed)
-    assert CORE_RECORDS[1] in stale and all(r["record_file"] != CORE_RECORDS[1] for r in own)
+    cfg = load_config("q32w")
+    record = json.loads((current_records / "synth" / CORE_RECORDS[1]).read_text())
+    (tmp_path / "current.json").write_text(json.dumps(record))
+    record["config_toml"] = record["config_toml"].replace("reach_tolerance", "reach_tolerance = 1e-3\n#", 1)
+    (tmp_path / "older.json").write_text(json.dumps(record))
+    own, stale = hardware.records_for(cfg, tmp_path)
+    assert stale == ["older.json"] and [r["record_file"] for r in own] == ["current.json"]
 
 
 def test_config_comparison_page(tmp_path, current_records):
