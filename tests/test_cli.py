@@ -289,3 +289,16 @@ def test_console_script_subprocess(poses, tmp_path):
     done = subprocess.run([*cmd, "solve", str(bad)], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2
     assert done.stderr.strip() == f"{bad}:2: expected 6 fields, got 5"
+
+
+def test_verilog_dsp_applies_to_the_pipelined_arch(tmp_path, capsys):
+    """--dsp ecp5 with --arch all: the pipelined build with the primitives, the iterative one
+    generic; with --arch iterative: one line naming the option, exit 2, nothing written."""
+    assert main(["verilog", "-q", "--block", "sqrt", "--arch", "all", "--dsp", "ecp5", "-o", str(tmp_path / "v")]) == 0
+    assert sorted(p.name for p in (tmp_path / "v").glob("*.v")) == ["ik5r_sqrt_dspecp5_pipelined.v",
+                                                                   "ik5r_sqrt_iterative.v"]
+    capsys.readouterr()
+    assert main(["verilog", "--block", "sqrt", "--arch", "iterative", "--dsp", "ecp5", "-o", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("--dsp:") and "pipelined" in err[0]
+    assert not (tmp_path / "w").exists()

@@ -43,7 +43,8 @@ def register(subparsers) -> None:
     parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
                         help="width of the tag field carried through each block (default: 0)")
     parser.add_argument("--dsp", choices=DSPS, default="generic",
-                        help="primitives of the pipelined arch: generic operators (any FPGA), or ECP5 "
+                        help="primitives of the pipelined arch (with --arch all, the others stay generic): "
+                             "generic operators (any FPGA), or ECP5 "
                              "MULT18X18D instances using their input and output registers and CCU2C "
                              "add/sub chains (module "
                              "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
@@ -52,17 +53,22 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
+    from ik5r.errors import InputError
     from ik5r.fxconfig import constants, load_config
     from ik5r.hdl.generate import BLOCKS, archs_of, generate, resolve_arch
 
+    if args.dsp != "generic" and args.arch not in ("pipelined", "all"):
+        raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
+                                  f"not to --arch {args.arch}")
     k = constants(load_config(args.config))
     blocks = BLOCKS if args.block == "all" else (args.block,)
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     for block in blocks:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
-            text, pmap = generate(block, arch, k, args.tag_width,
-                                  **({} if args.dsp == "generic" else {"dsp": args.dsp}))
+            # With --arch all, the small architectures are generic (they have no primitive mapping).
+            primitives = {"dsp": args.dsp} if args.dsp != "generic" and arch == "pipelined" else {}
+            text, pmap = generate(block, arch, k, args.tag_width, **primitives)
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)
             (out_dir / f"{module}.json").write_text(json.dumps(pmap, indent=2) + "\n")
