@@ -55,7 +55,7 @@ def build(flags: tuple[str, ...] = LIB_FLAGS) -> Path:
 
 def build_driver(flags: tuple[str, ...] = cbuild.SANITIZE_FLAGS) -> Path:
     """The text driver (csrc/lm_driver.c + the kernel), by default under ASan + UBSan."""
-    contents = {**source_files(), DRIVER: resources.files("ik5r").joinpath("csrc", DRIVER).read_bytes()}
+    contents = {**source_files(), DRIVER: resources.files("ik5r.numeric").joinpath("csrc", DRIVER).read_bytes()}
     directory = cbuild.keyed_dir("lm-driver", contents, flags)
     return cbuild.compile_cached(directory, "lm_driver", flags, ("lm_kernel.c", DRIVER), libs=("-lm",))
 

@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from ik5r.core import cbuild
+from ik5r.core import chain as chain_module
 from ik5r.core.chain import Chain, fk
 
 from . import solver as nm
