@@ -97,8 +97,9 @@ def test_strict_warnings(opt, tmp_path):
     flags = (opt,) + csolver.WARN_FLAGS[1:]
     assert {"-Wall", "-Wextra", "-Werror", "-std=c99", "-pedantic"} <= set(flags)
     directory = lmkernel.build_driver().parent  # the sources, as the sanitizer build sees them
-    result = subprocess.run([csolver.compiler(), *flags, "-c", "-I", str(directory), str(directory / "lm_kernel.c"),
-                             str(directory / lmkernel.DRIVER)], capture_output=True, text=True, cwd=tmp_path)
+    sources = [str(directory / name) for name in lmkernel.C_FILES + (lmkernel.DRIVER,)]
+    result = subprocess.run([csolver.compiler(), *flags, "-c", "-I", str(directory), *sources],
+                            capture_output=True, text=True, cwd=tmp_path)
     assert result.returncode == 0 and not result.stderr, result.stderr
 
 

@@ -21,7 +21,8 @@ from .chain import Chain, jacobian
 from .firmware import csolver
 
 MAX_JOINTS = 7
-SOURCES = ("lm_kernel.c", "lm_kernel.h")
+C_FILES = ("lm_kernel.c", "lm_lanes.c")  # compiled; the lanes: four rows per vector (pose mode, n <= 6)
+SOURCES = C_FILES + ("lm_kernel.h", "lm_internal.h")
 DRIVER = "lm_driver.c"
 LIB_FLAGS = ("-O3", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared")
 MODES = {"pose": 0, "position": 1, "direction": 2}
@@ -49,14 +50,14 @@ def source_files() -> dict[str, bytes]:
 def build(flags: tuple[str, ...] = LIB_FLAGS) -> Path:
     """The kernel's shared library, compiled once per (sources, compiler, flags) hash."""
     directory = csolver.keyed_dir("lm", source_files(), flags)
-    return csolver.compile_cached(directory, "liblm.so", flags, ("lm_kernel.c",))
+    return csolver.compile_cached(directory, "liblm.so", flags, C_FILES)
 
 
 def build_driver(flags: tuple[str, ...] = csolver.SANITIZE_FLAGS) -> Path:
     """The text driver (csrc/lm_driver.c + the kernel), by default under ASan + UBSan."""
     contents = {**source_files(), DRIVER: resources.files("ik5r").joinpath("csrc", DRIVER).read_bytes()}
     directory = csolver.keyed_dir("lm-driver", contents, flags)
-    return csolver.compile_cached(directory, "lm_driver", flags, ("lm_kernel.c", DRIVER), libs=("-lm",))
+    return csolver.compile_cached(directory, "lm_driver", flags, C_FILES + (DRIVER,), libs=("-lm",))
 
 
 def driver_input(chain: Chain, targets: nm.Targets, q0, *, iterations=60, polish=True, damping=0.1) -> list[str]:
