@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import subprocess
 import tomllib
 
@@ -72,6 +73,47 @@ def test_c_kernel_agrees_with_numpy(name, polish):
     pos, rot = nm.residuals(targets, R2, p2)
     assert np.allclose(pos, got[1], rtol=1e-6, atol=1e-12)
     assert np.allclose(rot, got[2], rtol=1e-6, atol=1e-12, equal_nan=True)
+
+
+#: A 6R arm with a prismatic joint, clipped (not full-turn) limits, a reversed joint and a tool.
+SIX_MIXED = {"joint": [{"a": 0, "alpha": 90, "d": 30}, {"a": 40, "alpha": 0, "limits": [-100, 80]},
+                       {"type": "prismatic", "a": 5, "alpha": -90, "d": 10, "limits": [0, 20]},
+                       {"a": 0, "alpha": 90, "d": 35, "scale": -1}, {"a": 0, "alpha": -90, "limits": [-120, 120]},
+                       {"a": 0, "alpha": 0, "d": 5}],
+             "tool": {"xyz": [1, 2, 10], "rpy": [5, -10, 15]}}
+
+
+def _hard_starts(chain, q_target, q0):
+    """Starts that take the lanes' scalar fallbacks: a huge angle (libm's sin and cos), the last
+    joint half a turn off the target (a rotation error of exactly pi), a joint out of its turn."""
+    q0 = q0.copy()
+    q0[0, 0] = 3e5
+    q0[1] = q_target[1]
+    q0[1, -1] += np.pi
+    q0[2, 0] = chain.upper[0] + 1.0
+    return q0
+
+
+@pytest.mark.parametrize("name", ["puma560", "toz-6r", "six-mixed"])
+def test_lanes_are_bit_identical_to_rows(name):
+    """Pose mode on six joints runs four rows per vector (csrc/lm_lanes.c) where the CPU has AVX2:
+    the same bits as one row at a time, in every output, fallback lanes included."""
+    chain = (parse_chain(SIX_MIXED, "six-mixed.toml") if name == "six-mixed" else load_chain(shipped_arm(name)))
+    rng = np.random.default_rng(6)
+    q_target = random_joints(chain, 301, rng)
+    R, p = fk(chain, q_target)
+    targets = nm.Targets("pose", p, R)
+    q0 = _hard_starts(chain, q_target, random_joints(chain, 301, rng))
+    switch = ctypes.c_int.in_dll(lmkernel._library(), "lm_use_lanes")
+    out = {}
+    try:
+        for lanes in (1, 0):
+            switch.value = lanes
+            out[lanes] = lmkernel.levenberg_marquardt(chain, targets, q0, return_iterations=True)
+    finally:
+        switch.value = 1
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(out[0], out[1]))
+    assert out[1][3].mean() > 0.3 and out[1][3][1]  # converged rows, the half turn among them
 
 
 @pytest.mark.parametrize("all_solutions", [False, True])

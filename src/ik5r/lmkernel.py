@@ -21,7 +21,7 @@ from .chain import Chain, jacobian
 from .firmware import csolver
 
 MAX_JOINTS = 7
-C_FILES = ("lm_kernel.c", "lm_lanes.c")  # compiled; the lanes: four rows per vector (pose mode, n <= 6)
+C_FILES = ("lm_kernel.c", "lm_lanes.c")  # compiled; lanes: four rows per vector (pose mode, 6 joints)
 SOURCES = C_FILES + ("lm_kernel.h", "lm_internal.h")
 DRIVER = "lm_driver.c"
 LIB_FLAGS = ("-O3", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror", "-fPIC", "-shared")

@@ -354,6 +354,8 @@ static void clamp_joints(const lm_chain *c, int n, double *q) {
     }
 }
 
+int lm_use_lanes = 1;
+
 double lm_atan2_upper(double y, double x) { return atan2_upper(y, x); }
 void lm_rotation_log(double Rerr[3][3], double out[3]) { rotation_log(Rerr, out); }
 double lm_py_mod(double a, double b) { return py_mod(a, b); }
@@ -432,10 +434,12 @@ int lm_solve_rows(const lm_chain *chain, const lm_params *params, size_t count, 
         || (chain->mode == LM_POSE && !target_R) || (chain->mode == LM_DIRECTION && !target_a)
         || params->iterations < 0 || params->extra < 1)
         return -1;
-    if (chain->mode == LM_POSE && n <= 6) { /* the common case: four rows per vector (lm_lanes.c) */
+#ifdef LM_HAVE_LANES
+    if (lm_use_lanes && chain->mode == LM_POSE && n == 6 && __builtin_cpu_supports("avx2")) { /* the same bits */
         lm_solve_lanes(chain, params, count, rows, target_p, target_R, q0, q, pos, rot, iters);
         return 0;
     }
+#endif
     switch (n) {
     case 1: solve_rows(chain, 1, params, count, rows, target_p, target_R, target_a, q0, q, pos, rot, iters); break;
     case 2: solve_rows(chain, 2, params, count, rows, target_p, target_R, target_a, q0, q, pos, rot, iters); break;

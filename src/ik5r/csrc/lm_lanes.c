@@ -1,22 +1,25 @@
 /* lm_kernel.c's iteration on four rows at once, one per lane of a GCC vector: the common case
- * (pose mode, n <= 6) of lm_solve_rows. The scalar code is the specification: every lane does the
- * same IEEE operations in the same order (ISO C: no contraction into fused multiply-adds), so a row
- * gets the same bits here as there; a lane off the common path (a huge angle, a rotation error
- * near pi, a joint wrapped from out of its turn) takes the scalar function for that lane. The lanes
- * run in lockstep, each on its own row; a lane whose row stops takes the next row. Compiled twice
- * (function multiversioning): for AVX2 (four doubles per instruction) and for baseline x86-64
- * (two SSE2 instructions per vector operation), picked at load time by the CPU. */
+ * (pose mode, six joints) of lm_solve_rows on an x86-64 CPU with AVX2 (four doubles per
+ * instruction; on the baseline ISA the vectors split into SSE2 halves and run slower than a row at
+ * a time, so lm_kernel.c keeps those). The scalar code is the specification: every lane does the
+ * same IEEE operations in the same order (ISO C: no contraction into fused multiply-adds; AVX2
+ * brings no FMA), so a row gets the same bits here as there; a lane off the common path (a huge
+ * angle, a rotation error near pi, a joint wrapped from out of its turn) takes the scalar function
+ * for that lane. The lanes run in lockstep, each on its own row; a lane whose row stops takes the
+ * next row. */
 #include "lm_internal.h"
 
 #include <math.h>
 
+#ifdef LM_HAVE_LANES
+
 
 #define LANES 4
 #define TASK 6
-#define MAXJ 6
+#define MAXJ 6 /* the lanes solve six-joint arms (others: lm_kernel.c, a row at a time) */
 #define LM_PI 3.14159265358979323846
 #define UNROLL _Pragma("GCC unroll 8")
-#define HOT static inline __attribute__((always_inline)) /* into both clones of lm_solve_lanes */
+#define HOT static inline __attribute__((always_inline)) /* into lm_solve_lanes, for AVX2 */
 
 typedef double lv __attribute__((vector_size(LANES * sizeof(double))));
 typedef long long li __attribute__((vector_size(LANES * sizeof(long long))));
@@ -284,7 +287,7 @@ HOT void ldl_lanes(lv A[MAXJ][MAXJ], lv *b, int k) {
     for (i = 0; i < k; i++) b[i] = sel(bad, splat(0.0), b[i]);
 }
 
-/* lm_kernel.c's damped_step for m = 6 >= n: h = (J^T J + mu I)^-1 J^T e; the predicted decrease. */
+/* lm_kernel.c's damped_step for m = n = 6: h = (J^T J + mu I)^-1 J^T e; the predicted decrease. */
 HOT void damped_lanes(const lane_eval *ev, int n, const lv *mup, lv *h, lv *predp) {
     lv A[MAXJ][MAXJ], g[MAXJ], pred = splat(0.0), mu = *mup;
     int i, j, r;
@@ -442,7 +445,7 @@ HOT void solve_lanes_n(const lm_chain *c, int n, const lm_params *pr, const lane
     }
 }
 
-__attribute__((target_clones("avx2", "default")))
+__attribute__((target("avx2"))) /* callers check the CPU */
 void lm_solve_lanes(const lm_chain *chain, const lm_params *params, size_t count, const long long *rows,
                     const double *target_p, const double *target_R, const double *q0, double *q, double *pos,
                     double *rot, long long *iters) {
@@ -456,12 +459,8 @@ void lm_solve_lanes(const lm_chain *chain, const lm_params *params, size_t count
     io.pos = pos;
     io.rot = rot;
     io.iters = iters;
-    switch (chain->n) {
-    case 1: solve_lanes_n(chain, 1, params, &io); break;
-    case 2: solve_lanes_n(chain, 2, params, &io); break;
-    case 3: solve_lanes_n(chain, 3, params, &io); break;
-    case 4: solve_lanes_n(chain, 4, params, &io); break;
-    case 5: solve_lanes_n(chain, 5, params, &io); break;
-    default: solve_lanes_n(chain, 6, params, &io);
-    }
+    solve_lanes_n(chain, 6, params, &io); /* n = 6: checked by the caller */
 }
+#else
+typedef int lm_lanes_absent; /* ISO C wants a declaration in every file */
+#endif
