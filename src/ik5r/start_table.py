@@ -94,18 +94,24 @@ class StartTable:
                 key = key * TURN_CELLS + column
         return key
 
+    def cells(self, targets: nm.Targets) -> np.ndarray:
+        """(N,) each target's cell: its entries are ``self.q[cell]`` (DEPTH, n) in table order, NaN
+        where the cell holds fewer; -1 where the target's cell is empty."""
+        if targets.mode != self.mode:
+            raise ValueError(f"table of mode {self.mode}, targets of mode {targets.mode}")
+        parts = [targets.p, targets.R, targets.a]
+        if not all(np.isfinite(x).all() for x in parts if x is not None):  # invalid rows are rejected
+            parts = [None if x is None else np.nan_to_num(x) for x in parts]  # before the cell is used
+        key = self._keys(*parts)
+        at = np.minimum(np.searchsorted(self.keys, key), len(self.keys) - 1)
+        return np.where(self.keys[at] == key, at, -1)
+
     def lookup(self, targets: nm.Targets) -> tuple[np.ndarray, np.ndarray]:
         """(N, DEPTH, n) each target's starts (the entries of its cell in table order; NaN where the
         cell is empty or holds fewer) and (N,) whether its cell has any."""
-        if targets.mode != self.mode:
-            raise ValueError(f"table of mode {self.mode}, targets of mode {targets.mode}")
-        p = np.nan_to_num(targets.p)  # invalid rows are rejected before the lookup is used
-        R = None if targets.R is None else np.nan_to_num(targets.R)
-        a = None if targets.a is None else np.nan_to_num(targets.a)
-        key = self._keys(p, R, a)
-        at = np.minimum(np.searchsorted(self.keys, key), len(self.keys) - 1)
-        found = self.keys[at] == key
-        return np.where(found[:, None, None], self.q[at], np.nan), found
+        cell = self.cells(targets)
+        found = cell >= 0
+        return np.where(found[:, None, None], self.q[cell], np.nan), found
 
 
 def _chain_key(chain: Chain, mode: str) -> tuple:
