@@ -2,7 +2,9 @@
 
 The numpy function is the reference: it steps every row of a batch together, so a batch costs as
 many numpy passes as its slowest row needs. The C kernel runs the same iteration row by row, each
-row stopping when it is done, with no array temporaries. Built with the host compiler through the
+row stopping when it is done, with no array temporaries; in pose mode on six joints, on a CPU with
+AVX2, four rows at a time in the lanes of a vector (``csrc/lm_lanes.c``; a lane whose row stops
+takes the next), with the same bits as row by row. Built with the host compiler through the
 firmware solver's cache (:func:`ik5r.firmware.csolver.keyed_dir`); :func:`available` is False
 when no compiler works, and callers fall back to numpy.
 """
