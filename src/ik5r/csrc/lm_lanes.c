@@ -19,7 +19,7 @@
 #define MAXJ 6 /* the lanes solve six-joint arms (others: lm_kernel.c, a row at a time) */
 #define LM_PI 3.14159265358979323846
 #define UNROLL _Pragma("GCC unroll 8")
-#define HOT static inline __attribute__((always_inline)) /* into lm_solve_lanes, for AVX2 */
+#define HOT static inline __attribute__((always_inline, target("avx2"))) /* into lm_solve_lanes */
 
 typedef double lv __attribute__((vector_size(LANES * sizeof(double))));
 typedef long long li __attribute__((vector_size(LANES * sizeof(long long))));
@@ -47,10 +47,7 @@ typedef struct {
 #define any(mask) (((mask)[0] | (mask)[1] | (mask)[2] | (mask)[3]) != 0)
 #define vfmax(x, y) sel(((x) > (y)) | ((y) != (y)), (x), (y)) /* C99 fmax for a non-NaN x, as maxsd */
 
-HOT void vsqrt(lv *v) {
-    int l;
-    for (l = 0; l < LANES; l++) (*v)[l] = sqrt((*v)[l]);
-}
+HOT void vsqrt(lv *v) { *v = __builtin_ia32_sqrtpd256(*v); } /* IEEE: the scalar sqrt's bits */
 
 /* lm_kernel.c's sin_cos_n, lane-wise; the quadrant's sign applied as a sign-bit flip (exactly the
  * scalar product by -1). */
