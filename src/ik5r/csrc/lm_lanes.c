@@ -44,7 +44,7 @@ typedef struct {
 #define splat_i(v) ((li){(v), (v), (v), (v)})
 #define sel(mask, a, b) ((lv)(((lu)(mask) & (lu)(a)) | (~(lu)(mask) & (lu)(b))))
 #define vabs(v) ((lv)((lu)(v) & (lu)splat_i(0x7fffffffffffffffLL)))
-#define any(mask) (((mask)[0] | (mask)[1] | (mask)[2] | (mask)[3]) != 0)
+#define any(mask) (__builtin_ia32_movmskpd256((lv)(mask)) != 0) /* any lane set (sign bits) */
 #define vfmax(x, y) sel(((x) > (y)) | ((y) != (y)), (x), (y)) /* C99 fmax for a non-NaN x, as maxsd */
 
 HOT void vsqrt(lv *v) { *v = __builtin_ia32_sqrtpd256(*v); } /* IEEE: the scalar sqrt's bits */
@@ -63,17 +63,19 @@ HOT void sin_cos_lanes(int n, const lv *x, lv *s_out, lv *c_out) {
     int i, l;
     UNROLL
     for (i = 0; i < n; i++) {
-        li small = vabs(x[i]) < splat(1e5), k, odd;
+        li small = vabs(x[i]) < splat(1e5), odd;
         lv xi = sel(small, x[i], splat(0.0)), fn, r, z, hz, w, s, c;
-        k = __builtin_convertvector(xi * INV_PIO2 + sel(xi >= splat(0.0), splat(0.5), splat(-0.5)), li);
-        fn = __builtin_convertvector(k, lv);
+        lu k; /* fn's two's complement low bits (fn + 1.5 * 2^52 is exact), for the quadrant */
+        /* the scalar (long) cast: rounded toward zero (mode 3), in the vector unit (|fn| < 2^17) */
+        fn = __builtin_ia32_roundpd256(xi * INV_PIO2 + sel(xi >= splat(0.0), splat(0.5), splat(-0.5)), 3);
+        k = (lu)(fn + 0x1.8p52);
         r = ((xi - fn * PIO2_1) - fn * PIO2_2) - fn * PIO2_3;
         z = r * r;
         s = r + z * r * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))));
         hz = 0.5 * z;
         w = 1.0 - hz;
         c = w + (((1.0 - w) - hz) + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6))))));
-        odd = (k & 1) != splat_i(0);
+        odd = (k & 1) != (lu)splat_i(0);
         s_out[i] = (lv)((lu)sel(odd, c, s) ^ ((lu)((k >> 1) & 1) << 63));
         c_out[i] = (lv)((lu)sel(odd, s, c) ^ ((lu)(((k + 1) >> 1) & 1) << 63));
         if (!any(small == splat_i(0))) continue;
@@ -367,12 +369,14 @@ HOT void accept_lanes(lanes *st, int n, double damping) {
     lv dmax = splat(0.0), rho, t, grow;
     li acc, take;
     int i, r, l;
-    UNROLL
-    for (i = 0; i < n; i++) {
-        lv s = splat(0.0);
+    if (any(st->fresh)) { /* the damping of a lane starting its row */
         UNROLL
-        for (r = 0; r < TASK; r++) s += st->nxt.J[r][i] * st->nxt.J[r][i];
-        dmax = vfmax(dmax, s);
+        for (i = 0; i < n; i++) {
+            lv s = splat(0.0);
+            UNROLL
+            for (r = 0; r < TASK; r++) s += st->nxt.J[r][i] * st->nxt.J[r][i];
+            dmax = vfmax(dmax, s);
+        }
     }
     rho = (st->cur.cost - st->nxt.cost) / vfmax(st->pred, splat(1e-300));
     acc = (rho > splat(0.0)) & ~st->fresh;
