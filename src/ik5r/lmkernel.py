@@ -95,6 +95,12 @@ def available() -> bool:
     return True
 
 
+def lanes_available() -> bool:
+    """True when the kernel solves pose-mode rows of six-joint arms four at a time (x86-64 with
+    AVX2; same results either way, only faster)."""
+    return available() and bool(_library().lm_lanes_available())
+
+
 def chain_struct(chain: Chain, mode: str) -> LMChain:
     """The kernel's view of a chain in a task mode."""
     s = LMChain()  # filled through numpy views (built once per kernel call: element loops cost 0.1 ms)

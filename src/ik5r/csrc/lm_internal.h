@@ -11,6 +11,7 @@
 #endif
 
 extern int lm_use_lanes; /* 1 (default): use the lanes where they apply; 0: a row at a time (tests) */
+int lm_lanes_available(void); /* 1 when this build and CPU have the lanes (x86 with AVX2) */
 
 double lm_atan2_upper(double y, double x);          /* atan2 for y >= 0 (others: libm) */
 void lm_rotation_log(double Rerr[3][3], double out[3]); /* numeric.rotation_log of one matrix */

@@ -356,6 +356,14 @@ static void clamp_joints(const lm_chain *c, int n, double *q) {
 
 int lm_use_lanes = 1;
 
+int lm_lanes_available(void) {
+#ifdef LM_HAVE_LANES
+    return __builtin_cpu_supports("avx2") != 0;
+#else
+    return 0;
+#endif
+}
+
 double lm_atan2_upper(double y, double x) { return atan2_upper(y, x); }
 void lm_rotation_log(double Rerr[3][3], double out[3]) { rotation_log(Rerr, out); }
 double lm_py_mod(double a, double b) { return py_mod(a, b); }
@@ -435,7 +443,7 @@ int lm_solve_rows(const lm_chain *chain, const lm_params *params, size_t count, 
         || params->iterations < 0 || params->extra < 1)
         return -1;
 #ifdef LM_HAVE_LANES
-    if (lm_use_lanes && chain->mode == LM_POSE && n == 6 && __builtin_cpu_supports("avx2")) { /* the same bits */
+    if (lm_use_lanes && chain->mode == LM_POSE && n == 6 && lm_lanes_available()) { /* the same bits */
         lm_solve_lanes(chain, params, count, rows, target_p, target_R, q0, q, pos, rot, iters);
         return 0;
     }

@@ -13,7 +13,6 @@
 
 #ifdef LM_HAVE_LANES
 
-
 #define LANES 4
 #define TASK 6
 #define MAXJ 6 /* the lanes solve six-joint arms (others: lm_kernel.c, a row at a time) */
@@ -422,7 +421,7 @@ static int retire_lanes(lanes *st, int n, const lm_params *pr, size_t *next, con
     return busy;
 }
 
-/* Every row of io with n joints (a constant at each call below: the loops specialise). */
+/* Every row of io with n joints (a constant at the call below: the loops unroll fully). */
 HOT void solve_lanes_n(const lm_chain *c, int n, const lm_params *pr, const lane_io *io) {
     lanes st = {0};
     size_t next = 0;
