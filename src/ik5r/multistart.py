@@ -87,10 +87,10 @@ def _table_starts(chain, targets, todo) -> tuple[np.ndarray, np.ndarray]:
     """The start table's entries (cells, DEPTH, n) and each pose's cell (N,): -1 where it has
     none or the pose is invalid (:mod:`ik5r.start_table`)."""
     table = start_table.table_for(chain, targets.mode)
-    cell = np.full(len(targets), -1)
     if len(todo) == len(targets):  # all valid: no copy of the targets
-        cell = table.cells(targets)
-    elif len(todo):
+        return table.q, table.cells(targets)
+    cell = np.full(len(targets), -1)
+    if len(todo):
         cell[todo] = table.cells(targets.take(todo))
     return table.q, cell
 
