@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import subprocess
 import tomllib
 
@@ -37,12 +38,15 @@ def _case(name):
 CASES = ("puma560:pose", "toz-6r:pose", "park-5r:direction", "hu-5r:position", "prismatic", "seven-r")
 
 
-def _problem(name, count, seed):
+def _problem(name, count, seed, hard=False):
+    """(chain, targets, starts); ``hard``: the first starts take the lanes' fallbacks (_hard_starts)."""
     chain, mode = _case(name)
     rng = np.random.default_rng(seed)
-    R, p = fk(chain, random_joints(chain, count, rng))
+    q_target = random_joints(chain, count, rng)
+    R, p = fk(chain, q_target)
     targets = nm.Targets(mode, p, R if mode == "pose" else None, R[:, :, 2] if mode == "direction" else None)
-    return chain, targets, random_joints(chain, count, rng)
+    q0 = random_joints(chain, count, rng)
+    return chain, targets, _hard_starts(chain, q_target, q0) if hard else q0
 
 
 @pytest.mark.parametrize("name", CASES)
@@ -74,6 +78,48 @@ def test_c_kernel_agrees_with_numpy(name, polish):
     assert np.allclose(rot, got[2], rtol=1e-6, atol=1e-12, equal_nan=True)
 
 
+#: A 6R arm with a prismatic joint, clipped (not full-turn) limits, a reversed joint and a tool.
+SIX_MIXED = {"joint": [{"a": 0, "alpha": 90, "d": 30}, {"a": 40, "alpha": 0, "limits": [-100, 80]},
+                       {"type": "prismatic", "a": 5, "alpha": -90, "d": 10, "limits": [0, 20]},
+                       {"a": 0, "alpha": 90, "d": 35, "scale": -1}, {"a": 0, "alpha": -90, "limits": [-120, 120]},
+                       {"a": 0, "alpha": 0, "d": 5}],
+             "tool": {"xyz": [1, 2, 10], "rpy": [5, -10, 15]}}
+
+
+def _hard_starts(chain, q_target, q0):
+    """Starts that take the lanes' scalar fallbacks: a huge angle (libm's sin and cos), the last
+    joint half a turn off the target (a rotation error of exactly pi), a joint out of its turn."""
+    q0 = q0.copy()
+    q0[0, 0] = 3e5
+    q0[1] = q_target[1]
+    q0[1, -1] += np.pi
+    q0[2, 0] = chain.upper[0] + 1.0
+    return q0
+
+
+@pytest.mark.skipif(not lmkernel.lanes_available(), reason="no AVX2: rows are solved one at a time anyway")
+@pytest.mark.parametrize("name", ["puma560", "toz-6r", "six-mixed"])
+def test_lanes_are_bit_identical_to_rows(name):
+    """Pose mode on six joints runs four rows per vector (csrc/lm_lanes.c) where the CPU has AVX2:
+    the same bits as one row at a time, in every output, fallback lanes included."""
+    chain = (parse_chain(SIX_MIXED, "six-mixed.toml") if name == "six-mixed" else load_chain(shipped_arm(name)))
+    rng = np.random.default_rng(6)
+    q_target = random_joints(chain, 301, rng)
+    R, p = fk(chain, q_target)
+    targets = nm.Targets("pose", p, R)
+    q0 = _hard_starts(chain, q_target, random_joints(chain, 301, rng))
+    switch = ctypes.c_int.in_dll(lmkernel._library(), "lm_use_lanes")
+    out = {}
+    try:
+        for lanes in (1, 0):
+            switch.value = lanes
+            out[lanes] = lmkernel.levenberg_marquardt(chain, targets, q0, return_iterations=True)
+    finally:
+        switch.value = 1
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(out[0], out[1]))
+    assert out[1][3].mean() > 0.3 and out[1][3][1]  # converged rows, the half turn among them
+
+
 @pytest.mark.parametrize("all_solutions", [False, True])
 def test_multistart_backends_agree(all_solutions):
     chain, targets, q0 = _problem("puma560:pose", 60, 2)
@@ -97,15 +143,17 @@ def test_strict_warnings(opt, tmp_path):
     flags = (opt,) + csolver.WARN_FLAGS[1:]
     assert {"-Wall", "-Wextra", "-Werror", "-std=c99", "-pedantic"} <= set(flags)
     directory = lmkernel.build_driver().parent  # the sources, as the sanitizer build sees them
-    result = subprocess.run([cbuild.compiler(), *flags, "-c", "-I", str(directory), str(directory / "lm_kernel.c"),
-                             str(directory / lmkernel.DRIVER)], capture_output=True, text=True, cwd=tmp_path)
+    sources = [str(directory / name) for name in lmkernel.C_FILES + (lmkernel.DRIVER,)]
+    result = subprocess.run([cbuild.compiler(), *flags, "-c", "-I", str(directory), *sources],
+                            capture_output=True, text=True, cwd=tmp_path)
     assert result.returncode == 0 and not result.stderr, result.stderr
 
 
 @pytest.mark.parametrize("name", CASES)
 def test_sanitizer_driver_matches_the_library(name):
-    """ASan + UBSan build, fed rows as text: no report, and bit-identical to the ctypes library."""
-    chain, targets, q0 = _problem(name, 40, 4)
+    """ASan + UBSan build, fed rows as text (one call, as the library): no report, and bit-identical
+    to the ctypes library; the first starts take the lanes' scalar fallbacks where lanes run."""
+    chain, targets, q0 = _problem(name, 40, 4, hard=True)
     out = csolver.run_test_driver(lmkernel.build_driver(), lmkernel.driver_input(chain, targets, q0), timeout=120)
     rows = np.array([[float(v) for v in line.split()] for line in out])
     q, pos, rot, *_, steps = lmkernel.levenberg_marquardt(chain, targets, q0, return_iterations=True)

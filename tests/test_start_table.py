@@ -45,7 +45,8 @@ def test_table_starts_converge_more_often_in_fewer_steps(name):
     targets = nm.Targets("pose", p, R)
     rows = np.arange(len(p))
     uniform_q = random_joints(chain, len(p), rng)
-    table_q = multistart._table_starts(chain, targets, rows)[:, 0]
+    entries, cell = multistart._table_starts(chain, targets, rows)
+    table_q = np.where((cell >= 0)[:, None], entries[cell, 0], np.nan)
     table_q = np.where(np.isnan(table_q), uniform_q, table_q)  # an empty cell: a uniform start, as solve does
     *_, conv_t, _, steps_t = lmkernel.levenberg_marquardt(chain, targets, table_q, rows=rows, return_iterations=True,
                                                           damping=multistart.TABLE_DAMPING)

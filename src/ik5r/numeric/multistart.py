@@ -64,26 +64,35 @@ def _round_starts(chain: Chain, keys: np.ndarray, poses: np.ndarray, first: int,
                   near=None) -> np.ndarray:
     """(len(poses), width, n) starts first .. first + width - 1 of the given poses (drawn only for
     the poses still open: a pose solved by its first start costs no draw); start k < DEPTH is the
-    start table's entry ``near`` (N, DEPTH, n) where it has one; start 0 is q0 when given."""
-    q = _uniform(chain, keys[poses], first, width)
-    if near is not None:
-        for k in range(first, min(first + width, near.shape[1])):
-            entry = near[poses, k]
-            has = ~np.isnan(entry[:, 0])
-            q[has, k - first] = entry[has]
+    start table's entry where the pose's cell has one (``near``: the table's entries and each
+    pose's cell, :func:`_table_starts`); start 0 is q0 when given."""
+    if near is None or first >= near[0].shape[1]:
+        q = _uniform(chain, keys[poses], first, width)
+    else:  # draw only where the cell has no entry
+        q = np.empty((len(poses), width, chain.n))
+        entries, cell = near[0], near[1][poses]
+        for k in range(first, first + width):
+            has = np.zeros(len(poses), dtype=bool) if k >= entries.shape[1] else cell >= 0
+            if has.any():
+                has[has] = ~np.isnan(entries[cell[has], k, 0])
+                q[has, k - first] = entries[cell[has], k]
+            q[~has, k - first] = _uniform(chain, keys[poses[~has]], k, 1)[:, 0]
     if q0 is not None and first == 0:
         q0 = np.asarray(q0, dtype=np.float64)
         q[:, 0] = q0[poses] if q0.ndim == 2 else q0
     return q
 
 
-def _table_starts(chain, targets, todo) -> np.ndarray:
-    """(N, DEPTH, n): the start table's entries of each valid pose's cell (:mod:`ik5r.numeric.start_table`),
-    NaN where it has none (or the pose is invalid)."""
-    near = np.full((len(targets), start_table.DEPTH, chain.n), np.nan)
+def _table_starts(chain, targets, todo) -> tuple[np.ndarray, np.ndarray]:
+    """The start table's entries (cells, DEPTH, n) and each pose's cell (N,): -1 where it has
+    none or the pose is invalid (:mod:`ik5r.numeric.start_table`)."""
+    table = start_table.table_for(chain, targets.mode)
+    if len(todo) == len(targets):  # all valid: no copy of the targets
+        return table.q, table.cells(targets)
+    cell = np.full(len(targets), -1)
     if len(todo):
-        near[todo] = start_table.table_for(chain, targets.mode).lookup(targets.take(todo))[0]
-    return near
+        cell[todo] = table.cells(targets.take(todo))
+    return table.q, cell
 
 
 def _rank_lost_at(chain, targets, rows, q) -> np.ndarray:

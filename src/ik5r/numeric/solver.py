@@ -224,26 +224,33 @@ def levenberg_marquardt(chain: Chain, targets: Targets, q0, *, iterations=60, to
     return out_q, out_pos, out_rot, converged, out_sing & ~converged
 
 
+def _rotation_ok(R) -> np.ndarray:
+    """(N,) whether each R (N,3,3) is finite, orthonormal within 1e-6 (every entry of the Gram
+    matrix of its columns n, o, a less I) and right-handed (n . (o x a) > 0). On the nine entries
+    as rows of length N (one transposed copy): elementwise passes instead of reductions over 3."""
+    r = np.ascontiguousarray(R.reshape(len(R), 9).T)  # r[3 * row + col]
+    ok = np.isfinite(r).all(axis=0)
+    worst = np.zeros(len(R))
+    for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)):  # the Gram matrix less I
+        worst = np.fmax(worst, np.abs(r[i] * r[j] + r[3 + i] * r[3 + j] + r[6 + i] * r[6 + j] - (i == j)))
+    det = (r[0] * (r[4] * r[8] - r[7] * r[5]) + r[3] * (r[7] * r[2] - r[1] * r[8])  # n . (o x a)
+           + r[6] * (r[1] * r[5] - r[4] * r[2]))
+    return ok & (worst <= 1e-6) & (np.where(np.isfinite(det), det, 0.0) > 0)
+
+
 def check_targets(chain: Chain, targets: Targets) -> np.ndarray:
     """Per-pose status before solving: INVALID, UNREACHABLE or OK (to be solved)."""
     status = np.full(len(targets), OK)
-    finite = np.isfinite(targets.p).all(axis=1)
+    x, y, z = np.ascontiguousarray(targets.p.T)  # rows of length N: elementwise passes, as _rotation_ok
+    finite = np.isfinite(x) & np.isfinite(y) & np.isfinite(z)
     if targets.R is not None:
         with np.errstate(invalid="ignore"):
-            finite &= np.isfinite(targets.R).all(axis=(1, 2))
-            cols = np.ascontiguousarray(np.moveaxis(targets.R, 2, 0))  # n, o, a: (3, N, 3)
-            worst = np.zeros(len(targets))
-            for i, j in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)):  # the Gram matrix less I
-                worst = np.fmax(worst, np.abs((cols[i] * cols[j]).sum(axis=1) - (i == j)))
-            finite &= worst <= 1e-6
-            R = targets.R
-            det = np.einsum("ni,ni->n", R[:, :, 0], np.cross(R[:, :, 1], R[:, :, 2]))  # n . (o x a)
-            finite &= np.where(np.isfinite(det), det, 0.0) > 0
+            finite &= _rotation_ok(targets.R)
     if targets.a is not None:
         with np.errstate(invalid="ignore"):
             finite &= np.isfinite(targets.a).all(axis=1) & (np.abs(np.linalg.norm(targets.a, axis=1) - 1) <= 1e-6)
     with np.errstate(invalid="ignore"):
-        far = np.linalg.norm(targets.p, axis=1) > chain.reach * (1 + 1e-12) + 1e-9
+        far = np.sqrt(x * x + y * y + z * z) > chain.reach * (1 + 1e-12) + 1e-9
     status[far] = UNREACHABLE
     status[~finite] = INVALID
     return status

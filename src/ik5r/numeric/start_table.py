@@ -4,9 +4,10 @@ Built once per arm and mode (cached in the process): ``SIZE`` joint vectors draw
 limits from a fixed seed, their FK, and a grid over the task space: the tool point in ``POINT_CELLS``
 cells per axis of the table's bounding box, and (pose mode) the orientation as a unit quaternion
 (sign fixed by w >= 0) in ``TURN_CELLS`` cells per component, or (direction mode) the tool z axis in
-``TURN_CELLS`` cells per component. Each occupied cell keeps its first ``DEPTH`` table entries. A target's start
-is the first entry of its own cell (its second start the second entry), found by a sorted-array search (vectorised, about 0.5 us per pose; a
-k-d tree on the same features costs 4 to 10 us per pose and gives no better starts); a target whose
+``TURN_CELLS`` cells per component. Each occupied cell keeps its first ``DEPTH`` table entries. A
+target's start is the first entry of its own cell (its second start the second entry), found
+through a dense map from every possible cell key to its entries (vectorised; a k-d tree on the
+same features costs 4 to 10 us per pose and gives no better starts); a target whose
 cell is empty gets none (the caller draws a uniform start instead). The lookup depends on the
 target alone, so a pose gets the same start whatever else is in the batch.
 
@@ -96,18 +97,31 @@ class StartTable:
                 key = key * TURN_CELLS + column
         return key
 
+    def cells(self, targets: nm.Targets) -> np.ndarray:
+        """(N,) each target's cell: its entries are ``self.q[cell]`` (DEPTH, n) in table order, NaN
+        where the cell holds fewer; -1 where the target's cell is empty."""
+        if targets.mode != self.mode:
+            raise ValueError(f"table of mode {self.mode}, targets of mode {targets.mode}")
+        parts = [targets.p, targets.R, targets.a]
+        if not all(np.isfinite(x).all() for x in parts if x is not None):  # invalid rows are rejected
+            parts = [None if x is None else np.nan_to_num(x) for x in parts]  # before the cell is used
+        return self._slots()[self._keys(*parts)]
+
+    def _slots(self) -> np.ndarray:
+        """Every possible key's cell (-1: empty), built on first use: a gather per target instead
+        of a binary search over the occupied keys."""
+        if getattr(self, "_slot", None) is None:  # a table loaded from disk starts without it
+            turn = {"pose": 4, "direction": 3, "position": 0}[self.mode]  # components of _turn_features
+            self._slot = np.full(POINT_CELLS ** 3 * TURN_CELLS ** turn, -1)
+            self._slot[self.keys] = np.arange(len(self.keys))
+        return self._slot
+
     def lookup(self, targets: nm.Targets) -> tuple[np.ndarray, np.ndarray]:
         """(N, DEPTH, n) each target's starts (the entries of its cell in table order; NaN where the
         cell is empty or holds fewer) and (N,) whether its cell has any."""
-        if targets.mode != self.mode:
-            raise ValueError(f"table of mode {self.mode}, targets of mode {targets.mode}")
-        p = np.nan_to_num(targets.p)  # invalid rows are rejected before the lookup is used
-        R = None if targets.R is None else np.nan_to_num(targets.R)
-        a = None if targets.a is None else np.nan_to_num(targets.a)
-        key = self._keys(p, R, a)
-        at = np.minimum(np.searchsorted(self.keys, key), len(self.keys) - 1)
-        found = self.keys[at] == key
-        return np.where(found[:, None, None], self.q[at], np.nan), found
+        cell = self.cells(targets)
+        found = cell >= 0
+        return np.where(found[:, None, None], self.q[cell], np.nan), found
 
 
 def _chain_key(chain: Chain, mode: str) -> tuple:

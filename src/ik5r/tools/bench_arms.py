@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import time
 from pathlib import Path
@@ -25,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ik5r.core.chain import Chain, fk, load_chain, random_joints, shipped_arm
-from ik5r.numeric import multistart, start_table
+from ik5r.numeric import lmkernel, multistart, start_table
 from ik5r.numeric import solver as nm
 
 ARMS = ("toz-6r", "puma560")
@@ -34,7 +35,8 @@ NOTE = ("ik5r: `multistart.solve` in pose mode, one solution per pose, its own s
         "the given random first start): first the start table's entries of the pose's cell (`ik5r.numeric.start_table`: "
         "{size:,} FK samples of the arm, up to {depth} per cell, built once per arm and kept on disk, {build}; the "
         "lookup is inside the timed solve), then rounds of "
-        "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-11 (C kernel, one core); "
+        "fresh uniform starts on the unsolved poses (up to 32 per pose), LM until 1e-11 (C kernel, one core; "
+        "{lanes}); "
         "the row 'incl. table build' charges the whole build to this one batch. "
         "ik_LM: roboticstoolbox's C++ `ik_LM` (Chan's damping, ilimit 30, slimit 100 random restarts, joint "
         "limits) on an ETS robot of the same chain; with its default tol 1e-6 it stops short of 1e-9, so the "
@@ -163,7 +165,8 @@ def bench_arm(name: str, poses: int, rtb_count: int, ikpy_count: int, seed: int 
             answers[key] = (q, own)
     cpu = float(np.median(times["ik5r"]))
     out = {"arm": name, "joints": chain.n, "repeat": repeat, "ik5r": _summary(chain, answers["ik5r"], R, p, cpu),
-           "table_build_s": build, "table_load_s": load, "table_size": start_table.SIZE}
+           "table_build_s": build, "table_load_s": load, "table_size": start_table.SIZE,
+           "lanes": lmkernel.lanes_available() and chain.n == 6}
     out["ik5r_with_build"] = _summary(chain, answers["ik5r"], R, p, cpu + build)
     out["ik5r_first"] = _summary(chain, answers["ik5r"][:m], R[:m], p[:m], cpu * m / poses)
     for key, _, _ in variants:
@@ -204,8 +207,13 @@ def table(result: dict) -> str:
                          f"{s['max_pos_err_cm']:.1e} | {s['poses_per_s']:,.0f} | {ratio} |")
     builds = ", ".join(f"{r['arm']} {r['table_build_s'] * 1e3:.0f} ms (load from the disk cache "
                        f"{r['table_load_s'] * 1e3:.1f} ms)" for r in result["arms"])
-    return "\n".join(lines + ["", NOTE.format(build=f"build CPU time {builds}", size=start_table.SIZE,
-                                                 depth=start_table.DEPTH)])
+    lanes = ("four rows per AVX2 vector" if all(r.get("lanes") for r in result["arms"])
+             else "one row at a time: no AVX2, or an arm not of six joints")
+    note = NOTE.format(build=f"build CPU time {builds}", size=start_table.SIZE, depth=start_table.DEPTH, lanes=lanes)
+    if "load_average_1min" in result:  # CPU times stay comparable on a shared machine; this says how shared
+        note += (" Machine load (1-minute load average) before and after: "
+                 + " and ".join(f"{v:.1f}" for v in result["load_average_1min"]) + ".")
+    return "\n".join(lines + ["", note])
 
 
 def main(argv=None) -> int:
@@ -218,7 +226,9 @@ def main(argv=None) -> int:
     parser.add_argument("-o", "--output", default="build/bench")
     parser.add_argument("--record", action="store_true", help="copy to docs/results/records/")
     args = parser.parse_args(argv)
+    before = os.getloadavg()[0]
     result = {"arms": [bench_arm(name, args.poses, args.rtb, args.ikpy, repeat=args.repeat) for name in ARMS]}
+    result["load_average_1min"] = [before, os.getloadavg()[0]]
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     text = table(result)

@@ -1,6 +1,7 @@
 /* See lm_kernel.h. Every step mirrors ik5r/numeric.py and ik5r/chain.py (names kept), so the two
  * agree to rounding; the numpy code is the reference and documents the method. */
 #include "lm_kernel.h"
+#include "lm_internal.h"
 
 #include <math.h>
 
@@ -353,6 +354,20 @@ static void clamp_joints(const lm_chain *c, int n, double *q) {
     }
 }
 
+int lm_use_lanes = 1;
+
+int lm_lanes_available(void) {
+#ifdef LM_HAVE_LANES
+    return __builtin_cpu_supports("avx2") != 0;
+#else
+    return 0;
+#endif
+}
+
+double lm_atan2_upper(double y, double x) { return atan2_upper(y, x); }
+void lm_rotation_log(double Rerr[3][3], double out[3]) { rotation_log(Rerr, out); }
+double lm_py_mod(double a, double b) { return py_mod(a, b); }
+
 static int below(double pos, double rot, double tol) { return pos <= tol && !(rot > tol); }
 
 /* numeric.levenberg_marquardt for one row; returns the number of steps tried. */
@@ -427,6 +442,12 @@ int lm_solve_rows(const lm_chain *chain, const lm_params *params, size_t count, 
         || (chain->mode == LM_POSE && !target_R) || (chain->mode == LM_DIRECTION && !target_a)
         || params->iterations < 0 || params->extra < 1)
         return -1;
+#ifdef LM_HAVE_LANES
+    if (lm_use_lanes && chain->mode == LM_POSE && n == 6 && lm_lanes_available()) { /* the same bits */
+        lm_solve_lanes(chain, params, count, rows, target_p, target_R, q0, q, pos, rot, iters);
+        return 0;
+    }
+#endif
     switch (n) {
     case 1: solve_rows(chain, 1, params, count, rows, target_p, target_R, target_a, q0, q, pos, rot, iters); break;
     case 2: solve_rows(chain, 2, params, count, rows, target_p, target_R, target_a, q0, q, pos, rot, iters); break;

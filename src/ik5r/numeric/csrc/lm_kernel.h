@@ -1,6 +1,7 @@
 /* Damped least squares (Levenberg-Marquardt) inverse kinematics of a general serial arm, float64.
  * The C twin of ik5r.numeric.solver.levenberg_marquardt (the numpy reference): same iteration, same
- * stopping rules, one (pose, start) row at a time so that every row stops as soon as it is done. */
+ * stopping rules, one (pose, start) row at a time so that every row stops as soon as it is done
+ * (pose mode on six joints with AVX2: four rows at a time, one per vector lane, same bits). */
 #ifndef IK5R_LM_KERNEL_H
 #define IK5R_LM_KERNEL_H
 
