@@ -4,7 +4,8 @@ every module, also the ones inside functions, read with ``ast``; nothing is impo
     tools     ik5r.cli, commands, synth, sweep, bench, results, report, demo; the testbenches
               (ik5r.hdl.tb), which check the HDL against the firmware model
     firmware  ik5r.firmware (model, vector, C, codegen)  |  hdl  ik5r.hdl (Amaranth blocks)
-    core      ik5r.fxconfig, arm, reference, status, csvio, errors, fixedpoint (+ _np), pose_fields
+    core      ik5r.fxconfig, arm, reference, status, csvio, errors, fixedpoint (+ _np), pose_fields,
+              ik (the IK body, written once on the fixed-point vocabulary)
 
 A layer imports only its own and the layers below it; firmware and hdl are two implementations
 of the one IK, side by side: neither imports the other (the fixed-point words they share are
@@ -19,7 +20,7 @@ from ik5r.sources import all_modules, closure, imports_of
 
 CORE = {"ik5r", "ik5r.fxconfig", "ik5r.arm", "ik5r.reference", "ik5r.status", "ik5r.csvio",
         "ik5r.errors", "ik5r.fixedpoint", "ik5r.fixedpoint_np", "ik5r.reference_kernel",
-        "ik5r.data", "ik5r.status_cases", "ik5r.pose_fields"}
+        "ik5r.data", "ik5r.status_cases", "ik5r.pose_fields", "ik5r.ik"}
 #: What each layer may import (besides third-party packages).
 ALLOWED = {"core": {"core"}, "firmware": {"core", "firmware"}, "hdl": {"core", "hdl"},
            "tools": {"core", "firmware", "hdl", "tools"}}
