@@ -21,6 +21,10 @@ from .seq_asm import Asm, Check as CheckOperand, Const, I, alu, operand as _op, 
 from .seq_trace import AnyOf, Check, Compare, Flag, Node, Not, Sop, Status, Zero
 
 
+#: Operations that occupy a unit for many clocks.
+HEAVY = ("atan2", "sqrt", "mulc", "rot", "rotx", "roty")
+
+
 def attach_status(status: Status) -> list:
     """Hang each status leaf on the instruction that decides it; returns the nodes that carry
     events (their blocks must run even where no joint needs their value)."""
@@ -105,7 +109,9 @@ class Lower:
 
         roots = list(joints) + [c for c in carriers if all(c is not j for j in joints)]
         for r in roots:
-            visit(r)
+            if id(r) not in seen:
+                seen.add(id(r))
+                visit(r)
         self.mem: dict = {}
         self.emitted: set = set()
         code = []
@@ -142,13 +148,27 @@ class Lower:
     def _cheap(self, n) -> bool:
         return isinstance(n, int) or n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1
 
-    def acc(self, n) -> list:
+    def acc(self, n, alone: bool = True) -> list:
         """Code leaving ``n`` in the accumulator (and raising its status events)."""
         if isinstance(n, int):
             return [alu(A_LD, Const(n))]
-        if isinstance(n, Node) and (n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1):
+        if isinstance(n, Node) and (n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1
+                                    or (not alone and self._heavy(n))):
             return [alu(A_LD, self.operand(n))]
         return self._inline(n)
+
+    def _heavy(self, n) -> bool:
+        """``n`` (computed in its consumer's block) runs a CORDIC, a square root or products: a
+        consumer that also waits for other blocks' words would hold it back, so it gets its own."""
+        if isinstance(n, int) or (isinstance(n, Node) and (n in self.mem or n.op == "in")):
+            return False
+        if isinstance(n, Sop) or n.op in HEAVY:
+            return True
+        return self.uses[n] == 1 and any(self._heavy(d) for d in deps(n))
+
+    def _early(self, n) -> bool:
+        """``n`` is a constant or an input word (ready when the inputs are in)."""
+        return isinstance(n, int) or n.op == "in"
 
     def _inline(self, n) -> list:
         self.emitted.add(id(n))
@@ -165,7 +185,7 @@ class Lower:
             x, y = args
             if op == "add" and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
                 x, y = y, x
-            return self.acc(x) + [alu(A_ADD if op == "add" else A_SUB, self.operand(y))]
+            return self.acc(x, self._early(y)) + [alu(A_ADD if op == "add" else A_SUB, self.operand(y))]
         if op == "neg":
             return self.acc(args[0]) + [alu(A_NEG)]
         if op == "sat":
@@ -214,10 +234,11 @@ class Lower:
                 return self.acc(f) + self.a.opposite(cond)
         if _add_sub(a, b):
             x, y = a.args
-            return self.acc(x) + [alu(A_ADD, self.operand(y), yes), alu(A_SUB, self.operand(y), no)]
+            return self.acc(x, self._early(y)) + [alu(A_ADD, self.operand(y), yes),
+                                                  alu(A_SUB, self.operand(y), no)]
         if self._cheap(b) or not self._cheap(a):
-            return self.acc(a) + [alu(A_LD, self.operand(b), no)]
-        return self.acc(b) + [alu(A_LD, self.operand(a), yes)]
+            return self.acc(a, self._early(b)) + [alu(A_LD, self.operand(b), no)]
+        return self.acc(b, self._early(a)) + [alu(A_LD, self.operand(a), yes)]
 
     def _sqrt(self, n) -> list:
         """isqrt(x, bits): the radicand aligned to the top of the engine's register, bits / 2 digit

@@ -12,6 +12,9 @@ compiled from ``ik.solve``.)
 
 from __future__ import annotations
 
+import copy
+from functools import lru_cache
+
 from ik5r.fxconfig import Constants
 
 from .seq_asm import Asm, limbs_of, widths_of
@@ -25,7 +28,13 @@ __all__ = ["ik_program"]
 
 def ik_program(k: Constants) -> Program:
     """``ik.solve`` for format ``k`` as a program of the sequenced engine (bit-exact to
-    ``model.ik_solve``; see the module docstring)."""
+    ``model.ik_solve``; see the module docstring). Compiled once per format (the schedule's
+    search takes a second or two); each call returns its own copy."""
+    return copy.deepcopy(_compile(k))
+
+
+@lru_cache(maxsize=None)
+def _compile(k: Constants) -> Program:
     ki = k.internal
     if ki.check_shift != k.check_shift + k.cfg.internal_guard_bits:
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "

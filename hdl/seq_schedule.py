@@ -144,33 +144,76 @@ def _priorities(blocks: list, producer: dict) -> list:
 
 
 def schedule(codes: list) -> list:
-    """Place the blocks (``codes[0]`` the inputs, ``codes[-1]`` the outputs) and return the
-    program's instruction list with memory words shared (see :func:`share_words`)."""
+    """Place the blocks (``codes[0]`` the inputs, ``codes[-1]`` the outputs) and share the
+    memory words of the shortest program found (:func:`share_words`).
+
+    The longest-path priorities are a start: a block off the critical path placed late may find
+    its unit taken where it had room (the roll's atan2 behind the elbow's). So each block's
+    priority is raised by a few steps in turn, a change kept when the program gets shorter, until
+    a pass keeps none (a hill climb, deterministic)."""
     blocks = [Block(c) for c in codes]
-    producer = {name: (i, t) for i, b in enumerate(blocks) for t, name in b.writes}
-    prio = _priorities(blocks, producer)
-    table, start = Table(), {}
-    body = list(range(1, len(blocks) - 1))
-    order = [0] + sorted(body, key=lambda i: -prio[i]) + [len(blocks) - 1]
-    written: dict = {}
-    while order:
-        i = next(i for i in order if all(producer[n][0] in start or producer[n][0] == i
-                                         for _, n in blocks[i].reads))
-        order.remove(i)
-        b = blocks[i]
-        t = len(blocks[0].code) if i else 0
-        if i == len(blocks) - 1:
-            t = max(t, len(table.code))
+    prio = _priorities(blocks, _Placer(blocks).producer)
+    best = _Placer(blocks, prio).run()
+    for _ in range(PASSES):
+        improved = False
+        for i in range(1, len(blocks) - 1):
+            for step in (40, 100, 200, 400):
+                trial = prio[:i] + [prio[i] + step] + prio[i + 1:]
+                code = _Placer(blocks, trial).run()
+                if len(code) < len(best):
+                    best, prio, improved = code, trial, True
+        if not improved:
+            break
+    return share_words(best)
+
+
+#: Hill-climbing passes over the priorities (each about 0.5 s for the q32w program).
+PASSES = 3
+
+
+class _Placer:
+    """List scheduling in order of priority: each block, the most urgent ready one first, at its
+    first clock where its claims are free (later blocks fill earlier gaps)."""
+
+    def __init__(self, blocks: list, prio: list | None = None):
+        self.blocks = blocks
+        self.producer = {name: (i, t) for i, b in enumerate(blocks) for t, name in b.writes}
+        self.prio = prio
+        self.table, self.start, self.written = Table(), {}, {}
+
+    def ready(self, i: int):
+        """The first clock block ``i`` may start at (None while a producer is not placed)."""
+        b = self.blocks[i]
+        t = len(self.blocks[0].code) if i else 0
         for t_read, name in b.reads:
-            if name in written:
-                t = max(t, written[name] + READ_AHEAD + 1 - t_read)
-        while not table.fits(b, t):
+            p = self.producer[name][0]
+            if p != i and p not in self.start:
+                return None
+            if name in self.written:
+                t = max(t, self.written[name] + READ_AHEAD + 1 - t_read)
+        return t
+
+    def place(self, i: int, t: int):
+        self.table.place(self.blocks[i], t)
+        self.start[i] = t
+        for t_write, name in self.blocks[i].writes:
+            self.written[name] = t + t_write
+
+    def first_fit(self, i: int, t: int) -> int:
+        while not self.table.fits(self.blocks[i], t):
             t += 1
-        table.place(b, t)
-        start[i] = t
-        for t_write, name in b.writes:
-            written[name] = t + t_write
-    return share_words(table.code)
+        return t
+
+    def run(self) -> list:
+        last = len(self.blocks) - 1
+        self.place(0, 0)
+        todo = sorted(range(1, last), key=lambda i: -self.prio[i])
+        while todo:
+            i = next(i for i in todo if self.ready(i) is not None)
+            todo.remove(i)
+            self.place(i, self.first_fit(i, self.ready(i)))
+        self.place(last, self.first_fit(last, max(self.ready(last), len(self.table.code))))
+        return [dict(ins) for ins in self.table.code]
 
 
 def share_words(code: list) -> list:

@@ -106,7 +106,12 @@ class Node:
     def __eq__(self, c):
         if c != 0 or self.lo < 0:
             raise NotImplementedError("== only against 0 of a non-negative value")
-        return Not(compare(self, ">", 0))
+        # sat(isqrt(r)) == 0 exactly when r == 0 (r >= 0; isqrt(r) >= 1 for r >= 1, saturation
+        # keeps 0): the test needs the radicand only, not the root's digit steps.
+        value = self
+        while isinstance(value, Node) and value.op in ("sat", "sqrt"):
+            value = value.args[0]
+        return Not(compare(value, ">", 0))
 
 
 class Input(Node):
