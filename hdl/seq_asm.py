@@ -71,6 +71,8 @@ def _pick(src, index: int, limbs: int, side: str = "a") -> dict:
 
 def I(*conds, **fields) -> dict:
     """One instruction; ``conds``: up to two (source, invert) pairs."""
+    if len(conds) > 2:
+        raise ValueError(f"an instruction has two condition slots, not {len(conds)}: {conds}")
     for (src, inv), (a, b) in zip(conds, (("ca", "cai"), ("cb", "cbi"))):
         fields[a], fields[b] = src, inv
     return fields

@@ -4,8 +4,10 @@ A block is a straight run of instructions that starts from memory words and cons
 storing its value (or, for a status-only check, by its compare events): the accumulator, the F
 flag and the units hold nothing from one block to the next, so :mod:`.seq_schedule` may place
 blocks anywhere their memory words are ready. A value used once is computed inside its consumer's
-block (in the accumulator); a value used more than once, or read as a B-bus operand, gets its own
-block and a memory word. Status bits are events on the instruction that decides them: the
+block (in the accumulator), unless it is long (a CORDIC, a square root, products) and the consumer
+also waits for another block's word; a value used more than once, or read as a B-bus operand,
+gets its own block and a memory word. An exact sum of products (wider than a memory word) is
+never stored: each consumer forms it again (the radicand of joint 1's root and the on-axis test). Status bits are events on the instruction that decides them: the
 saturation's ``SATI`` / ``SATW``, a compare against a constant, the CORDIC's zero-vector latch;
 ``select(flag, status, 0)`` adds the flag to their conditions.
 """
@@ -254,6 +256,8 @@ class Lower:
         """Operand loads (a selection by a comparison: F, then the other operand where not F), the
         vectoring, the angle; the zero vector's status events while the latch is held."""
         code, loads = [], []
+        if len({id(v.params[0]) for v in n.args if _cond_sel(v)}) > 1:
+            raise NotImplementedError("the two operands of an atan2 selected by different conditions")
         for v, op in zip(n.args[::-1], (K_LDXG, K_LDYG)):
             if _cond_sel(v):
                 value, cmp, const, truth = _compare_of(v.params[0])
@@ -288,6 +292,8 @@ class Lower:
             if isinstance(b, int) and neg:
                 b, neg = -b, False
             terms.append((a, b, neg, shift + extra))
+        if not terms:
+            return [alu(A_LD, Const(s.const << extra))]
         terms.sort(key=lambda t: not t[2])
         if sum(t[2] for t in terms) > 1:
             raise NotImplementedError("more than one negative product in a sum")
