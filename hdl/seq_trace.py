@@ -16,6 +16,9 @@ cannot clip. A branch of the body on a symbolic value raises (the body selects i
 
 from __future__ import annotations
 
+from math import isqrt
+
+from ik5r import fixedpoint, ik
 from ik5r.fxconfig import Constants
 from ik5r.status import SATURATED
 
@@ -304,7 +307,6 @@ class SymFx:
         return self.g.node("rsr", (value,), (shift,), (lo + half) >> shift, (hi + half) >> shift)
 
     def mul_const(self, value, m, nearest: bool):
-        from ik5r import fixedpoint
         ends = [fixedpoint.mul_const(v, m, nearest) for v in (value.lo, value.hi)]
         return self.g.node("mulc", (value,), (m,), min(ends), max(ends))
 
@@ -388,8 +390,10 @@ class SymFw:
         self.g, self.fx = g, fx
 
     def atan2_angle(self, y, x, k):
+        # The vectoring's z stays within the coarse quarter turn plus the sum of the step angles
+        # (< 3.4 rad): two pi bounds it with room.
         pi = self.g.ki.pi_a
-        n = self.g.node("atan2", (y, x), lo=-pi - 1, hi=pi + 1)
+        n = self.g.node("atan2", (y, x), lo=-2 * pi, hi=2 * pi)
         return n, Zero(n)
 
     def cordic_rotate(self, x, y, angle, k):
@@ -400,7 +404,6 @@ class SymFw:
         lo, hi = radicand.bounds()
         if lo < 0:
             raise ValueError("negative radicand")
-        from math import isqrt
         return self.g.node("sqrt", (radicand,), (bits,), isqrt(lo), isqrt(hi) + 1)
 
     def acos_of_complements(self, one_minus, one_plus, k):
@@ -421,7 +424,6 @@ class SymFw:
 
 def trace(k: Constants):
     """``ik.solve`` on symbols: (the five joint nodes, the status leaves, the graph)."""
-    from ik5r import ik
     g = Graph(k)
     fx = SymFx(g)
     words = {name: g.node("word", (), (name,), *g.word_range(k.cfg.width), cls=Input)
