@@ -7,9 +7,10 @@ blocks anywhere their memory words are ready. A value used once is computed insi
 block (in the accumulator), unless it is long (a CORDIC, a square root, products) and the consumer
 also waits for another block's word; a value used more than once, or read as a B-bus operand,
 gets its own block and a memory word. An exact sum of products (wider than a memory word) is
-never stored: each consumer forms it again (the radicand of joint 1's root and the on-axis test). Status bits are events on the instruction that decides them: the
-saturation's ``SATI`` / ``SATW``, a compare against a constant, the CORDIC's zero-vector latch;
-``select(flag, status, 0)`` adds the flag to their conditions.
+never stored: each consumer forms it again (the radicand of joint 1's root and the on-axis test).
+Status bits are events on the instruction that decides them: the saturation's ``SATI`` /
+``SATW``, a compare against a constant, the CORDIC's zero-vector latch; ``select(flag, status,
+0)`` adds the flag to their conditions.
 """
 
 from __future__ import annotations

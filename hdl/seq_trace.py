@@ -155,7 +155,8 @@ def sub(g, a, b):
     if isinstance(b, int) and b == 0:
         return a
     # c - (c - x) is x (1 - (1 - c3), the cosine an acos of complements gets back).
-    if isinstance(a, int) and getattr(b, "op", None) == "sub" and isinstance(b.args[0], int) and b.args[0] == a:
+    if (isinstance(a, int) and getattr(b, "op", None) == "sub" and isinstance(b.args[0], int)
+            and b.args[0] == a):
         return b.args[1]
     alo, ahi = (a, a) if isinstance(a, int) else (a.lo, a.hi)
     blo, bhi = (b, b) if isinstance(b, int) else (b.lo, b.hi)
