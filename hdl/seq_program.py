@@ -28,8 +28,8 @@ __all__ = ["ik_program"]
 
 def ik_program(k: Constants) -> Program:
     """``ik.solve`` for format ``k`` as a program of the sequenced engine (bit-exact to
-    ``model.ik_solve``; see the module docstring). Compiled once per format (the schedule's
-    search takes a second or two); each call returns its own copy."""
+    ``model.ik_solve``; see the module docstring). Compiled once per format (the schedule is a
+    search: :func:`.seq_schedule.schedule`); each call returns its own copy."""
     return copy.deepcopy(_compile(k))
 
 

@@ -167,7 +167,7 @@ def schedule(codes: list) -> list:
     return share_words(best)
 
 
-#: Hill-climbing passes over the priorities (each about 0.5 s for the q32w program).
+#: Hill-climbing passes over the priorities (each schedules the program once per block and step).
 PASSES = 3
 
 
