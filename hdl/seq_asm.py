@@ -6,8 +6,8 @@ and :meth:`Asm.finish`, which resolves constants and variables to data-memory ad
 
 from __future__ import annotations
 
-from ik5r import status as S
-from ik5r.fxconfig import CHECK_BITS, Constants
+from ik5r.core import status as S
+from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from .cordic import atan2_widths, rotate_z_bound
 from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_NOP, A_SATI, A_SATW,

@@ -1,5 +1,5 @@
 """The IK as a program of the sequenced engine: :func:`ik_program`, compiled from the one
-description of the algorithm, :func:`ik5r.ik.solve` (the body the firmware models run).
+description of the algorithm, :func:`ik5r.core.ik.solve` (the body the firmware models run).
 
 Three passes: :mod:`.seq_trace` runs ``ik.solve`` on symbolic values and records its dataflow
 graph; :mod:`.seq_lower` turns the graph into blocks of :mod:`.seq_isa` instructions (one way to do
@@ -15,7 +15,7 @@ from __future__ import annotations
 import copy
 from functools import lru_cache
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
 from .seq_asm import Asm, limbs_of, widths_of
 from .seq_isa import Program

@@ -1,4 +1,4 @@
-"""The IK body (:func:`ik5r.ik.solve`) traced into a graph for the sequenced engine.
+"""The IK body (:func:`ik5r.core.ik.solve`) traced into a graph for the sequenced engine.
 
 ``ik.solve(fx, fw, ...)`` is written once on a fixed-point vocabulary; the firmware models run it
 on numbers. Here ``fx`` and ``fw`` are symbolic (:class:`SymFx`, :class:`SymFw`): every word of
@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from math import isqrt
 
-from ik5r import fixedpoint, ik
-from ik5r.fxconfig import Constants
-from ik5r.status import SATURATED
+from ik5r.core import fixedpoint, ik
+from ik5r.core.fxconfig import Constants
+from ik5r.core.status import SATURATED
 
 from .seq_isa import C_BACK, C_DOWN, C_ROLL, INPUT_WORDS
 
@@ -287,7 +287,7 @@ class Status:
 
 
 class SymFx:
-    """:mod:`ik5r.fixedpoint`'s words, recording nodes."""
+    """:mod:`ik5r.core.fixedpoint`'s words, recording nodes."""
 
     def __init__(self, g: Graph):
         self.g = g
