@@ -16,7 +16,7 @@ and the CORDIC iterations widened alike; ``k`` itself when that is 0): it shifts
 up, and rounds the joint angles back to words, saturated. The helpers the C has too
 (``rshift_round``, ``saturate``, ``mul_const``, ``wrap_angle``, ``opposite``) are the fixed-point
 vocabulary of :mod:`ik5r.core.fixedpoint`, shared with the HDL. The IK body is written once, in that
-vocabulary, in :mod:`ik5r.firmware.ik` (with the orientation checks ``check_word``, ``beyond``,
+vocabulary, in :mod:`ik5r.core.ik` (with the orientation checks ``check_word``, ``beyond``,
 ``off_plane``, ``frame_is_bad``, re-exported here); :func:`ik_solve` runs it on Python integers
 and this module's CORDIC and square-root kernels (:data:`KERNELS`), the vectorised model on arrays.
 """
@@ -31,8 +31,8 @@ from ik5r.core.fixedpoint import mul_const, opposite, rshift_round, saturate, wr
 from ik5r.core.fxconfig import Constants
 from ik5r.core.status import SATURATED
 
-from . import ik
-from .ik import beyond, check_word, frame_is_bad, off_plane  # noqa: F401 (the C's helpers)
+from ik5r.core import ik
+from ik5r.core.ik import beyond, check_word, frame_is_bad, off_plane  # noqa: F401 (the C's helpers)
 
 
 def _bit_length_ones_abs(x: int, y: int) -> int:
@@ -161,7 +161,7 @@ def atan2_angle(y: int, x: int, k: Constants) -> tuple[int, bool]:
     return angle_a, zero
 
 
-#: The kernels :func:`ik5r.firmware.ik.solve` runs on, on Python integers (the vectorised model
+#: The kernels :func:`ik5r.core.ik.solve` runs on, on Python integers (the vectorised model
 #: has the same names over arrays).
 KERNELS = SimpleNamespace(atan2_angle=atan2_angle, cordic_rotate=cordic_rotate, isqrt=isqrt,
                           cordic_acos=cordic_acos, acos_of_complements=acos_of_complements)
@@ -174,7 +174,7 @@ def ik_solve(pose: Pose, shoulder_back: bool, elbow_down: bool, q5_default_a: in
 
     Branch: shoulder_back puts the tool point behind joint 1 (q1 + pi); elbow_down takes
     q3 = -acos(c3) instead of +acos(c3). q5_default_a is used when n, o are absent. The body is
-    :func:`ik5r.firmware.ik.solve` (shared with the vectorised model) on :mod:`ik5r.core.fixedpoint`.
+    :func:`ik5r.core.ik.solve` (shared with the vectorised model) on :mod:`ik5r.core.fixedpoint`.
     """
     roll = pose.n_u is not None and pose.o_u is not None
     joints, status = ik.solve(fixedpoint, KERNELS, k, pose.p_l, pose.a_u,

@@ -2,7 +2,7 @@
 
 Every function mirrors the scalar function of the same name in :mod:`ik5r.firmware.model` (the
 specification) over int64 numpy arrays, one element per call of the scalar function; the IK body
-itself is one, :func:`ik5r.firmware.ik.solve`, run here on :mod:`ik5r.core.fixedpoint_np` (the numpy
+itself is one, :func:`ik5r.core.ik.solve`, run here on :mod:`ik5r.core.fixedpoint_np` (the numpy
 twin of the fixed-point vocabulary, re-exported here) and this module's CORDIC and square-root
 kernels. Where the scalar model relies on Python's unbounded integers, the bound of every product
 and sum is noted (for the widest config, width = 32, frac.unit = 30, 32 CORDIC iterations and 4
@@ -47,7 +47,7 @@ from ik5r.core.fixedpoint_np import bit_length_search as _bit_length_search
 from ik5r.core.fxconfig import Constants
 from ik5r.core.status import SATURATED
 
-from . import ik
+from ik5r.core import ik
 
 #: Poses per chunk of :func:`solve_batch`: the working set (~30 int64 arrays) stays in L2/L3.
 CHUNK = 32768
@@ -263,7 +263,7 @@ def atan2_angle(y, x, k: Constants):
     return angle_a, zero
 
 
-#: The kernels :func:`ik5r.firmware.ik.solve` runs on, over arrays (the names of ``model.KERNELS``).
+#: The kernels :func:`ik5r.core.ik.solve` runs on, over arrays (the names of ``model.KERNELS``).
 KERNELS = SimpleNamespace(atan2_angle=atan2_angle, cordic_rotate=cordic_rotate, isqrt=isqrt,
                           cordic_acos=cordic_acos, acos_of_complements=acos_of_complements)
 
@@ -274,7 +274,7 @@ def _check_words(name: str, value: np.ndarray, k: Constants) -> None:
 
 
 def _solve_chunk(k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default_a):
-    """:func:`ik5r.firmware.ik.solve` on (N, 3) word arrays: ((N, 5) angle words, (N,) status)."""
+    """:func:`ik5r.core.ik.solve` on (N, 3) word arrays: ((N, 5) angle words, (N,) status)."""
     def columns(words):
         return tuple(words[:, i] for i in range(3))
     joints, status = ik.solve(fixedpoint_np, KERNELS, k, columns(p_l), columns(a_u), columns(n_u),

@@ -123,7 +123,9 @@ def select(options, index):
     A mux is a continuous assignment: defined from time 0 on every simulator.
     """
     index = Value.cast(index)
-    level = list(options) + [Const(0, 1)] * ((1 << len(index)) - len(options))
+    # Entries past what the index can encode are unreachable (e.g. a limb the program never picks).
+    level = list(options)[:1 << len(index)]
+    level += [Const(0, 1)] * ((1 << len(index)) - len(level))
     for bit in range(len(index)):
         level = [Mux(index[bit], level[j + 1], level[j]) for j in range(0, len(level), 2)]
     return level[0]

@@ -99,6 +99,25 @@ def test_program_orientation_checks(cfg):
     assert got == [int(v) for v in expected["status"]]
 
 
+def test_program_is_traced_from_the_one_ik():
+    """Every word of the vocabulary ``ik.solve`` uses has a symbolic twin (``fx.*``, ``fw.*``),
+    and a branch of the body on a traced value is refused (the body must select)."""
+    import ast
+    import inspect
+
+    from ik5r.core import ik
+    from ik5r.hdl import seq_trace
+
+    used = {(n.value.id, n.attr) for n in ast.walk(ast.parse(inspect.getsource(ik)))
+            if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name) and n.value.id in ("fx", "fw")}
+    assert {name for ns, name in used if ns == "fx"} <= set(vars(seq_trace.SymFx))
+    assert {name for ns, name in used if ns == "fw"} <= set(vars(seq_trace.SymFw))
+    joints, status, graph = seq_trace.trace(_k("q32w"))
+    assert len(joints) == 5 and status.leaves
+    with pytest.raises(TypeError):
+        bool(joints[0] > 0)
+
+
 def test_program_is_short_and_shared():
     """One program per config; the q32w pose within 800 clocks; units used side by side."""
     k = _k("q32w")

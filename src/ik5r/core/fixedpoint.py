@@ -7,7 +7,7 @@ time, so neither layer imports the other. ``>>`` on a negative Python int floors
 C's arithmetic right shift (docs/algorithm.md, "C semantics").
 
 :mod:`ik5r.core.fixedpoint_np` has the same words over numpy int64 arrays, with a wide (limb) path for
-products beyond int64; the IK body (``ik5r.firmware.ik``) is written once against these names and
+products beyond int64; the IK body (``ik5r.core.ik``) is written once against these names and
 runs on either module. Besides the C's helpers the vocabulary has the words a batch needs where the
 scalar code would branch (``select``, ``flag``, ``clip``, ``minimum``, ``any_of``) and the *exact*
 products (``exact_mul``, ``exact_const``, ``exact_add``, ``exact_sub``, ``exact_less``,
