@@ -22,6 +22,20 @@ DIRECTION_TOLERANCE = 1e-12
 _TWO_PI = 2.0 * np.pi
 
 
+def _atan2(y, x, out=None):
+    """np.arctan2, with float32 operands evaluated in float64 and rounded once. numpy picks its
+    float32 arctan2 by CPU (AVX-512 SVML or libm), whose last bits differ between machines, so the
+    float32 baseline would change with the machine; the rounded float64 angle is the same on every
+    machine (and within half an ulp of the true one, as a good float32 libm's)."""
+    if np.asarray(y).dtype != np.float32:
+        return np.arctan2(y, x, out=out)
+    angle = np.arctan2(np.asarray(y, np.float64), np.asarray(x, np.float64))
+    if out is None:
+        return angle.astype(np.float32)
+    out[...] = angle
+    return out
+
+
 def input_limit(dtype) -> float:
     """Largest |input value| the IK takes in ``dtype``: squares and their sums stay finite."""
     return float(np.sqrt(np.finfo(dtype).max) / 16)
@@ -123,7 +137,7 @@ class Kernel:
             inv_rho = np.reciprocal(rho)
             c1 = px * inv_rho                  # fixed below where the point is on the axis
             s1 = py * inv_rho
-        theta1 = np.arctan2(py, px)
+        theta1 = _atan2(py, px)
         on_axis = np.flatnonzero(rho < AXIS_TOLERANCE_CM)
         if on_axis.size:
             axo, ayo, azo = ax[on_axis], ay[on_axis], az[on_axis]
@@ -136,7 +150,7 @@ class Kernel:
             with np.errstate(invalid="ignore", divide="ignore"):
                 c1[on_axis] = np.where(free, 0, axo / horizontal)
                 s1[on_axis] = np.where(free, 0, ayo / horizontal)
-            theta1[on_axis] = np.arctan2(ayo, axo)
+            theta1[on_axis] = _atan2(ayo, axo)
             idx = on_axis[free]
             if idx.size:
                 t = _wrap_scalar(np.broadcast_to(near0, (count,))[idx] + self.offsets[0])
@@ -159,7 +173,7 @@ class Kernel:
         a_len2 += a_in
         np.sqrt(a_in, out=a_in)
         np.abs(a_nrm, out=a_nrm)
-        np.arctan2(a_nrm, a_in, out=residual)
+        _atan2(a_nrm, a_in, out=residual)
         np.sqrt(a_len2, out=a_len2)
         bad_orientation = a_nrm > a_len2 * self.orientation
         if Nv is not None:
@@ -173,7 +187,7 @@ class Kernel:
         cphi = az * inv_in
         np.negative(cphi, out=cphi)
         sphi = a_rad * inv_in            # = -sin(phi_front) = sin(phi_back)
-        phi_f = np.arctan2(-a_rad, -az)
+        phi_f = _atan2(-a_rad, -az)
         return cphi, sphi, phi_f, no_direction, bad_orientation
 
     def _elbow(self, back, base, rho, pz, cphi, sphi):
@@ -226,12 +240,12 @@ class Kernel:
             qb = Q[b]
             qb[0] = q1
             if down:
-                np.arctan2(w + z, u - v, out=qb[1])
-                np.arctan2(s3, c3, out=qb[2])
+                _atan2(w + z, u - v, out=qb[1])
+                _atan2(s3, c3, out=qb[2])
                 np.negative(qb[2], out=qb[2])
             else:
-                np.arctan2(w - z, u + v, out=qb[1])
-                np.arctan2(s3, c3, out=qb[2])
+                _atan2(w - z, u + v, out=qb[1])
+                _atan2(s3, c3, out=qb[2])
             q4 = qb[3]
             np.subtract(phi, qb[1], out=q4)
             q4 -= qb[2]
@@ -267,7 +281,7 @@ def _roll(Nv, Ov, c1, s1):
     s5 -= ny * c1
     c5 = ox * s1
     c5 -= oy * c1
-    q5_f = np.arctan2(s5, c5)
+    q5_f = _atan2(s5, c5)
     np.abs(s5, out=s5)
     np.abs(c5, out=c5)
     s5 += c5
