@@ -32,6 +32,8 @@ from __future__ import annotations
 from amaranth.hdl import Array, Assume, Module, Signal
 from amaranth.lib import data
 
+from .stash import stash_tags
+
 __all__ = ["elaborate_fifo", "track_marks"]
 
 
@@ -45,14 +47,19 @@ def elaborate_fifo(inner: Module, name: str, platform):
     return fifo, module
 
 
-def _stage_places(dp, inner: Module, find):
-    """(valid bit, tag register) of every register stage, in pipeline order."""
+def _stage_places(m, dut, inner: Module, find):
+    """(valid bit, tag) of every register stage, in pipeline order: its tag register, or where
+    the tag is in a stash RAM (the IK core) the ghost delay line of :func:`.stash.stash_tags`."""
     places = []
-    for name, _, count, iterated in dp.stages:
+    for name, _, count, iterated in dut._dp.stages:
         for step in range(count):
             prefix = f"{name}{step}" if iterated else name
-            places.append((find(inner, f"{prefix}_valid"), find(inner, f"{prefix}_tag")))
-    return places
+            try:
+                tag = find(inner, f"{prefix}_tag")
+            except LookupError:
+                tag = None
+            places.append((find(inner, f"{prefix}_valid"), tag))
+    return stash_tags(m, dut, inner, places, find)
 
 
 def _shadow(m, fifo, fifo_module, find, layout, r_tag):
@@ -77,8 +84,8 @@ def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payloa
     """Assert (``check(test, name)``) where the marks are (module docstring). ``marks``:
     {mark: (sent, got)} and ``"waiting"``: the counter of cycles without ``o.valid`` while A
     is inside; ``o_payload``: the output payload (a View)."""
-    dp, name = dut._dp, dut._dp.name
-    stages = _stage_places(dp, inner, find)
+    name = dut._dp.name
+    stages = _stage_places(m, dut, inner, find)
     latency = len(stages)
     write = find(inner, f"{name}_fifo_write")
     write_tag = data.View(dut.o.payload.shape(), find(inner, f"{name}_fifo_data")).tag

