@@ -74,6 +74,7 @@ from amaranth.hdl._ast import AnySeq
 from ..datapath import Datapath, SharedStage
 from ..stream_block import StreamBlock
 from ..seq_core import SequencedIKCore
+from .iterative import track_item
 from .pipelined import elaborate_fifo, track_marks
 from .sequenced import elaborate_engine, sequencer, tag_queue
 
@@ -156,8 +157,9 @@ class StreamContract(Elaboratable):
         if dut.tag_width != TAG_WIDTH:
             raise ValueError(f"dut.tag_width must be {TAG_WIDTH}, got {dut.tag_width}")
         self.checks = tuple(checks)
-        #: A pipelined block's ``order`` group with the invariants of :mod:`.pipelined` (for
-        #: k-induction; the IK core's tags take its stash RAMs, which they do not follow).
+        #: The ``order`` group with the invariants that make it inductive: :mod:`.pipelined`
+        #: (a pipelined build; the IK core's tag stash through :mod:`.stash`), :mod:`.iterative`
+        #: (an iterative build: the staged IK core).
         self.inductive_order = inductive_order
         self.dut = dut
         self.mutation = mutation
@@ -236,6 +238,11 @@ class StreamContract(Elaboratable):
                     self._credits(m, inner, inside)
                 track_marks(m, dut, inner, self.fifo, self.fifo_module, _find_signal, marks,
                             o_valid, o_payload, self._assert)
+            elif self.inductive_order:
+                # By k-induction: where the one item inside is (:mod:`.iterative`).
+                if inside is None:
+                    self._conservation(m, inner, taken_in, taken_out, past_rst)
+                track_item(m, dut, inner, _find_signal, marks, o_valid, self._assert)
         return m
 
     def _environment(self, m, rst):

