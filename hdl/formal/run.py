@@ -183,17 +183,22 @@ def stash_lemma_links(dut) -> list:
     return [(origin, where, width) for origin, where, _, width in tag_links(dut)]
 
 
-def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth: int = INDUCTION_DEPTH,
-                      workdir: Path | None = None) -> dict:
-    """k-induction of :class:`.stash.StashLemma` (``skew``: the self-test's wrong distance)."""
+def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth: int | None = None,
+                      workdir: Path | None = None, method: str = "k-induction") -> dict:
+    """:class:`.stash.StashLemma` by k-induction (``depth`` :data:`INDUCTION_DEPTH`), or by BMC
+    (``depth`` the distance + 4: long enough for the watched word to come out); ``skew``: the
+    self-test's wrong distance."""
     start = time.monotonic()
     top = StashLemma(origin, where, width, skew)
+    if depth is None:
+        depth = INDUCTION_DEPTH if method == "k-induction" else where - origin + 4
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
-    status, detail, failed, cpu = _run_sby(text, top.assert_names, "prove", depth,
+    mode = {"k-induction": "prove", "bmc": "bmc"}[method]
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth,
                                            "memory_map\nopt -fast\n", workdir, f"stash-{origin}-{where}")
     return {"lemma": f"stash_{origin}_{where} is a delay line of {where - origin} cycles"
             + (f" (claimed {where - origin + skew})" if skew else ""),
-            "width": width, "method": "k-induction", "depth": depth, "status": status,
+            "width": width, "method": method, "depth": depth, "status": status,
             "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
             "detail": detail, "failed": failed}
 
