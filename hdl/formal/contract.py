@@ -149,7 +149,8 @@ class StreamContract(Elaboratable):
     ``tag_width=TAG_WIDTH``. Its free inputs are :attr:`ports`."""
 
     def __init__(self, dut: StreamBlock, *, checks=CHECKS, mutation: str | None = None,
-                 inductive_order: bool = False):
+                 inductive_order: bool = False, control_assumed: bool = False,
+                 fifo_lemma: bool = False):
         if not checks or not set(checks) <= set(CHECKS):
             raise ValueError(f"checks must be a non-empty subset of {CHECKS}, got {checks!r}")
         if mutation is not None and mutation not in MUTATIONS:
@@ -161,6 +162,17 @@ class StreamContract(Elaboratable):
         #: (a pipelined build; the IK core's tag stash through :mod:`.stash`), :mod:`.iterative`
         #: (an iterative build: the staged IK core).
         self.inductive_order = inductive_order
+        #: In an ``order`` job without ``control``: the control group's assertions (conservation,
+        #: credits, the FIFO's) as ``Assume`` s, sound only where the ``control`` job of the same
+        #: component (same harness, data abstraction and memory cuts, no fault) proves them: they
+        #: then hold in every reachable state of this job's model, which is that model plus ghost
+        #: registers and ``Assume`` s (which only remove behaviours).
+        if control_assumed and ("control" in checks or mutation is not None):
+            raise ValueError("control_assumed: only for an order job of a fault-free component")
+        self.control_assumed = control_assumed
+        #: The tracked ``order`` group of a pipelined build with its output FIFO by the FIFO's
+        #: lemma (:mod:`.fifo`), not by a shadow of each RAM entry.
+        self.fifo_lemma = fifo_lemma
         self.dut = dut
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
@@ -179,6 +191,14 @@ class StreamContract(Elaboratable):
         self.assert_names = {}
 
     def _assert(self, test, name: str):
+        check = Assert(test, name, src_loc_at=1)
+        self.assert_names[(os.path.basename(check.src_loc[0]), check.src_loc[1])] = name
+        return check
+
+    def _invariant(self, test, name: str):
+        """A control assertion, or its ``Assume`` where :attr:`control_assumed`."""
+        if self.control_assumed:
+            return Assume(test, name, src_loc_at=1)
         check = Assert(test, name, src_loc_at=1)
         self.assert_names[(os.path.basename(check.src_loc[0]), check.src_loc[1])] = name
         return check
@@ -237,7 +257,7 @@ class StreamContract(Elaboratable):
                     inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
                     self._credits(m, inner, inside)
                 track_marks(m, dut, inner, self.fifo, self.fifo_module, _find_signal, marks,
-                            o_valid, o_payload, self._assert)
+                            o_valid, o_payload, self._assert, fifo_lemma=self.fifo_lemma)
             elif self.inductive_order:
                 # By k-induction: where the one item inside is (:mod:`.iterative`).
                 if inside is None:
@@ -283,15 +303,15 @@ class StreamContract(Elaboratable):
             name = self.dut._dp.name
             occupancy = occupancy + self.fifo.level + _find_signal(inner, f"{name}_fifo_write")
         m.d.comb += [
-            self._assert(inside <= capacity, "capacity"),
-            self._assert(inside == occupancy, "conservation"),
-            self._assert(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
+            self._invariant(inside <= capacity, "capacity"),
+            self._invariant(inside == occupancy, "conservation"),
+            self._invariant(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
         ]
         if self.sequenced:
             # No credits: i.ready is the input register's being free, so it must mean room.
-            m.d.comb += self._assert(~self.dut.i.ready | (inside < capacity), "ready_has_room")
+            m.d.comb += self._invariant(~self.dut.i.ready | (inside < capacity), "ready_has_room")
         with m.If(past_rst):
-            m.d.comb += self._assert(~self.dut.o.valid & (inside == 0), "reset_empties")
+            m.d.comb += self._invariant(~self.dut.o.valid & (inside == 0), "reset_empties")
         return inside
 
     def _segment_counts(self, m, stages, taken_in):
@@ -311,7 +331,7 @@ class StreamContract(Elaboratable):
                 m.d.sync += count.eq(count + 1)
             with m.Elif(part[-1] & ~entering):
                 m.d.sync += count.eq(count - 1)
-            m.d.comb += self._assert(count == sum(part), "segment_count")
+            m.d.comb += self._invariant(count == sum(part), "segment_count")
             counts.append(count)
         return sum(counts)
 
@@ -322,12 +342,12 @@ class StreamContract(Elaboratable):
         fifo = self.fifo
         capacity = self.dut.capacity
         m.d.comb += [
-            self._assert(credits + inside == capacity, "credits"),
-            self._assert(self.dut.i.ready == (credits != 0), "ready_is_credit"),
-            self._assert(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
+            self._invariant(credits + inside == capacity, "credits"),
+            self._invariant(self.dut.i.ready == (credits != 0), "ready_is_credit"),
+            self._invariant(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
             # SyncFIFOBuffered's own invariant: its output register is empty only while at
             # most one item is queued behind it (it is refilled the cycle after).
-            self._assert(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
+            self._invariant(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
         ]
 
     def _marks(self, m, rst, taken_in, taken_out, o_valid, o_tag):

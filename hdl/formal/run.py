@@ -35,9 +35,11 @@ from ..generate import build
 from ..modes import ARCHS
 from .contract import CHECKS, MUTATIONS, TAG_WIDTH, StreamContract
 from .sequenced import DATA_REGISTERS
+from .fifo import FifoLemma
 from .stash import StashLemma, tag_links
 
-__all__ = ["INDUCTION_ONLY", "JOBS", "Result", "harness", "prove", "main"]
+__all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION", "Result", "harness", "prove",
+           "prove_stash_lemma", "stash_lemma_links", "main"]
 
 #: (block, arch) of every component the contract is proved for. The IK core's "compact" arch is
 #: the sequenced engine of hdl/seq_core.py (:mod:`.sequenced`); its "staged" build is the pipelined
@@ -86,11 +88,25 @@ class Result:
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
-            mutation: str | None = None, inductive_order: bool = False) -> StreamContract:
+            mutation: str | None = None, inductive_order: bool = False,
+            control_assumed: bool = False, fifo_lemma: bool = False) -> StreamContract:
     """The contract around the real component ``block``/``arch`` on ``config``."""
     k = constants(load_config(config))
     return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH), checks=checks,
-                          mutation=mutation, inductive_order=inductive_order)
+                          mutation=mutation, inductive_order=inductive_order,
+                          control_assumed=control_assumed, fifo_lemma=fifo_lemma)
+
+
+#: Jobs whose ``order`` induction (fault-free) assumes the control group's assertions instead of
+#: proving them again (:attr:`.contract.StreamContract.control_assumed`): the pipelined IK core,
+#: whose ``control`` job proves them (k-induction, minutes); the order job is then a lemma user
+#: of that job, listed in its :attr:`Result.lemmas`.
+ORDER_ASSUMES_CONTROL = {("ik", "pipelined")}
+
+#: Jobs whose tracked ``order`` induction takes the output FIFO by its lemma (:mod:`.fifo`,
+#: proved first, in :attr:`Result.lemmas`) instead of a shadow of each of its RAM entries: the
+#: pipelined IK core (a 256-entry FIFO behind 187 stages).
+ORDER_FIFO_LEMMA = {("ik", "pipelined")}
 
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
@@ -146,7 +162,8 @@ def _solver_shim(workdir: Path) -> str:
 
 
 def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str | None = None,
-          depth: int | None = None, workdir: Path | None = None, method: str | None = None) -> Result:
+          depth: int | None = None, workdir: Path | None = None, method: str | None = None,
+          control_assumed: bool | None = None) -> Result:
     """Run the job of one property group of one component: ``control`` by k-induction
     (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by k-induction for
     :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
@@ -159,7 +176,11 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
     tracked = check == "order" and mode == "prove" and arch != "compact"
-    top = harness(block, arch, config, (check,), mutation, inductive_order=tracked)
+    if control_assumed is None:
+        control_assumed = tracked and mutation is None and (block, arch) in ORDER_ASSUMES_CONTROL
+    fifo_lemma = tracked and (block, arch) in ORDER_FIFO_LEMMA
+    top = harness(block, arch, config, (check,), mutation, inductive_order=tracked,
+                  control_assumed=control_assumed, fifo_lemma=fifo_lemma)
     latency = top.dut.latency
     if depth is None:
         order = check == "order"
@@ -168,11 +189,18 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
               for link in (stash_lemma_links(top.dut) if tracked and top.pipelined else ())]
+    if fifo_lemma:
+        lemmas.append(prove_fifo_lemma(top.dut.o.payload.shape(), top.dut.capacity,
+                                       workdir=workdir and workdir / "fifo"))
+    if control_assumed:
+        lemmas.append({"lemma": f"the control group of {block}/{arch} on {config} (its assertions "
+                                "assumed here): proved by its control job, not run here",
+                       "status": "ASSUMED"})
     # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
     memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
                                            f"{block}-{arch}")
-    if any(lemma["status"] != "PASS" for lemma in lemmas) and status == "PASS":
+    if any(lemma["status"] not in ("PASS", "ASSUMED") for lemma in lemmas) and status == "PASS":
         status, detail = "ERROR", "a stash lemma did not pass: " + repr(lemmas)
     return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
                   round(time.monotonic() - start, 1), detail, failed, cpu, lemmas)
@@ -200,6 +228,19 @@ def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth:
             + (f" (claimed {where - origin + skew})" if skew else ""),
             "width": width, "method": method, "depth": depth, "status": status,
             "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
+            "detail": detail, "failed": failed}
+
+
+def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None) -> dict:
+    """:class:`.fifo.FifoLemma` by k-induction (its RAM cut and read through the tag shadow)."""
+    start = time.monotonic()
+    top = FifoLemma(layout, depth)
+    text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, "prove", INDUCTION_DEPTH,
+                                           _MEMORIES["control"], workdir, f"fifo-{depth}")
+    return {"lemma": f"the output FIFO (SyncFIFOBuffered, depth {depth}, {layout.size} bits) keeps "
+                     "the marks' order", "method": "k-induction", "depth": INDUCTION_DEPTH,
+            "status": status, "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
             "detail": detail, "failed": failed}
 
 
