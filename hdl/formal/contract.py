@@ -43,8 +43,11 @@ reset.
   is empty only while at most one item is queued) these are inductive.
 
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
-yet taken, :mod:`.sequenced`; the pipelined blocks (``inductive_order``): k-induction with the
-marks' places tracked, :mod:`.pipelined`; the others: bounded model checking from reset; Wolper's
+yet taken, :mod:`.sequenced`; the pipelined blocks and IK core (``inductive_order``): k-induction
+with the marks' places tracked, :mod:`.pipelined` (the IK core's tag through its stash RAM,
+:mod:`.stash`, its output FIFO by the FIFO's lemma, :mod:`.fifo`); the staged IK core
+(``inductive_order``): k-induction with its one item's place tracked, :mod:`.iterative`; the
+iterative blocks: bounded model checking from reset; Wolper's
 data-independence argument: a component that never reads its tags keeps order for all data iff
 it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,
@@ -59,7 +62,8 @@ others 0, at free times:
 ``mutation`` injects a fault for the self-test: ``"ready_glitch"`` (the component sees
 ``o.ready`` high when a free input says so: a broken hold), ``"drop_input"`` (an item the
 upstream handed over never reaches the component: a lost tag), ``"payload_flip"`` (a held
-output's LSB flips).
+output's LSB flips), ``"tag_flip"`` (the output tag's LSB is inverted on its way out: an item
+comes out with another's mark; the order group must fail).
 """
 
 from __future__ import annotations
@@ -78,10 +82,14 @@ from .iterative import track_item
 from .pipelined import elaborate_fifo, track_marks
 from .sequenced import elaborate_engine, sequencer, tag_queue
 
-__all__ = ["CHECKS", "MUTATIONS", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
+__all__ = ["CHECKS", "MUTATIONS", "OUTSIDE", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
 
 #: Faults the self-test injects (see the module docstring).
-MUTATIONS = ("ready_glitch", "drop_input", "payload_flip")
+MUTATIONS = ("ready_glitch", "drop_input", "payload_flip", "tag_flip")
+
+#: Faults outside the component (between it and the environment): the control group's
+#: invariants, about the component, still hold, so an order job may assume them.
+OUTSIDE = ("tag_flip",)
 
 #: The property groups (module docstring), one SymbiYosys job each.
 CHECKS = ("control", "order")
@@ -167,7 +175,7 @@ class StreamContract(Elaboratable):
         #: component (same harness, data abstraction and memory cuts, no fault) proves them: they
         #: then hold in every reachable state of this job's model, which is that model plus ghost
         #: registers and ``Assume`` s (which only remove behaviours).
-        if control_assumed and ("control" in checks or mutation is not None):
+        if control_assumed and ("control" in checks or mutation not in (None, *OUTSIDE)):
             raise ValueError("control_assumed: only for an order job of a fault-free component")
         self.control_assumed = control_assumed
         #: The tracked ``order`` group of a pipelined build with its output FIFO by the FIFO's
@@ -233,6 +241,8 @@ class StreamContract(Elaboratable):
         ]
         o_payload = Signal.like(dut.o.payload)
         m.d.comb += o_payload.eq(dut.o.payload)
+        if self.mutation == "tag_flip":
+            m.d.comb += o_payload.tag.eq(dut.o.payload.tag ^ 1)
         taken_in = ~rst & i_valid & dut.i.ready
         taken_out = ~rst & o_valid & o_ready
         self._environment(m, rst)

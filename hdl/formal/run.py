@@ -33,7 +33,7 @@ from ik5r.fxconfig import constants, load_config
 
 from ..generate import build
 from ..modes import ARCHS
-from .contract import CHECKS, MUTATIONS, TAG_WIDTH, StreamContract
+from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
 from .sequenced import DATA_REGISTERS
 from .fifo import FifoLemma
 from .stash import StashLemma, tag_links
@@ -169,15 +169,18 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
     "bmc") overrides; a BMC of ``control`` defaults to latency + 8 cycles (long enough for an
     item to reach the output: the self-test's counterexamples). The tracked order induction of
-    the pipelined IK core assumes its tag stash RAM is a delay line: that lemma
-    (:mod:`.stash`) is proved first, in :attr:`Result.lemmas`, and the job passes only if it does."""
+    the pipelined IK core assumes that its tag stash RAM is a delay line (:mod:`.stash`), that
+    its output FIFO keeps the marks' order (:mod:`.fifo`) and its control group
+    (:data:`ORDER_ASSUMES_CONTROL`): the two lemmas are proved first (fault-free jobs), in
+    :attr:`Result.lemmas` with the control group's entry, and the job passes only if they do."""
     start = time.monotonic()
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
     tracked = check == "order" and mode == "prove" and arch != "compact"
     if control_assumed is None:
-        control_assumed = tracked and mutation is None and (block, arch) in ORDER_ASSUMES_CONTROL
+        control_assumed = (tracked and mutation in (None, *OUTSIDE)
+                           and (block, arch) in ORDER_ASSUMES_CONTROL)
     fifo_lemma = tracked and (block, arch) in ORDER_FIFO_LEMMA
     top = harness(block, arch, config, (check,), mutation, inductive_order=tracked,
                   control_assumed=control_assumed, fifo_lemma=fifo_lemma)
@@ -187,9 +190,10 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
         depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if order else latency + 8)
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    # The lemmas the job assumes, for a fault-free job (a fault's job must fail regardless).
     lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
-              for link in (stash_lemma_links(top.dut) if tracked and top.pipelined else ())]
-    if fifo_lemma:
+              for link in (stash_lemma_links(top.dut) if tracked and top.pipelined and not mutation else ())]
+    if fifo_lemma and not mutation:
         lemmas.append(prove_fifo_lemma(top.dut.o.payload.shape(), top.dut.capacity,
                                        workdir=workdir and workdir / "fifo"))
     if control_assumed:
@@ -201,7 +205,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
                                            f"{block}-{arch}")
     if any(lemma["status"] not in ("PASS", "ASSUMED") for lemma in lemmas) and status == "PASS":
-        status, detail = "ERROR", "a stash lemma did not pass: " + repr(lemmas)
+        status, detail = "ERROR", "a lemma did not pass: " + repr(lemmas)
     return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
                   round(time.monotonic() - start, 1), detail, failed, cpu, lemmas)
 
