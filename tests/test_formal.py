@@ -34,8 +34,8 @@ import pytest
 
 from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.formal.contract import MUTATIONS, TAG_WIDTH
-from ik5r.hdl.formal.run import (INDUCTION_ONLY, JOBS, ORDER_INDUCTION, prove, prove_stash_lemma,
-                                 stash_lemma_links)
+from ik5r.hdl.formal.run import (INDUCTION_ONLY, JOBS, ORDER_INDUCTION, harness, prove,
+                                 prove_fifo_lemma, prove_stash_lemma, stash_lemma_links)
 from ik5r.hdl.generate import build
 
 pytestmark = pytest.mark.formal
@@ -137,7 +137,7 @@ ORDER_MUTANTS = [pytest.param("order", mutation, block, arch, id=f"order-{mutati
 ORDER_BROKEN = BROKEN["ready_glitch"] | {"fifo_refill", "mark_output", "mark_ram", "mark_a_once",
                                          "mark_b_once", "order", "a_not_lost", "mark_waiting",
                                          "mark_stage", "mark_occupied", "mark_fifo", "mark_invented",
-                                         "fifo_mark_once", "fifo_no_overflow"}
+                                         "fifo_mark_once"}
 
 
 @pytest.mark.parametrize("check,mutation,block,arch", ORDER_MUTANTS)
@@ -179,3 +179,17 @@ def test_stash_lemma_with_a_wrong_distance_fails(stash_links):
     assert lemma["status"] in ("FAIL", "UNKNOWN") and lemma["failed"] == ["stash_delay"], lemma
     short = prove_stash_lemma(1, 12, 2, skew=1, method="bmc")
     assert short["status"] == "FAIL" and short["failed"] == ["stash_delay"], short
+
+
+@pytest.mark.parametrize("without", ["mark_invented", "fifo_mark_once"])
+def test_fifo_lemma_needs_its_environment(without):
+    """The FIFO lemma (hdl/formal/fifo.py; the pipelined IK core's, depth 257, is proved in the
+    slow set with that core's order job) on the sqrt block's FIFO: proved, and without one of
+    its assumptions (tag 3 written, or a mark written twice) it fails."""
+    top = harness("sqrt", "pipelined", "q18", ("order",))
+    top._MustUse__silence = True
+    layout, depth = top.dut.o.payload.shape(), top.dut.capacity
+    if without == "mark_invented":
+        assert prove_fifo_lemma(layout, depth)["status"] == "PASS"
+    broken = prove_fifo_lemma(layout, depth, without=without)
+    assert broken["status"] in ("FAIL", "UNKNOWN") and broken["failed"], broken
