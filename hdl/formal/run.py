@@ -324,7 +324,11 @@ def main(argv=None) -> int:
             print(f"{result.block:6} {result.arch:10} {result.check:8} {result.config} latency {result.latency:4} "
                   f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s "
                   f"(SymbiYosys process time {result.process_seconds} s)"
-                  + (f"\n  {result.detail}" if result.detail else ""), flush=True)
+                  + (f"\n  {result.detail}" if result.detail else "")
+                  + "".join(f"\n  lemma: {lemma['lemma']}: {lemma['status']}"
+                            + (f" (SymbiYosys process time {lemma['process_seconds']} s)"
+                               if lemma.get("process_seconds") is not None else "")
+                            for lemma in result.lemmas), flush=True)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=2) + "\n")

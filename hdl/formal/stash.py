@@ -40,7 +40,7 @@ import os
 
 from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal
 
-from ..stash import Stash
+from ..stash import REGISTER_DELAY_MAX, Stash
 
 __all__ = ["StashLemma", "tag_links", "stash_tags"]
 
@@ -70,7 +70,6 @@ class StashLemma(Elaboratable):
     believe the distance is ``distance + skew``: the proof must then fail."""
 
     def __init__(self, origin: int, where: int, width: int, skew: int = 0):
-        from ..stash import REGISTER_DELAY_MAX
         if where - origin <= REGISTER_DELAY_MAX:
             raise ValueError(f"stash {origin}->{where}: a register chain, not a RAM")
         self.origin, self.where, self.width, self.skew = origin, where, width, skew
