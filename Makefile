@@ -46,7 +46,7 @@ firmware: $(STAMP) riscv
 	$(VENV)/bin/ik5r firmware --isa rv32i --cpu vexriscv --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32i_$(CONFIG).json
 
 demo: $(STAMP) simulator
-	$(PY) -m ik5r.demo --config $(CONFIG)
+	$(PY) -m ik5r.tools.demo --config $(CONFIG)
 
 test: $(STAMP) simulator riscv
 	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1
@@ -59,9 +59,9 @@ formal: $(STAMP)
 	$(PY) -m ik5r.hdl.formal --json build/formal.json
 
 bench: $(STAMP) simulator
-	$(PY) -m ik5r.bench
-	$(PY) -m ik5r.bench_arms
-	$(PY) -m ik5r.bench_sweep
+	$(PY) -m ik5r.tools.bench
+	$(PY) -m ik5r.tools.bench_arms
+	$(PY) -m ik5r.tools.bench_sweep
 
 verilog: $(STAMP)
 	$(VENV)/bin/ik5r verilog --block all --config $(CONFIG) -o build/verilog
@@ -76,7 +76,7 @@ sweep: $(STAMP)
 	$(VENV)/bin/ik5r sweep -o build/sweep
 
 results: $(STAMP)
-	$(PY) -m ik5r.results
+	$(PY) -m ik5r.tools.results
 
 clean:
 	rm -rf build sim_build .pytest_cache results.xml

@@ -1,4 +1,4 @@
-"""Amaranth hardware of the ik5r fixed-point arithmetic, bit-exact to ``firmware_model/model.py``.
+"""Amaranth hardware of the ik5r fixed-point arithmetic, bit-exact to ``firmware/model.py``.
 
 Blocks (each a :class:`amaranth.lib.wiring.Component` with ``i``/``o`` valid/ready streams):
 :class:`ik5r.hdl.cordic.Atan2`, :class:`ik5r.hdl.cordic.Rotate`, :class:`ik5r.hdl.sqrt.Sqrt`,
@@ -6,5 +6,5 @@ Blocks (each a :class:`amaranth.lib.wiring.Component` with ``i``/``o`` valid/rea
 :func:`ik5r.hdl.generate.generate`.
 
 This package imports nothing itself (no Amaranth), so that the simulator's Python loads the
-testbench ``ik5r.hdl.tb.stream_tb`` quickly: import the submodules.
+testbench ``ik5r.tools.testbench.stream_tb`` quickly: import the submodules.
 """

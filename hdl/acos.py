@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from amaranth.hdl import Mux, signed, unsigned
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
+from .cordic import add_atan2
 from .datapath import Datapath, adders_for
 from .expr import drop
 from .products import add_products
-from .stream_block import StreamBlock
-from .cordic import add_atan2
 from .sqrt import add_isqrt, fit
+from .stream_block import StreamBlock
 
 __all__ = ["Acos"]
 

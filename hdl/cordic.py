@@ -1,14 +1,14 @@
 """Circular CORDIC blocks: :class:`Atan2` (vectoring) and :class:`Rotate` (rotation).
 
 Bit-exact hardware of ``model.cordic_atan2`` and ``model.cordic_rotate``
-(``firmware_model/model.py``), parameterised by :class:`~ik5r.fxconfig.Constants`.
+(``firmware/model.py``), parameterised by :class:`~ik5r.core.fxconfig.Constants`.
 """
 
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
 from .datapath import Datapath, GenericAdders, SharedStage, adders_for
 from .expr import asr, drop, leading_zeros, rshift_round, saturate, table_entry

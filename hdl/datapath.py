@@ -22,7 +22,7 @@ same description is elaborated in one of two architectures (:mod:`.build`):
     result leaves, so a result is produced every :attr:`Datapath.latency` cycles.
 
 Both architectures evaluate literally the same expressions on the same widths, so they agree
-bit for bit; the widths are derived from :class:`~ik5r.fxconfig.Constants` with proofs of no
+bit for bit; the widths are derived from :class:`~ik5r.core.fxconfig.Constants` with proofs of no
 overflow in the comments of each block.
 
 Three options make a datapath smaller or faster without changing a bit of its results:

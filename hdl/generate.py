@@ -19,7 +19,7 @@ from amaranth.back import verilog
 from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
 from .ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
 from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch

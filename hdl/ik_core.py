@@ -12,8 +12,8 @@ from __future__ import annotations
 
 from amaranth.hdl import signed, unsigned
 
-from ik5r.fxconfig import Constants
-from ik5r.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
+from ik5r.core.fxconfig import Constants
+from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
 from .datapath import adders_for
 from .ik_datapath import core_datapath
@@ -32,7 +32,7 @@ PAYLOAD_ORDER = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy
 
 def core_fields(constants: Constants) -> tuple[dict, dict]:
     """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out:
-    the pose and solution schema of :mod:`ik5r.pose_fields`, in the formats of the config."""
+    the pose and solution schema of :mod:`ik5r.core.pose_fields`, in the formats of the config."""
     c = constants.cfg
     formats = {Format.LENGTH: (signed(c.width), c.frac_length), Format.UNIT: (signed(c.width), c.frac_unit),
                Format.ANGLE: (signed(c.width), c.frac_angle), Format.BIT: (unsigned(1), 0),
@@ -73,7 +73,7 @@ class IKCore(StreamBlock):
       ``signed(W)`` Q.frac_angle rad; ``tag`` ``unsigned(tag_width)`` (only if ``tag_width``).
       Every word is accepted (full-scale and most negative inputs give the model's result).
     * ``o.payload``: ``q1`` .. ``q5`` ``signed(W)`` Q.frac_angle rad in [-pi, pi] (q5: the wrapped
-      default without roll); ``status`` ``unsigned(6)``, the bits of :mod:`ik5r.status`
+      default without roll); ``status`` ``unsigned(6)``, the bits of :mod:`ik5r.core.status`
       (unreachable, singular_elbow, singular_base, saturated, invalid, bad_orientation); ``tag``,
       the input's.
 

@@ -9,17 +9,31 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Mux, signed
 
-from ik5r import status as S
-from ik5r.fxconfig import Constants
+from ik5r.core import status as S
+from ik5r.core.fxconfig import Constants
 
 from .acos import Acos
 from .chains import add_selecting, append_chains, concat, namespaced
 from .datapath import Datapath
 from .expr import drop, rshift_round, saturate
-from .ik_orientation import (orientation_flag, orientation_operands, orientation_specs,
-                             orientation_sums, orientation_terms)
-from .ik_steps import (add_c3, add_c3_complements, atan2_chain, const_mul_operand, flag,
-                       opposite, rotate_const_chain, wrap_compares, wrapped)
+from .ik_orientation import (
+    orientation_flag,
+    orientation_operands,
+    orientation_specs,
+    orientation_sums,
+    orientation_terms,
+)
+from .ik_steps import (
+    add_c3,
+    add_c3_complements,
+    atan2_chain,
+    const_mul_operand,
+    flag,
+    opposite,
+    rotate_const_chain,
+    wrap_compares,
+    wrapped,
+)
 from .products import add_products
 from .sqrt import add_isqrt, fit
 from .stash import Stash

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from amaranth.hdl import signed
 
-from ik5r import status as S
-from ik5r.fxconfig import Constants
+from ik5r.core import status as S
+from ik5r.core.fxconfig import Constants
 
 from .expr import drop
 from .ik_steps import flag

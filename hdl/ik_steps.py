@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Const, Mux, signed
 
-from ik5r import fixedpoint
-from ik5r.fxconfig import Constants
+from ik5r.core import fixedpoint
+from ik5r.core.fxconfig import Constants
 
 from .chains import add_selecting, namespaced
 from .cordic import Rotate, add_atan2

@@ -23,7 +23,7 @@ from dataclasses import asdict
 from importlib import metadata
 from pathlib import Path
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
 __all__ = ["HEADER_END", "verilog_header", "strip_header", "body_sha256", "config_hash",
            "tool_versions", "source_commit"]

@@ -19,8 +19,8 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from ik5r import status as S
-from ik5r.fxconfig import CHECK_BITS, Constants
+from ik5r.core import status as S
+from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from . import seq_isa as X
 from .expr import add_sub, asr, saturate, select
@@ -56,7 +56,7 @@ class SeqEngine(wiring.Component):
     :data:`~.seq_isa.INPUT_WORDS`, 13: the flags word has_roll | shoulder_back << 1 |
     elbow_down << 2 | tag << 3) and takes it in a clock with ``in_valid`` high (``in_take``).
     Output: ``out_valid`` with word ``out_index`` (0..4: q1..q5, 5: status | tag << 6, status
-    the :data:`STATUS_BITS` bits of :mod:`ik5r.status`) in ``out_data``, held until
+    the :data:`STATUS_BITS` bits of :mod:`ik5r.core.status`) in ``out_data``, held until
     ``out_ready``. One pose takes
     ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
     first instruction is about to execute.
@@ -64,7 +64,7 @@ class SeqEngine(wiring.Component):
 
     def __init__(self, *, constants: Constants, tag_width: int = 0):
         if not isinstance(constants, Constants):
-            raise TypeError(f"constants must be an ik5r.fxconfig.Constants, got {constants!r}")
+            raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         self.prog = ik_program(constants)
         self.widths = w = self.prog.widths
         w.tag = tag_width

@@ -6,7 +6,7 @@ clock: the data memory (one read ``rd``, one write ``wa`` of the accumulator as 
 instruction), the accumulator ALU (``alu``, condition ``ca/cai & cb/cbi``, status mask ``stat``),
 the CORDIC micro-rotation unit (``cop``, step ``ci``), the multiplier (``mld`` operand loads,
 ``pick`` of one 16 x 16 limb product, or of a product of check words, the top
-:data:`~ik5r.fxconfig.CHECK_BITS` bits of an internal word, ``pwa`` / ``pwb``; two clocks later
+:data:`~ik5r.core.fxconfig.CHECK_BITS` bits of an internal word, ``pwa`` / ``pwb``; two clocks later
 accumulated by ``MACC`` / ``MLD``), the
 digit-serial square root (``sq``) and the word ports (``io``). The program is straight-line (no
 branches: selections are conditional ALU and CORDIC operations), so a pose takes exactly the
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ik5r.fxconfig import CHECK_BITS
+from ik5r.core.fxconfig import CHECK_BITS
 
 # --- field values --------------------------------------------------------------------------------
 

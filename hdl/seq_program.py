@@ -1,6 +1,6 @@
 """The IK as a program of the sequenced engine: :func:`ik_program` (bit-exact to ``model.ik_solve``).
 
-The program follows ``firmware_model/model.py`` step by step (the same order of rounding points,
+The program follows ``firmware/model.py`` step by step (the same order of rounding points,
 saturations and status bits), in the units of :mod:`.seq_isa`. Work on independent units runs
 side by side (:meth:`Asm.par`): while a CORDIC runs its micro-rotations, the multiplier, the
 accumulator and the square root work on the next step's products, so a q32w pose takes about
@@ -9,16 +9,61 @@ accumulator and the square root work on the next step's products, so a q32w pose
 
 from __future__ import annotations
 
-from ik5r import status as S
-from ik5r.fxconfig import CHECK_BITS, Constants
+from ik5r.core import status as S
+from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from .cordic import atan2_widths, rotate_z_bound
-from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_NOP, A_SATI, A_SATW,
-                      A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_IN, B_MEM, B_REM, B_ROOT,
-                      C_BACK, C_DOWN, C_F, C_ROLL, C_ZERO, INPUT_WORDS, IO_FLAGS,
-                      IO_IN, IO_OUT, IO_STATUS, K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA,
-                      K_NORM1, K_NORM8, K_QROT, K_ROT, K_VEC, LIMB, Q_LOAD, Q_STEP, READ_AHEAD,
-                      Program, Widths)
+from .seq_isa import (
+    A_ADD,
+    A_CMPGT,
+    A_CMPLT,
+    A_LD,
+    A_MACC,
+    A_MLD,
+    A_NEG,
+    A_NOP,
+    A_SATI,
+    A_SATW,
+    A_SHR1,
+    A_SHR4,
+    A_SHR16,
+    A_SUB,
+    B_ACC,
+    B_CX,
+    B_CY,
+    B_CZ,
+    B_IN,
+    B_MEM,
+    B_REM,
+    B_ROOT,
+    C_BACK,
+    C_DOWN,
+    C_F,
+    C_ROLL,
+    C_ZERO,
+    INPUT_WORDS,
+    IO_FLAGS,
+    IO_IN,
+    IO_OUT,
+    IO_STATUS,
+    K_COARSE,
+    K_LDX,
+    K_LDXG,
+    K_LDY,
+    K_LDYG,
+    K_LDZA,
+    K_NORM1,
+    K_NORM8,
+    K_QROT,
+    K_ROT,
+    K_VEC,
+    LIMB,
+    Q_LOAD,
+    Q_STEP,
+    READ_AHEAD,
+    Program,
+    Widths,
+)
 
 __all__ = ["ik_program", "Asm"]
 

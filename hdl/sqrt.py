@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
 from .datapath import Datapath, adders_for
 from .expr import drop

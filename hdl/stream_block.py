@@ -7,7 +7,7 @@ from amaranth.hdl import Module, Signal, unsigned
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
-from ik5r.fxconfig import Constants
+from ik5r.core.fxconfig import Constants
 
 from .modes import ARCHS, DSPS
 
@@ -16,7 +16,7 @@ __all__ = ["StreamBlock", "check_common"]
 
 def check_common(constants, arch, tag_width, dsp="generic"):
     if not isinstance(constants, Constants):
-        raise TypeError(f"constants must be an ik5r.fxconfig.Constants, got {constants!r}")
+        raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
     if arch not in ARCHS:
         raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
     if isinstance(tag_width, bool) or not isinstance(tag_width, int) or tag_width < 0:

@@ -8,7 +8,7 @@ Two ways to run the suite, the same tests either way:
   run where xdist sends it, one simulator per worker (no thread pool: N workers are N busy
   processes); the heaviest tests are collected first so that the long poles start at once and
   the light tests fill in around them. Each worker's simulator builds use one make job
-  (``IK5R_BUILD_JOBS``, ``ik5r.hdl.tb.runner``), generated Verilog is shared through
+  (``IK5R_BUILD_JOBS``, ``ik5r.tools.testbench.runner``), generated Verilog is shared through
   ``build/verilog-cache``.
 """
 
@@ -19,7 +19,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from ik5r.hdl.tb.runner import simulator_missing
+from ik5r.tools.testbench.runner import simulator_missing
 
 WORKERS = int(os.environ.get("IK5R_SIM_WORKERS", "2"))
 
@@ -48,7 +48,7 @@ def _case_weight(item) -> int:
 
 def pytest_configure(config):
     # An xdist worker is one of N busy processes: its simulator builds get one make job each and
-    # run beside the other workers' (ik5r.hdl.tb.runner._build_lock), rather than all cores each,
+    # run beside the other workers' (ik5r.tools.testbench.runner._build_lock), rather than all cores each,
     # one at a time, the other workers waiting.
     if getattr(config, "workerinput", None) is not None:
         os.environ.setdefault("IK5R_BUILD_JOBS", "1")

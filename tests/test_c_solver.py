@@ -1,4 +1,4 @@
-"""The C solver (firmware_model/ik5r.c) against the scalar bit-accurate model (the specification).
+"""The C solver (firmware/ik5r.c) against the scalar bit-accurate model (the specification).
 
 Every comparison is exact: every joint word, every status bit, every building-block output.
 Default run: ~3000 reachable poses x 4 branches x (with, without n/o) per config plus a directed
@@ -16,11 +16,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ik5r import status as st
+from ik5r.core import cbuild
+from ik5r.core import status as st
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware import codegen, csolver, model
 from ik5r.firmware.poses import PoseBatch, concat
 from ik5r.firmware.vectors import edge_poses, random_poses
-from ik5r.fxconfig import constants, load_config
 
 CONFIGS = ("q32", "q24", "q18", "q32w")
 N_POSES = 3000
@@ -275,7 +276,7 @@ def test_sanitizer_catches_ub(tmp_path):
     src.write_text("#include <stdint.h>\n#include <stdlib.h>\nint main(int c, char **v) {\n"
                    "  int64_t x = INT64_MAX - 1 + (int64_t)atoi(v[c - 1]);\n  return (int)((x + 5) & 1);\n}\n")
     exe = tmp_path / "ub"
-    subprocess.run([csolver.compiler(), *csolver.SANITIZE_FLAGS, str(src), "-o", str(exe)], check=True)
+    subprocess.run([cbuild.compiler(), *cbuild.SANITIZE_FLAGS, str(src), "-o", str(exe)], check=True)
     result = subprocess.run([str(exe), "3"], capture_output=True, text=True)
     assert result.returncode != 0 and "overflow" in result.stderr
 

@@ -13,11 +13,11 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from ik5r import reference as ref
-from ik5r import status as st
-from ik5r.arm import load_arm
-from ik5r.cli import main
-from ik5r.fxconfig import load_config
+from ik5r.core import reference as ref
+from ik5r.core import status as st
+from ik5r.core.arm import load_arm
+from ik5r.core.fxconfig import load_config
+from ik5r.tools.cli import main
 
 ARM = load_arm()
 POSE_HEADER = "px,py,pz,nx,ny,nz,ox,oy,oz,ax,ay,az"
@@ -277,7 +277,7 @@ def test_bad_near_is_usage_error(poses):
 
 def test_console_script_subprocess(poses, tmp_path):
     exe = shutil.which("ik5r")
-    cmd = [exe] if exe else [sys.executable, "-m", "ik5r.cli"]
+    cmd = [exe] if exe else [sys.executable, "-m", "ik5r.tools.cli"]
     _, path = poses
     done = subprocess.run([*cmd, "solve", str(path), "--solver", "float"], capture_output=True, text=True,
                           timeout=120)

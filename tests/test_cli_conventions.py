@@ -11,8 +11,9 @@ import sys
 
 import pytest
 
-from ik5r import __version__, cliopts
-from ik5r.cli import build_parser, main
+from ik5r import __version__
+from ik5r.tools import cliopts
+from ik5r.tools.cli import build_parser, main
 
 
 def _verbs() -> dict[str, argparse.ArgumentParser]:
@@ -92,7 +93,7 @@ def test_redirected_report_has_no_progress_bar(tmp_path, capsys):
 
 
 def test_config_names_resolve_from_any_directory(tmp_path, capsys, monkeypatch):
-    from ik5r.fxconfig import config_dir, load_config
+    from ik5r.core.fxconfig import config_dir, load_config
 
     monkeypatch.chdir(tmp_path)
     assert not (tmp_path / "configs").exists()

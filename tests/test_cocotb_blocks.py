@@ -1,4 +1,4 @@
-"""cocotb runs of every hardware block against the bit-accurate model (``hdl/tb``).
+"""cocotb runs of every hardware block against the bit-accurate model (``src/ik5r/tools/testbench``).
 
 Each case: block x arch x config x simulator, a cocotb-driven stream run (random idles, random
 back-pressure with long stalls, a reset in the middle of traffic, latency / cycles-per-result
@@ -67,7 +67,7 @@ CASES = [
 
 
 def run_case(block, arch, config, dsp, sim):
-    from ik5r.hdl.tb.runner import run_block
+    from ik5r.tools.testbench.runner import run_block
 
     stream, bulk = _sizes(arch, dsp)
     # O0: the C++ of a Verilator build compiles ~4x faster; these runs are short.

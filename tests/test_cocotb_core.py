@@ -1,4 +1,4 @@
-"""cocotb runs of the IK core (``ik5r sim --block ik``) against the bit-accurate model (``hdl/tb``).
+"""cocotb runs of the IK core (``ik5r sim --block ik``) against the bit-accurate model (``src/ik5r/tools/testbench``).
 
 Each case: arch x config x simulator; a cocotb-driven stream run (random idles, random back-pressure
 with long stalls, a reset in the middle of traffic, latency and cycles-per-result measured: the
@@ -27,8 +27,8 @@ import os
 
 import pytest
 
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware.vectors import directed_poses
-from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.modes import CORE_ARCHS
 
 pytestmark = pytest.mark.sim
@@ -70,7 +70,7 @@ CASES = [
 
 
 def run_case(arch, config, dsp, sim):
-    from ik5r.hdl.tb.runner import run_block
+    from ik5r.tools.testbench.runner import run_block
 
     stream, bulk = _sizes(arch, config, dsp, sim)
     return run_block("ik", arch, config, sim, stream_vectors=stream, bulk_vectors=bulk, seed=2024,

@@ -1,6 +1,6 @@
 """cocotb runs of the compact IK core's word-serial wrapper (``SerialIK``, hdl/seq_core.py) as
-synthesised for the iCE40 UP5K (16-bit beats, ``ik5r.synth.ICE40_BEAT_BITS``), against the
-bit-accurate model (``ik5r sim --block ik --arch compact --serial 16``; hdl/tb/serial.py).
+synthesised for the iCE40 UP5K (16-bit beats, ``ik5r.tools.synth.ICE40_BEAT_BITS``), against the
+bit-accurate model (``ik5r sim --block ik --arch compact --serial 16``; src/ik5r/tools/testbench/serial.py).
 
 A beat driver serialises each pose into its 28 beats, a beat monitor reassembles the 6 output
 words (every q bit, the status, the tag, and the padding bits, which must be 0), an in-order
@@ -19,9 +19,9 @@ from __future__ import annotations
 
 import pytest
 
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware.vectors import directed_poses
-from ik5r.fxconfig import constants, load_config
-from ik5r.synth import ICE40_BEAT_BITS
+from ik5r.tools.synth import ICE40_BEAT_BITS
 
 CASE_KEYS = ("config", "size", "sim")     # sim_pool (conftest.py)
 #: (random poses, every n-th directed pose) of a run.
@@ -40,7 +40,7 @@ CASES = [
 
 
 def run_case(config, size, sim):
-    from ik5r.hdl.tb.runner import run_block
+    from ik5r.tools.testbench.runner import run_block
 
     random_poses, stride = SIZES[size]
     return run_block("ik", "compact", config, sim, stream_vectors=random_poses, bulk_vectors=0, seed=2024,
@@ -80,7 +80,7 @@ CLI_MISUSES = [
 def test_cli_serial_needs_the_compact_core(capsys):
     """``ik5r sim --serial`` on anything but the compact IK core, or with nothing to run: one line,
     exit 2, before any generation or build."""
-    from ik5r.cli import main
+    from ik5r.tools.cli import main
 
     for argv, message in CLI_MISUSES:
         assert main(["sim", *argv]) == 2, argv
@@ -89,7 +89,7 @@ def test_cli_serial_needs_the_compact_core(capsys):
 
 
 def test_cli_serial_beat_bits_checked(capsys):
-    from ik5r.cli import main
+    from ik5r.tools.cli import main
 
     with pytest.raises(SystemExit) as exc:
         main(["sim", "--block", "ik", "--arch", "compact", "--serial", "0"])
@@ -102,7 +102,7 @@ SELFTEST = dict(config="q18", sim="icarus", serial=8, stream_vectors=1, edge_str
 
 
 def _selftest_run(fault):
-    from ik5r.hdl.tb.runner import run_block, simulator_missing
+    from ik5r.tools.testbench.runner import run_block, simulator_missing
 
     missing = simulator_missing(SELFTEST["sim"])
     if missing:

@@ -5,7 +5,7 @@ import gc
 import pytest
 from amaranth.hdl import Signal, signed
 
-from ik5r.fxconfig import constants, load_config
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.acos import Acos
 from ik5r.hdl.cordic import Rotate
 from ik5r.hdl.datapath import Datapath, Ecp5Adders, Stage, StageKind, adders_for

@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ik5r.cli import main
-from ik5r.commands.firmware import measure
-from ik5r.fxconfig import constants, load_config
-from ik5r.softcpu import SoftCpu, SoftCpuError
+from ik5r.core.fxconfig import constants, load_config
+from ik5r.tools.cli import main
+from ik5r.tools.commands.firmware import measure
+from ik5r.tools.softcpu import SoftCpu, SoftCpuError
 
 CONFIGS = ("q32w", "q18")
 
@@ -98,7 +98,7 @@ def test_cli_json_and_missing_cross_compiler(tmp_path, capsys):
     assert "0 mismatches" in capsys.readouterr().out
     # No cross compiler on PATH: one line, exit 2.
     env = dict(os.environ, PATH=str(Path(sys.executable).parent))
-    proc = subprocess.run([sys.executable, "-m", "ik5r.cli", "firmware", "--vectors", "1"],
+    proc = subprocess.run([sys.executable, "-m", "ik5r.tools.cli", "firmware", "--vectors", "1"],
                           capture_output=True, text=True, env=env)
     assert proc.returncode == 2
     assert proc.stderr.count("\n") == 1 and "riscv64-unknown-elf-gcc not found" in proc.stderr
@@ -178,7 +178,7 @@ def test_soc_verilog_is_verilator_lint_clean(tmp_path):
     from amaranth.back import verilog
 
     from ik5r.hdl.soc import SoC, cpu_verilog
-    from ik5r.softcpu import verilator
+    from ik5r.tools.softcpu import verilator
 
     (tmp_path / "ik5r_soc.v").write_text(
         verilog.convert(SoC(cpu="vexriscv", ram_words=256), name="ik5r_soc", emit_src=False))

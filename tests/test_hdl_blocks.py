@@ -1,4 +1,4 @@
-"""Unit checks of the Amaranth blocks against the bit-accurate model (firmware_model/model.py).
+"""Unit checks of the Amaranth blocks against the bit-accurate model (firmware/model.py).
 
 Amaranth's own simulator; every output bit of a few hundred edge and random inputs per block,
 architecture and config (q18, q32), first at full rate (exact latency and throughput), then with
@@ -23,18 +23,18 @@ import pytest
 from amaranth.back import verilog
 from amaranth.hdl import Module, Signal, signed, unsigned
 
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware import model
-from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.acos import Acos
+from ik5r.hdl.cordic import Atan2, Rotate
 from ik5r.hdl.datapath import OUTPUT_FIFO_LATENCY, Ecp5Adders
 from ik5r.hdl.ecp5 import ecp5_add_sub_verilog
 from ik5r.hdl.expr import add_sub
-from ik5r.hdl.cordic import Atan2, Rotate
+from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
 from ik5r.hdl.modes import ARCHS
 from ik5r.hdl.sqrt import Sqrt
-from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
-from ik5r.hdl.tb.runner import DEFAULT_TAG_WIDTH, PRIMITIVE_MODELS, generate_cached
-from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
+from ik5r.tools.testbench.amaranth_stream import check_output_held, compare, run_stream
+from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, PRIMITIVE_MODELS, generate_cached
 
 CONFIGS = ("q18", "q32")
 HDL_DIR = Path(__file__).resolve().parents[1] / "hdl"
@@ -311,7 +311,7 @@ def test_verilator_lint(cfg, tmp_path):
         archs = ("pipelined",) if "dsp" in options else ("compact",) if "serial" in options else archs_of(block)
         for arch in archs:
             # The testbenches' tag width on the pipelined ones: the cocotb runs convert the same
-            # (cached, ik5r.hdl.tb.runner.generate_cached); the others without a tag.
+            # (cached, ik5r.tools.testbench.runner.generate_cached); the others without a tag.
             text, pmap = generate_cached(block, arch, k, DEFAULT_TAG_WIDTH if arch == "pipelined" else 0,
                                          **options)
             source = tmp_path / f"{pmap['module']}.v"

@@ -19,14 +19,14 @@ import re
 
 import pytest
 
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware import model
 from ik5r.firmware.poses import FIELDS, concat
 from ik5r.firmware.vectors import directed_poses, random_poses
-from ik5r.fxconfig import constants, load_config
 from ik5r.hdl.ik_core import IKCore
-from ik5r.hdl.tb.amaranth_stream import check_output_held, compare, run_stream
-from ik5r.hdl.tb.blocks import IK_OUTPUTS, ik_outputs
-from ik5r.hdl.tb.runner import DEFAULT_TAG_WIDTH, generate_cached
+from ik5r.tools.testbench.amaranth_stream import check_output_held, compare, run_stream
+from ik5r.tools.testbench.blocks import IK_OUTPUTS, ik_outputs
+from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, generate_cached
 
 CONFIGS = ("q18", "q32")
 #: q32w: q32's words on a 38-bit internal format (``ik.internal_guard_bits`` = 6).

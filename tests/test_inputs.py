@@ -13,12 +13,12 @@ import sys
 import numpy as np
 import pytest
 
-from ik5r import csvio
-from ik5r import reference as ref
-from ik5r.arm import load_arm
-from ik5r.cli import VERBS, build_parser, main
-from ik5r.errors import InputError
-from ik5r.fxconfig import config_dir, load_config
+from ik5r.core import csvio
+from ik5r.core import reference as ref
+from ik5r.core.arm import load_arm
+from ik5r.core.errors import InputError
+from ik5r.core.fxconfig import config_dir, load_config
+from ik5r.tools.cli import VERBS, build_parser, main
 
 ARM = load_arm()
 POSE_HEADER = ",".join(csvio.POSE_COLUMNS)

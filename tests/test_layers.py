@@ -1,39 +1,47 @@
-"""The layers of ik5r, asserted from the import graph (:mod:`ik5r.sources`: every ``import`` of
+"""The layers of ik5r, asserted from the import graph (:mod:`ik5r.tools.sources`: every ``import`` of
 every module, also the ones inside functions, read with ``ast``; nothing is imported to find them).
+A layer is a folder whose name is its import name, so a module's layer is its package:
 
-    tools     ik5r.cli, commands, synth, sweep, bench, results, report, demo; the testbenches
-              (ik5r.hdl.tb), which check the HDL against the firmware model
-    firmware  ik5r.firmware (model, vector, C, codegen)  |  hdl  ik5r.hdl (Amaranth blocks)
-    core      ik5r.fxconfig, arm, reference, status, csvio, errors, fixedpoint (+ _np), pose_fields
+    tools     ik5r.tools (src/ik5r/tools/): cli, commands, synth, sweep, bench, results, report,
+              demo, softcpu; the testbenches (ik5r.tools.testbench), which check the HDL against
+              the firmware model
+    firmware  ik5r.firmware (firmware/)  |  hdl  ik5r.hdl (hdl/)  |  numeric  ik5r.numeric
+              (src/ik5r/numeric/)
+    core      ik5r.core (src/ik5r/core/): fxconfig, arm, chain, reference, status, csvio, errors,
+              fixedpoint (+ _np), pose_fields, cbuild; with the data ik5r.data and ik5r.configs
 
-A layer imports only its own and the layers below it; firmware and hdl are two implementations
-of the one IK, side by side: neither imports the other (the fixed-point words they share are
-``ik5r.fixedpoint``). See docs/architecture.md.
+A layer imports only its own and the layers below it; firmware, hdl and numeric sit side by side:
+none imports another (the fixed-point words firmware and hdl share are ``ik5r.core.fixedpoint``).
+See docs/architecture.md.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from ik5r.sources import all_modules, closure, imports_of
+from ik5r.tools.sources import all_modules, closure, imports_of
 
-CORE = {"ik5r", "ik5r.fxconfig", "ik5r.arm", "ik5r.reference", "ik5r.status", "ik5r.csvio",
-        "ik5r.errors", "ik5r.fixedpoint", "ik5r.fixedpoint_np", "ik5r.reference_kernel",
-        "ik5r.data", "ik5r.status_cases", "ik5r.pose_fields"}
+#: Layer of each package (a module's layer is that of its longest matching package).
+LAYERS = {"ik5r": "core", "ik5r.core": "core", "ik5r.data": "core", "ik5r.configs": "core",
+          "ik5r.firmware": "firmware", "ik5r.hdl": "hdl", "ik5r.numeric": "numeric",
+          "ik5r.tools": "tools", "ik5r.__main__": "tools"}
 #: What each layer may import (besides third-party packages).
 ALLOWED = {"core": {"core"}, "firmware": {"core", "firmware"}, "hdl": {"core", "hdl"},
-           "tools": {"core", "firmware", "hdl", "tools"}}
+           "numeric": {"core", "numeric"}, "tools": {"core", "firmware", "hdl", "numeric", "tools"}}
 
 
 def layer_of(module: str) -> str:
-    if module in CORE:
-        return "core"
-    if module.startswith("ik5r.hdl.tb"):
-        return "tools"
-    for package, layer in (("ik5r.firmware", "firmware"), ("ik5r.hdl", "hdl")):
-        if module == package or module.startswith(package + "."):
-            return layer
-    return "tools"
+    packages = [p for p in LAYERS if module == p or module.startswith(p + ".")]
+    return LAYERS[max(packages, key=len)]
+
+
+def test_every_module_sits_in_a_layer_folder():
+    """Nothing at the top of the ik5r package but its __init__ and __main__: each module's folder
+    is its layer's."""
+    loose = [m for m in all_modules() if m.count(".") == 1 and m not in LAYERS]
+    assert loose == []
+    assert all(layer_of(m) != "core" or m == "ik5r" or m.split(".")[1] in ("core", "data", "configs")
+               for m in all_modules())
 
 
 def violations(mods: dict[str, Path] | None = None) -> list[str]:
@@ -51,24 +59,25 @@ def violations(mods: dict[str, Path] | None = None) -> list[str]:
 
 def test_the_graph_is_read():
     mods = all_modules()
-    assert {"ik5r.fxconfig", "ik5r.firmware.model", "ik5r.hdl.ik_core", "ik5r.hdl.tb.runner",
-            "ik5r.commands.solve", "ik5r.fixedpoint"} <= set(mods)
-    assert "ik5r.fixedpoint" in imports_of("ik5r.hdl.ik_steps", mods["ik5r.hdl.ik_steps"])
+    assert {"ik5r.core.fxconfig", "ik5r.firmware.model", "ik5r.hdl.ik_core", "ik5r.tools.testbench.runner",
+            "ik5r.tools.commands.solve", "ik5r.core.fixedpoint"} <= set(mods)
+    assert "ik5r.core.fixedpoint" in imports_of("ik5r.hdl.ik_steps", mods["ik5r.hdl.ik_steps"])
     assert "ik5r.hdl.datapath" in imports_of("ik5r.hdl.cordic", mods["ik5r.hdl.cordic"])
-    assert layer_of("ik5r.hdl.tb.blocks") == "tools" and layer_of("ik5r.hdl.cordic") == "hdl"
+    assert layer_of("ik5r.tools.testbench.blocks") == "tools" and layer_of("ik5r.hdl.cordic") == "hdl"
+    assert layer_of("ik5r.numeric.solver") == "numeric" and layer_of("ik5r.core.cbuild") == "core"
 
 
 def test_a_violation_is_found(tmp_path):
     core = tmp_path / "status.py"
-    core.write_text("def f():\n    from .commands import solve\n")
+    core.write_text("def f():\n    from ..tools.commands import solve\n")
     hdl = tmp_path / "ik_core.py"
     hdl.write_text("from ik5r.firmware import model\n")
-    mods = {**all_modules(), "ik5r.status": core, "ik5r.hdl.ik_core": hdl}
+    mods = {**all_modules(), "ik5r.core.status": core, "ik5r.hdl.ik_core": hdl}
     assert violations(mods) == [
+        f"{core}: ik5r.core.status (core) imports ik5r.tools.commands (tools)",
+        f"{core}: ik5r.core.status (core) imports ik5r.tools.commands.solve (tools)",
         f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware (firmware)",
-        f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware.model (firmware)",
-        f"{core}: ik5r.status (core) imports ik5r.commands (tools)",
-        f"{core}: ik5r.status (core) imports ik5r.commands.solve (tools)"]
+        f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware.model (firmware)"]
 
 
 def test_lower_layers_never_import_higher_ones():
@@ -78,13 +87,13 @@ def test_lower_layers_never_import_higher_ones():
 def test_cache_key_closures_follow_the_imports():
     """The sweep's cache keys hash these closures: what the Verilog and the error figures come from."""
     mods = all_modules()
-    verilog = set(closure(["ik5r.hdl.generate", "ik5r.synth"]))
+    verilog = set(closure(["ik5r.hdl.generate", "ik5r.tools.synth"]))
     assert {mods[m] for m in ("ik5r.hdl.ik_core", "ik5r.hdl.cordic", "ik5r.hdl.datapath", "ik5r.hdl.build",
-                              "ik5r.hdl.products", "ik5r.hdl.expr", "ik5r.status",
-                              "ik5r.fixedpoint", "ik5r.fxconfig", "ik5r.arm", "ik5r.hdl")} <= verilog
-    assert mods["ik5r.firmware.model"] not in verilog and mods["ik5r.hdl.tb.runner"] not in verilog
-    errors = set(closure(["ik5r.report.quantisation"]))
-    assert {mods[m] for m in ("ik5r.firmware.vector", "ik5r.reference", "ik5r.status")} <= errors
+                              "ik5r.hdl.products", "ik5r.hdl.expr", "ik5r.core.status",
+                              "ik5r.core.fixedpoint", "ik5r.core.fxconfig", "ik5r.core.arm", "ik5r.hdl")} <= verilog
+    assert mods["ik5r.firmware.model"] not in verilog and mods["ik5r.tools.testbench.runner"] not in verilog
+    errors = set(closure(["ik5r.tools.report.quantisation"]))
+    assert {mods[m] for m in ("ik5r.firmware.vector", "ik5r.core.reference", "ik5r.core.status")} <= errors
 
 
 def test_hardware_choices_are_named_once():

@@ -1,5 +1,5 @@
-"""The C LM kernel (ik5r.lmkernel, csrc/lm_kernel.c) against the numpy reference
-(ik5r.numeric.levenberg_marquardt), its strict-warning build and its sanitizer build."""
+"""The C LM kernel (ik5r.numeric.lmkernel, csrc/lm_kernel.c) against the numpy reference
+(ik5r.numeric.solver.levenberg_marquardt), its strict-warning build and its sanitizer build."""
 
 from __future__ import annotations
 
@@ -8,13 +8,13 @@ import tomllib
 
 import numpy as np
 import pytest
-
-from ik5r import lmkernel, multistart
-from ik5r import numeric as nm
-from ik5r.chain import fk, jacobian, load_chain, parse_chain, random_joints, shipped_arm
-from ik5r.firmware import csolver
-
 from test_numeric import PRISMATIC_ARM
+
+from ik5r.core import cbuild
+from ik5r.core.chain import fk, jacobian, load_chain, parse_chain, random_joints, shipped_arm
+from ik5r.firmware import csolver
+from ik5r.numeric import lmkernel, multistart
+from ik5r.numeric import solver as nm
 
 #: A 7R arm (more joints than task rows: the kernel's J J^T branch), tool offset, reversed joint.
 SEVEN_R = {"joint": [{"a": 0, "alpha": 90, "d": 30}, {"a": 40, "alpha": 0}, {"a": 5, "alpha": -90, "d": 10},
@@ -97,7 +97,7 @@ def test_strict_warnings(opt, tmp_path):
     flags = (opt,) + csolver.WARN_FLAGS[1:]
     assert {"-Wall", "-Wextra", "-Werror", "-std=c99", "-pedantic"} <= set(flags)
     directory = lmkernel.build_driver().parent  # the sources, as the sanitizer build sees them
-    result = subprocess.run([csolver.compiler(), *flags, "-c", "-I", str(directory), str(directory / "lm_kernel.c"),
+    result = subprocess.run([cbuild.compiler(), *flags, "-c", "-I", str(directory), str(directory / "lm_kernel.c"),
                              str(directory / lmkernel.DRIVER)], capture_output=True, text=True, cwd=tmp_path)
     assert result.returncode == 0 and not result.stderr, result.stderr
 

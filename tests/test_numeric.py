@@ -1,4 +1,4 @@
-"""Any serial arm (ik5r.chain) and its numeric IK (ik5r.numeric, ik5r.multistart), CLI included."""
+"""Any serial arm (ik5r.core.chain) and its numeric IK (ik5r.numeric.solver, ik5r.numeric.multistart), CLI included."""
 
 from __future__ import annotations
 
@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from ik5r import multistart, reference
-from ik5r import numeric as nm
-from ik5r.arm import load_arm
-from ik5r.chain import fk, jacobian, load_chain, parse_chain, random_joints, shipped_arm
-from ik5r.cli import main
+from ik5r.core import reference
+from ik5r.core.arm import load_arm
+from ik5r.core.chain import fk, jacobian, load_chain, parse_chain, random_joints, shipped_arm
+from ik5r.numeric import multistart
+from ik5r.numeric import solver as nm
+from ik5r.tools.cli import main
 
 ARMS = ("hu-5r", "toz-6r", "park-5r", "patil-5r", "puma560")
 #: Toz, Table 2: P1..P5 (cm).

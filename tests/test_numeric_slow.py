@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ik5r import multistart
-from ik5r import numeric as nm
-from ik5r.chain import fk, load_chain, random_joints, shipped_arm
+from ik5r.core.chain import fk, load_chain, random_joints, shipped_arm
+from ik5r.numeric import multistart
+from ik5r.numeric import solver as nm
 
 pytestmark = pytest.mark.slow
 

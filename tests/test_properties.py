@@ -13,11 +13,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ik5r import csvio
-from ik5r.cli import main
-from ik5r.errors import InputError
+from ik5r.core import csvio
+from ik5r.core.errors import InputError
+from ik5r.core.fxconfig import config_dir, constants, load_config
 from ik5r.firmware import csolver, model, vector
-from ik5r.fxconfig import config_dir, constants, load_config
+from ik5r.tools.cli import main
 
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])

@@ -11,10 +11,17 @@ from importlib.util import find_spec
 
 import pytest
 
-from ik5r.fxconfig import constants, load_config
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.generate import generate
-from ik5r.hdl.provenance import (HEADER_END, body_sha256, config_hash, source_commit, strip_header,
-                                 tool_versions, verilog_header)
+from ik5r.hdl.provenance import (
+    HEADER_END,
+    body_sha256,
+    config_hash,
+    source_commit,
+    strip_header,
+    tool_versions,
+    verilog_header,
+)
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +86,7 @@ def test_body_hash_is_of_the_text_after_the_header(sqrt_q32w):
 
 
 def _netlist(tmp_path, name, text, top):
-    from ik5r.synth import _command
+    from ik5r.tools.synth import _command
 
     src = tmp_path / f"{name}.v"
     src.write_text(text)

@@ -8,7 +8,7 @@ import shlex
 import shutil
 from pathlib import Path
 
-from ik5r.cli import main
+from ik5r.tools.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 

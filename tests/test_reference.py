@@ -1,4 +1,4 @@
-"""The float reference (ik5r.reference): FK against roboticstoolbox, the paper's check, IK round
+"""The float reference (ik5r.core.reference): FK against roboticstoolbox, the paper's check, IK round
 trips over the joint space, directed statuses, branch choice, joint limits and arm TOML errors."""
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from ik5r import reference as ref
-from ik5r import status as st
-from ik5r.arm import load_arm
-from ik5r.errors import InputError
+from ik5r.core import reference as ref
+from ik5r.core import status as st
+from ik5r.core.arm import load_arm
+from ik5r.core.errors import InputError
 
 ARM = load_arm()
 HARMLESS = st.SINGULAR_ELBOW | st.SINGULAR_BASE

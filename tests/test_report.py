@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from ik5r.commands import report as report_cmd
-from ik5r.report import Section, build_report, summary_text
-from ik5r.report.quantisation import JOINTS, SIN_Q3_BINS
+from ik5r.tools.commands import report as report_cmd
+from ik5r.tools.report import Section, build_report, summary_text
+from ik5r.tools.report.quantisation import JOINTS, SIN_Q3_BINS
 
 N = 20_000
 
@@ -31,8 +31,8 @@ def current_records(tmp_path_factory):
     """A records folder whose pipelined IK records carry the shipped configs' numbers, as a
     re-synthesis on today's configs would (the committed ones predate the status tolerances, and
     the report rightly leaves the q32w one out: test_stale_core_record_left_out)."""
-    from ik5r.fxconfig import load_config
-    from ik5r.report import hardware
+    from ik5r.core.fxconfig import load_config
+    from ik5r.tools.report import hardware
 
     root = tmp_path_factory.mktemp("records")
     (root / "synth").mkdir()
@@ -229,7 +229,7 @@ def test_hardware_section_from_records(q32_run):
 def test_worst_pose_csv_refeeds_into_solve(q32_run, tmp_path, capsys):
     import csv
 
-    from ik5r.cli import main
+    from ik5r.tools.cli import main
 
     out, doc = q32_run
     worst = doc["sections"]["worst_poses"]["data"]
@@ -259,8 +259,8 @@ def test_worst_pose_csv_refeeds_into_solve(q32_run, tmp_path, capsys):
 def test_stale_core_record_left_out(tmp_path, current_records):
     """A record made with other config numbers (here: another reach tolerance) is named stale and
     left out; the same record with today's numbers is the config's own."""
-    from ik5r.fxconfig import load_config
-    from ik5r.report import hardware
+    from ik5r.core.fxconfig import load_config
+    from ik5r.tools.report import hardware
 
     cfg = load_config("q32w")
     record = json.loads((current_records / "synth" / CORE_RECORDS[1]).read_text())
@@ -272,7 +272,7 @@ def test_stale_core_record_left_out(tmp_path, current_records):
 
 
 def test_config_comparison_page(tmp_path, current_records):
-    from ik5r.cli import main
+    from ik5r.tools.cli import main
 
     out = tmp_path / "cmp"
     assert main(["report", "--configs", "q18,q32w", "--vectors", "3000", "-q", "-o", str(out)]) == 0
@@ -288,7 +288,7 @@ def test_config_comparison_page(tmp_path, current_records):
 
 
 def provenance_rows(doc):
-    from ik5r.report.provenance import rows
+    from ik5r.tools.report.provenance import rows
     return rows(doc["meta"]["provenance"]) + [("header", "")]
 
 
@@ -296,7 +296,7 @@ def provenance_rows(doc):
 @pytest.mark.sim
 def test_report_hdl_bit_accuracy_and_links(tmp_path):
     """ik5r report --hdl (what make demo runs) on a small run: zero mismatches, every link resolves."""
-    from ik5r.cli import main
+    from ik5r.tools.cli import main
 
     out = tmp_path / "hdl"
     assert main(["report", "--hdl", "--vectors", "2000", "--hdl-poses", "300", "--block-vectors", "300",

@@ -1,4 +1,4 @@
-"""``python -m ik5r.results``: measurements collected into records, the README section rendered
+"""``python -m ik5r.tools.results``: measurements collected into records, the README section rendered
 from the records alone, records of other Verilog left out."""
 
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 import os
 
-from ik5r import results
-from ik5r.fxconfig import constants, load_config
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.generate import generate
+from ik5r.tools import results
 
 
 def _synth_result(block="sqrt", arch="iterative", config="q18", luts=123, fmax=111.5, seed=1):

@@ -17,20 +17,19 @@ import re
 import numpy as np
 import pytest
 from amaranth.sim import Simulator
+from test_ik_core import expected_of, inputs_of, with_tags
 
-from ik5r import status as st
+from ik5r.core import status as st
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware import model
 from ik5r.firmware.poses import PoseBatch, concat
 from ik5r.firmware.vectors import directed_poses, random_poses
-from ik5r.fxconfig import constants, load_config
 from ik5r.hdl import seq_isa
 from ik5r.hdl.generate import generate
 from ik5r.hdl.seq_core import STATUS_BITS, SequencedIKCore, SerialIK
 from ik5r.hdl.seq_program import ik_program
-from ik5r.hdl.tb.amaranth_stream import compare, run_stream
-from ik5r.hdl.tb.blocks import ik_outputs
-
-from test_ik_core import expected_of, inputs_of, with_tags
+from ik5r.tools.testbench.amaranth_stream import compare, run_stream
+from ik5r.tools.testbench.blocks import ik_outputs
 
 TAG_WIDTH = 6
 WORD_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "q5_default")

@@ -1,12 +1,12 @@
-"""The start table of the numeric solver (ik5r.start_table): cells, modes, and that its starts help."""
+"""The start table of the numeric solver (ik5r.numeric.start_table): cells, modes, and that its starts help."""
 
 import numpy as np
 import pytest
 
-from ik5r import lmkernel, multistart
-from ik5r import numeric as nm
-from ik5r.chain import fk, load_chain, random_joints, shipped_arm
-from ik5r.start_table import StartTable, table_for
+from ik5r.core.chain import fk, load_chain, random_joints, shipped_arm
+from ik5r.numeric import lmkernel, multistart
+from ik5r.numeric import solver as nm
+from ik5r.numeric.start_table import StartTable, table_for
 
 
 def _targets(mode, R, p):
@@ -57,7 +57,7 @@ def test_table_starts_converge_more_often_in_fewer_steps(name):
 def test_quaternion_matches_scipy():
     from scipy.spatial.transform import Rotation
 
-    from ik5r.start_table import _quaternion
+    from ik5r.numeric.start_table import _quaternion
 
     rot = Rotation.random(500, random_state=3)
     want = np.roll(rot.as_quat(), 1, axis=1)  # scipy: x, y, z, w
@@ -66,7 +66,7 @@ def test_quaternion_matches_scipy():
 
 
 def test_table_is_stored_on_disk_and_loads_the_same_numbers(tmp_path, monkeypatch):
-    from ik5r import start_table
+    from ik5r.numeric import start_table
 
     monkeypatch.setenv("IK5R_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(start_table, "_CACHE", {})

@@ -1,6 +1,6 @@
 """Statuses that say what happened, the same in every layer.
 
-The directed status cases (:mod:`ik5r.status_cases`: straight and folded elbow, base axis,
+The directed status cases (:mod:`ik5r.core.status_cases`: straight and folded elbow, base axis,
 off-plane and non-orthonormal orientations, zero vectors, huge and NaN input) on every branch:
 the float reference, the scalar and vectorised fixed-point models, the C solver and the HDL core
 (Amaranth simulation) give the same status class; the fixed-point layers the same bits. The seed
@@ -15,14 +15,14 @@ import math
 import numpy as np
 import pytest
 
-from ik5r import reference as ref
-from ik5r import status as st
-from ik5r.arm import load_arm
-from ik5r.cli import main
+from ik5r.core import reference as ref
+from ik5r.core import status as st
+from ik5r.core.arm import load_arm
+from ik5r.core.fxconfig import constants, load_config
+from ik5r.core.status_cases import SEED_CHECK_POSE, status_cases
 from ik5r.firmware import csolver, model, vector
 from ik5r.firmware.poses import pose_words
-from ik5r.fxconfig import constants, load_config
-from ik5r.status_cases import SEED_CHECK_POSE, status_cases
+from ik5r.tools.cli import main
 
 ARM = load_arm()
 BRANCHES = np.arange(4)
@@ -97,7 +97,7 @@ def test_directed_status_hdl_core(arch):
     sequenced engine, staged) on the cases' words: the model's bits, so the float's class. (The
     staged core takes one pose per latency: in the slow set.)"""
     from ik5r.hdl.generate import build
-    from ik5r.hdl.tb.amaranth_stream import run_stream
+    from ik5r.tools.testbench.amaranth_stream import run_stream
 
     table = status_table("q18")
     k = constants(load_config("q18"), ARM)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from ik5r.cli import main
+from ik5r.tools.cli import main
 
 #: Figures that depend on the run, not on the point.
 RUN_FIELDS = ("error_seconds", "error_cpu_seconds", "error_from_cache", "synth_from_cache")
@@ -29,7 +29,7 @@ def _figures(out: Path) -> list[dict]:
 def test_worker_killed_mid_sweep_loses_no_point(tmp_path):
     from dask.distributed import Client, LocalCluster
 
-    from ik5r.sweep import run_sweep
+    from ik5r.tools.sweep import run_sweep
 
     widths = list(range(12, 20))
     killed = {}

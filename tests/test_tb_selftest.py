@@ -1,4 +1,4 @@
-"""Self-test of the cocotb stream bench (``hdl/tb/stream_tb.py``): a corrupted view of the output
+"""Self-test of the cocotb stream bench (``src/ik5r/tools/testbench/stream_tb.py``): a corrupted view of the output
 must make the bench fail, each fault with its own finding, and the clean run must check the stream
 rule under a stall with the reset asserted while the output is held.
 
@@ -16,7 +16,7 @@ CASE = dict(block="atan2", arch="iterative", config="q18", sim="icarus")
 
 
 def _run(fault=None):
-    from ik5r.hdl.tb.runner import run_block
+    from ik5r.tools.testbench.runner import run_block
 
     return run_block(CASE["block"], CASE["arch"], CASE["config"], CASE["sim"], stream_vectors=24,
                      bulk_vectors=0, seed=7, fault=fault)
@@ -24,7 +24,7 @@ def _run(fault=None):
 
 @pytest.fixture(scope="module")
 def runs():
-    from ik5r.hdl.tb.runner import simulator_missing
+    from ik5r.tools.testbench.runner import simulator_missing
 
     missing = simulator_missing(CASE["sim"])
     if missing:

@@ -17,19 +17,19 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
-import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from amaranth.back import rtlil
 
-from ik5r.fxconfig import constants, load_config
+from ik5r.core.fxconfig import constants, load_config
 
 from ..generate import build
 from ..modes import ARCHS, BLOCKS

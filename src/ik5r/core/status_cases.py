@@ -1,0 +1,65 @@
+"""The directed status cases: one pose per situation a status names, in float (cm, unit vectors).
+
+Every layer (float reference, fixed-point model, C solver, HDL core) must give each case the same
+status class (:func:`ik5r.core.status.status_class`) on every branch; ``tests/test_status.py`` prints
+and checks the table, ``ik5r.firmware.vectors.directed_poses`` feeds the cases to the C and HDL
+bit-exact tests.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import reference
+from .arm import Arm
+
+#: The seed paper's check pose: the arm stretched straight up.
+SEED_CHECK_POSE = (0.0, -math.pi / 2, 0.0, -math.pi / 2, 0.0)
+
+
+def _rotate_z(v, angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
+
+
+def status_cases(arm: Arm) -> list[tuple[str, str, tuple]]:
+    """[(name, expected class, (p, a, n, o))]: the class of at least one branch (for a pose made by
+    forward kinematics, the branch of its own joints); n, o None for position and approach only."""
+    def pose_of(q):
+        p, n, o, a = reference.fk(arm, np.asarray(q, dtype=float))
+        return p, a, n, o
+
+    generic = pose_of([0.3, -1.0, 0.4, 0.2, 0.1])
+    # Tool point on the base axis with a horizontal approach: phi = pi/2, q2 = -0.5, and q2 + q3
+    # such that r = a1 + a2 cos q2 + a3 cos(q2 + q3) - d5 = 0 (the arm of record's offsets are 0).
+    a1, a2, a3 = arm.a[:3]
+    q23 = -math.acos((arm.d[4] - a1 - a2 * math.cos(-0.5)) / a3)
+    on_axis = pose_of([0.0, -0.5, q23 + 0.5, math.pi / 2 - q23, 0.0])
+    on_axis[0][:2] = 0.0
+    p, a, n, o = generic
+    skew = o + 0.05 * n
+    cases = [
+        ("straight elbow (seed check pose)", "singular_elbow", pose_of(SEED_CHECK_POSE)),
+        ("folded elbow", "singular_elbow", pose_of([-0.7, -0.5, math.pi, 0.4, -0.2])),
+        ("generic reachable", "ok", generic),
+        ("generic, no n/o", "ok", (p, a, None, None)),
+        ("base axis, vertical approach", "singular_base",
+         (np.array([0.0, 0, 20]), np.array([0.0, 0, 1]), np.array([1.0, 0, 0]), np.array([0.0, 1, 0]))),
+        ("base axis, horizontal approach", "ok", on_axis),
+        ("off-plane approach (frame rotated 0.2 rad about z)", "bad_orientation",
+         (p, _rotate_z(a, 0.2), _rotate_z(n, 0.2), _rotate_z(o, 0.2))),
+        ("off-plane approach, no n/o", "bad_orientation", (p, _rotate_z(a, 0.2), None, None)),
+        ("off-plane a = (0.577, 0.577, 0.577), n = x, o = y", "bad_orientation",
+         (p, np.full(3, 1 / math.sqrt(3)), np.array([1.0, 0, 0]), np.array([0.0, 1, 0]))),
+        ("non-orthogonal n, o", "bad_orientation", (p, a, n, skew / np.linalg.norm(skew))),
+        ("left-handed n, o", "bad_orientation", (p, a, n, -o)),
+        ("unreachable (too far)", "unreachable+singular_elbow", (np.array([60.0, 0, 5]), np.array([1.0, 0, 0]), None, None)),
+        ("zero approach", "invalid", (p, np.zeros(3), n, o)),
+        ("zero n, o", "invalid", (p, a, np.zeros(3), np.zeros(3))),
+        ("huge position |p| = 1e155", "invalid", (np.array([1e155, 0, 0]), a, n, o)),
+        ("NaN position", "invalid", (np.array([math.nan, 0, 0]), a, n, o)),
+    ]
+    return [(name, expected, tuple(None if v is None else np.asarray(v, dtype=float) for v in pose))
+            for name, expected, pose in cases]

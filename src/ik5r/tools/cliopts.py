@@ -1,0 +1,101 @@
+"""What every verb of the command line shares: -q/-v, the progress-bar and colour policy, plain help.
+
+``ik5r.tools.cli`` calls :func:`add_common` and :func:`plain_help` on every verb's parser after the verb
+registered it, so a verb gets ``-q/--quiet`` and ``-v/--verbose`` without code of its own; a verb
+reads them back through :func:`verbosity`, :func:`show_progress` and :func:`say`.
+
+Progress bars go to standard error, and only when it is a terminal (a redirected log gets none) and
+neither --quiet nor --no-progress was given. Colour is used only on a terminal, never with
+``NO_COLOR`` set (https://no-color.org) or ``TERM=dumb``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import sys
+
+_MARKUP = (
+    (re.compile(r":[a-z]+:`~?\.*([^`]+)`"), r"\1"),   # :mod:`ik5r.tools.sweep`, :func:`~.x` -> the name
+    (re.compile(r"``([^`]+)``"), r"\1"),                 # ``ik5r fk`` -> ik5r fk
+)
+
+
+def plain_text(text: str | None) -> str | None:
+    """Help text without reStructuredText markup."""
+    if not text:
+        return text
+    for pattern, repl in _MARKUP:
+        text = pattern.sub(repl, text)
+    return text
+
+
+def _readable_type(func):
+    """An argparse type whose own name is internal: its errors name the option, not the function."""
+    def convert(text):
+        try:
+            return func(text)
+        except (ValueError, TypeError):
+            raise argparse.ArgumentTypeError(f"invalid value {text!r}") from None
+    convert.__name__ = "value"
+    return convert
+
+
+def plain_help(parser: argparse.ArgumentParser) -> None:
+    """Strip markup from the description and option help; hide internal type-function names."""
+    parser.description = plain_text(parser.description)
+    parser.epilog = plain_text(parser.epilog)
+    for action in parser._actions:
+        action.help = plain_text(action.help)
+        kind = action.type
+        if callable(kind) and getattr(kind, "__name__", "").startswith("_"):
+            action.type = _readable_type(kind)
+
+
+def add_common(parser: argparse.ArgumentParser) -> None:
+    """-q/--quiet, -v/--verbose and --no-progress, each unless the verb defines it already."""
+    have = parser._option_string_actions
+    if "-q" not in have and "--quiet" not in have:
+        parser.add_argument("-q", "--quiet", action="store_true",
+                            help="print only results and errors: no progress, no notes")
+    if "-v" not in have and "--verbose" not in have:
+        parser.add_argument("-v", "--verbose", action="count", default=0,
+                            help="say more (repeat for more detail)")
+    if "--no-progress" not in have:
+        parser.add_argument("--no-progress", action="store_true",
+                            help="no progress bar (there is none unless standard error is a terminal)")
+
+
+def verbosity(args) -> int:
+    """-1 with --quiet, else the number of -v given (0 by default)."""
+    return -1 if getattr(args, "quiet", False) else int(getattr(args, "verbose", 0) or 0)
+
+
+def show_progress(args=None, stream=None) -> bool:
+    """Progress bars: on a terminal only, and not with --quiet or --no-progress."""
+    stream = stream or sys.stderr
+    if args is not None and (getattr(args, "quiet", False) or getattr(args, "no_progress", False)):
+        return False
+    return bool(getattr(stream, "isatty", lambda: False)())
+
+
+def use_colour(stream=None) -> bool:
+    """Colour only on a terminal, and never with NO_COLOR set or TERM=dumb."""
+    stream = stream or sys.stdout
+    if os.environ.get("NO_COLOR", "") != "" or os.environ.get("TERM") == "dumb":
+        return False
+    return bool(getattr(stream, "isatty", lambda: False)())
+
+
+def colour(text: str, good: bool, stream=None) -> str:
+    """``text`` in green (good) or red, when :func:`use_colour` allows."""
+    if not use_colour(stream):
+        return text
+    return f"\033[{'32' if good else '31'}m{text}\033[0m"
+
+
+def say(args, message: str, level: int = 0) -> None:
+    """A note on standard error, shown when the verbosity is at least ``level``."""
+    if verbosity(args) >= level:
+        print(message, file=sys.stderr, flush=True)

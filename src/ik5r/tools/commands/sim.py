@@ -1,0 +1,161 @@
+"""``ik5r sim``: run a hardware block under cocotb against the bit-accurate model.
+
+Generates the block's Verilog (``ik5r.hdl.generate``), builds it with Icarus or Verilator under
+``build/sim/<block>_<arch>_<config>_<sim>/`` and runs two cocotb tests (``src/ik5r/tools/testbench/stream_tb.py``):
+
+* a cocotb-driven stream run (``--stream-vectors`` + the edge set) with random idle cycles,
+  random back-pressure with long stalls and a reset in the middle of traffic, which also measures
+  latency and cycles per result;
+* a fast bulk run of ``--vectors`` random vectors + the block's directed edge set (zero, full
+  scale, most negative word, +-1 for acos, ...) streamed by a generated Verilog wrapper, with a
+  progress bar.
+
+Every output field is compared bit for bit with ``ik5r.firmware.model`` and the tag for order and
+loss; errors against float64 numpy (atan2: np.arctan2, sqrt: np.sqrt, acos: np.arccos, rotate: a
+float rotation, ik: the float reference ``ik5r.core.reference.ik``'s same branch, worst joint, over
+poses both solve with no status bit) are reported in output LSB. Exit status 1 on any mismatch.
+
+``--block ik`` is the IK core (``hdl/ik_core.py``): random reachable poses (one in ten rows random
+words) plus the directed set, checked against the vectorised model ``vector.solve_batch``
+(itself checked against ``model.ik_solve`` on the edge set and a sample).
+
+``--block ik --arch compact --serial 16`` simulates the compact core's word-serial wrapper with
+16-bit beats (as placed on the iCE40 UP5K) in the cocotb-driven stream run only (it has no bulk
+run): poses go in as beats, results are reassembled from beats (``src/ik5r/tools/testbench/serial.py``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from ik5r.core.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, BLOCKS, DSPS
+from ik5r.tools import cliopts
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(float(text)) if "e" in text.lower() else int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _beat_bits(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 1 <= value <= 32:
+        raise argparse.ArgumentTypeError(f"must be in [1, 32], got {value}")
+    return value
+
+
+def _blocks() -> tuple[str, ...]:
+    return BLOCKS
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "sim", help="simulate a hardware block under cocotb against the bit-accurate model",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--block", required=True, choices=_blocks(), help="block to simulate")
+    parser.add_argument("--arch", choices=ARCH_NAMES, default="pipelined",
+                        help="architecture (default: pipelined); for the IK core (--block ik) "
+                             "'compact' is its iterative elaboration, the same as 'iterative'")
+    parser.add_argument("--vectors", type=_count, default=10000, metavar="N",
+                        help="random vectors of the bulk run, plus the edge set (default: 10000)")
+    parser.add_argument("--stream-vectors", type=_count, default=None, metavar="N",
+                        help="random vectors of the cocotb-driven run with idles, back-pressure and a "
+                             "mid-traffic reset, plus the edge set (default: min(N, 1000); 0 skips it)")
+    parser.add_argument("--simulator", choices=("icarus", "verilator"), default=None,
+                        help="simulator (default: $SIM or icarus)")
+    parser.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
+    parser.add_argument("--config", default=None, metavar="CFG",
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    parser.add_argument("--json", default=None, metavar="FILE", help="write the result JSON here")
+    parser.add_argument("--pattern", choices=("random", "full"), default="random",
+                        help="bulk run: random valid/ready patterns with long stalls, or full rate "
+                             "(default: random)")
+    parser.add_argument("--waves", action="store_true", help="record FST waves (also WAVES=1)")
+    parser.add_argument("--tag-width", type=int, default=8, metavar="N", help="tag field width (default: 8)")
+    parser.add_argument("--dsp", choices=DSPS, default="generic",
+                        help="primitives of the pipelined arch: generic operators, or ECP5 "
+                             "MULT18X18D (with their registers) and CCU2C instances (simulated "
+                             "with their models in hdl/sim/) (default: generic)")
+    parser.add_argument("--serial", type=_beat_bits, default=None, metavar="B",
+                        help="--block ik --arch compact only: simulate its word-serial wrapper with "
+                             "B-bit beats (16 as placed on the iCE40 UP5K), in the stream run only: "
+                             "--stream-vectors random poses (default: min(--vectors, 1000)) plus the "
+                             "directed set")
+    cliopts.add_common(parser)
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from ik5r.core.fxconfig import load_config
+    from ik5r.tools.testbench.runner import default_simulator, run_block
+
+    cfg = load_config(args.config)          # InputError (exit 2) on a bad config
+    if args.serial is not None and (args.block != "ik" or args.arch not in ("compact", "iterative")):
+        print("ik5r sim: --serial is the compact IK core's wrapper: use it with --block ik --arch compact",
+              file=sys.stderr)
+        return 2
+    sim = args.simulator or default_simulator()
+    stream_vectors = min(args.vectors, 1000) if args.stream_vectors is None else args.stream_vectors
+    if args.serial is not None and not stream_vectors:
+        print("ik5r sim: --serial runs the stream run only: --stream-vectors must be > 0", file=sys.stderr)
+        return 2
+    waves = True if args.waves else None
+    t0 = time.perf_counter()
+    result = run_block(args.block, args.arch, args.config or cfg.name, sim,
+                       stream_vectors=stream_vectors, seed=args.seed, serial=args.serial,
+                       bulk_vectors=0 if args.serial else max(args.vectors, 1),
+                       pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
+                       tag_width=args.tag_width, chunk=max(50000, args.vectors // 10), dsp=args.dsp)
+    wall = time.perf_counter() - t0
+    bulk = result.get("bulk") or {}
+    doc = {
+        "block": result["block"], "arch": result["arch"], "config": result["config"],
+        "simulator": result["simulator"], "seed": args.seed, "dsp": args.dsp, "serial": args.serial,
+        "vectors": result["vectors"], "mismatches": result["mismatches"],
+        "first_mismatch": result["first_mismatch"], "field_mismatches": result["field_mismatches"],
+        "tag_errors": result["tag_errors"], "stale_outputs": result["stale_outputs"],
+        "max_error_lsb": result["max_error_lsb"], "rms_error_lsb": result["rms_error_lsb"],
+        "latency_cycles": result["latency_cycles"], "cycles_per_result": result["cycles_per_result"],
+        "latency_cycles_portmap": result["latency_cycles_portmap"],
+        "cycles_per_result_portmap": result["cycles_per_result_portmap"],
+        "wall_seconds": wall,
+        # Throughput of the bulk run (stimulus, simulation, capture and bit-exact check of every
+        # vector); the end-to-end figure also counts generation, build and the stream run.
+        "vectors_per_second": bulk.get("vectors_per_second"),
+        "end_to_end_vectors_per_second": result["vectors"] / wall if wall else None,
+        "build_seconds": result["build_seconds"], "stream": result["stream"], "bulk": result["bulk"],
+        "build_dir": result["build_dir"], "waves": result["waves"], "log": result["log"],
+    }
+    text = json.dumps(doc, indent=2)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(text + "\n")
+    verdict = "OK" if doc["mismatches"] == 0 else "MISMATCH"
+    print(f"{verdict}: {doc['block']} {doc['arch']} {doc['config']} on {sim}: {doc['vectors']} vectors, "
+          f"{doc['mismatches']} mismatches, max error {doc['max_error_lsb']} LSB, "
+          f"rms {doc['rms_error_lsb']} LSB, latency {doc['latency_cycles']}, "
+          f"cycles/result {doc['cycles_per_result']}, {_rate(doc)}, wall {wall:.1f} s")
+    if doc["first_mismatch"]:
+        print("first mismatch:", json.dumps(doc["first_mismatch"]), file=sys.stderr)
+    return 0 if doc["mismatches"] == 0 else 1
+
+
+def _rate(doc: dict) -> str:
+    """Vectors per second of the bulk run, or of the stream run when there is no bulk run."""
+    stream = doc["stream"] or {}
+    if doc["vectors_per_second"] is None and stream.get("wall_seconds"):
+        return f"{stream['vectors'] / stream['wall_seconds']:.0f} vectors/s (stream)"
+    return f"{doc['vectors_per_second'] or 0:.0f} vectors/s (bulk)"

@@ -1,0 +1,129 @@
+"""``ik5r synth``: area and Fmax of a block after Yosys synthesis and nextpnr place-and-route.
+
+ECP5 (default LFE5U-85F, speed 6, CABGA381, out of context) or iCE40. Prints one line per block
+and architecture: LUT4 sites (TRELLIS_COMB / ICESTORM_LC), flip-flops, carry cells, DSPs, block
+RAMs, Fmax of ``clk``, latency, cycles per result and results per second (Fmax / cycles per
+result). ``--json FILE`` writes every figure (also the critical path and the tool versions).
+Results are cached under ``build/synth/`` (keyed by the Verilog, the tool versions and the flags).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+from ik5r.core.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, DSPS
+
+BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "cpu", "all")
+ARCH_CHOICES = (*ARCH_NAMES, "all")
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "synth", help="LUTs, FFs, DSPs and Fmax of a block (Yosys + nextpnr)", description=__doc__)
+    parser.add_argument("--block", choices=BLOCK_CHOICES, default="atan2",
+                        help="block (default: atan2; all: every available block; cpu: the soft "
+                             "CPU SoC running the C solver, see --cpu)")
+    parser.add_argument("--cpu", default=None, metavar="NAME",
+                        help="with --block cpu: vexriscv (rv32im) or vexriscv_min (rv32i) "
+                             "(default: both)")
+    parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
+                        help="architecture (default: pipelined; iterative and compact are the "
+                             "same choice: one item in flight; all: both)")
+    parser.add_argument("--config", default=None, metavar="CFG",
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    parser.add_argument("--target", choices=("ecp5", "ice40"), default="ecp5",
+                        help="FPGA family (default: ecp5)")
+    parser.add_argument("--device", default=None,
+                        help="device: ecp5 12k|25k|45k|85k|um-85k|..., ice40 hx8k|up5k|... "
+                             "(default: 85k / hx8k)")
+    parser.add_argument("--package", default=None, help="package (default: CABGA381 / the largest)")
+    parser.add_argument("--speed", type=int, default=None, help="ECP5 speed grade 6|7|8 (default: 6)")
+    parser.add_argument("--freq", type=float, default=150.0, metavar="MHZ",
+                        help="clock constraint for timing-driven P&R (default: 150)")
+    parser.add_argument("--placer", choices=("heap", "sa", "static"), default=None,
+                        help="nextpnr placer (default: heap on ECP5, sa on iCE40)")
+    parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
+    parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
+    parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
+    parser.add_argument("--dsp", choices=DSPS, default=None,
+                        help="primitives: ECP5 MULT18X18D instances with their input and output "
+                             "registers and CCU2C add/sub chains, or generic operators mapped by "
+                             "Yosys (default: ecp5 on ECP5, generic on iCE40)")
+    parser.add_argument("--cache", default="build/synth", metavar="DIR",
+                        help="cache folder (default: build/synth)")
+    parser.add_argument("--force", action="store_true", help="ignore cached results")
+    parser.add_argument("--timeout", type=float, default=None, metavar="S",
+                        help="give up a tool run after S seconds")
+    parser.add_argument("--json", default=None, metavar="FILE", help="write the figures as JSON (one result: its dict; several: {\"results\": [...]})")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    parser.set_defaults(run=run)
+
+
+def _available_blocks() -> tuple[str, ...]:
+    from ik5r.hdl.generate import BLOCKS
+    return tuple(BLOCKS)
+
+
+def run(args) -> int:
+    from ik5r.core.errors import InputError
+    from ik5r.core.fxconfig import load_config
+    from ik5r.hdl.generate import archs_of, resolve_arch
+    from ik5r.tools.synth import SynthOptions, format_table, synthesize
+
+    available = _available_blocks()
+    if args.block == "all":
+        blocks = available
+    elif args.block == "cpu":
+        blocks = ("cpu",)
+    elif args.block not in available:
+        raise InputError("--block", f"block {args.block!r} is not available in ik5r.hdl.generate "
+                                    f"(have {', '.join(available)})")
+    else:
+        blocks = (args.block,)
+    if args.block == "cpu":
+        from ik5r.hdl.soc import CPUS
+        if args.cpu is not None and args.cpu not in CPUS:
+            raise InputError("--cpu", f"must be one of {', '.join(CPUS)}, got {args.cpu!r}")
+        cpus = (args.cpu,) if args.cpu else tuple(CPUS)
+    cfg = load_config(args.config)
+    opts = SynthOptions(target=args.target, device=args.device, package=args.package,
+                        speed=args.speed, freq_mhz=args.freq, placer=args.placer, seed=args.seed,
+                        threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp).resolved()
+
+    def log(message):
+        if not args.quiet:
+            print(f"[{time.strftime('%H:%M:%S')}] {message}", file=sys.stderr, flush=True)
+
+    results = []
+    failed = 0
+    for block in blocks:
+        if block == "cpu":
+            archs = cpus
+        else:
+            archs = archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),)
+        for arch in archs:
+            start = time.perf_counter()
+            try:
+                result = synthesize(block, arch, cfg, opts, cache_dir=args.cache, force=args.force,
+                                    log=log, timeout=args.timeout)
+            except (RuntimeError, OSError) as exc:  # also SoftCpuError
+                print(f"error: {block} {arch}: {exc}", file=sys.stderr)
+                failed += 1
+                continue
+            result["wall_seconds"] = round(time.perf_counter() - start, 2)
+            results.append(result)
+    if results:
+        print(f"{opts.target} {opts.device}"
+              f"{' speed ' + str(opts.speed) if opts.speed else ''} {opts.package}, "
+              f"clock constraint {opts.freq_mhz:g} MHz, placer {opts.placer}")
+        print(format_table(results))
+    if args.json:
+        path = Path(args.json)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        doc = results[0] if len(results) == 1 else {"results": results}
+        path.write_text(json.dumps(doc, indent=2) + "\n")
+    return 1 if failed else 0

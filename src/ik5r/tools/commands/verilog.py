@@ -1,0 +1,77 @@
+"""``ik5r verilog``: Verilog of the CORDIC/sqrt/acos blocks and their port maps (JSON).
+
+Writes ``DIR/<module>.v`` and ``DIR/<module>.json`` per block and architecture, with
+``<module>`` = ``ik5r_<block>_<arch>``. The output is deterministic (byte-identical between runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ik5r.core.fxconfig import DEFAULT_CONFIG
+from ik5r.hdl.modes import ARCH_NAMES, DSPS
+
+BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
+ARCH_CHOICES = (*ARCH_NAMES, "all")
+
+
+def _tag_width(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= value <= 64:
+        raise argparse.ArgumentTypeError(f"must be in [0, 64], got {value}")
+    return value
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "verilog", help="Verilog of the hardware blocks and their port maps (JSON)",
+        description=__doc__)
+    parser.add_argument("-o", "--output", default="build/verilog", metavar="DIR",
+                        help="output folder (default: build/verilog)")
+    parser.add_argument("--config", default=None, metavar="CFG",
+                        help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    parser.add_argument("--block", choices=BLOCK_CHOICES, default="all",
+                        help="block to generate (default: all)")
+    parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
+                        help="pipelined (1 result/cycle); iterative or compact: the small one (blocks: 1 "
+                             "step/cycle; IK core: compact); all: both (default: pipelined)")
+    parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
+                        help="width of the tag field carried through each block (default: 0)")
+    parser.add_argument("--dsp", choices=DSPS, default="generic",
+                        help="primitives of the pipelined arch (with --arch all, the others stay generic): "
+                             "generic operators (any FPGA), or ECP5 "
+                             "MULT18X18D instances using their input and output registers and CCU2C "
+                             "add/sub chains (module "
+                             "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
+                             "(default: generic)")
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from ik5r.core.errors import InputError
+    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.hdl.generate import BLOCKS, archs_of, generate, resolve_arch
+
+    if args.dsp != "generic" and args.arch not in ("pipelined", "all"):
+        raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
+                                  f"not to --arch {args.arch}")
+    k = constants(load_config(args.config))
+    blocks = BLOCKS if args.block == "all" else (args.block,)
+    out_dir = Path(args.output)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for block in blocks:
+        for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
+            # With --arch all, the small architectures are generic (they have no primitive mapping).
+            primitives = {"dsp": args.dsp} if args.dsp != "generic" and arch == "pipelined" else {}
+            text, pmap = generate(block, arch, k, args.tag_width, **primitives)
+            module = pmap["module"]
+            (out_dir / f"{module}.v").write_text(text)
+            (out_dir / f"{module}.json").write_text(json.dumps(pmap, indent=2) + "\n")
+            print(f"{out_dir / module}.v  latency {pmap['latency_cycles']} cycles, "
+                  f"{pmap['cycles_per_result']} cycle(s)/result")
+    return 0

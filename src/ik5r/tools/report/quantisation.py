@@ -1,0 +1,472 @@
+"""Figures of the quantisation report: fixed point and float32 against float64, on random poses.
+
+Method (one pose = one random joint vector q, uniform in the joint limits, so reachable):
+
+* the target pose (p, n, o, a) is FK(q) in float64; the float64 IK of it gives four branches and
+  the one nearest q (wrapped) is *the* branch of the pose;
+* the fixed-point solver (the vectorised bit-accurate model ``ik5r.firmware.vector``) solves that
+  branch of the quantised pose; float32 (``reference.ik(dtype=float32)``, what a Nios II FPU
+  computes) solves the float32-rounded pose, all four branches, and the same branch is taken;
+* joint errors are wrapped differences against float64 on the same branch, (a) on the exact pose
+  (end to end, input quantisation included) and (b) on the pose the solver actually saw (the
+  dequantised words, or the float32-rounded values): the algorithm's own error;
+* task-space errors are FK(solved q) in float64 against the target.
+
+:func:`compute` returns per-pose arrays (:class:`Samples`); :func:`figures` reduces them to a dict
+of plain numbers; :func:`summary_text` renders the one-screen terminal summary.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from functools import partial
+
+import numpy as np
+
+from ik5r.core import reference as ref
+from ik5r.core import status as st
+from ik5r.core.arm import Arm
+from ik5r.core.fxconfig import FixedConfig, constants
+from ik5r.firmware.poses import PoseBatch
+
+JOINTS = ("q1", "q2", "q3", "q4", "q5")
+#: Subsets of poses by |sin q3| (q2, q3 errors scale with 1 / |sin q3|): key -> lower bound.
+SIN_Q3_BINS = {"all": 0.0, "sin_q3_ge_1e-3": 1e-3, "sin_q3_ge_1e-2": 1e-2, "sin_q3_ge_1e-1": 1e-1}
+BIN_LABELS = {"all": "all poses", "sin_q3_ge_1e-3": "|sin q3| ≥ 1e-3",
+              "sin_q3_ge_1e-2": "|sin q3| ≥ 1e-2", "sin_q3_ge_1e-1": "|sin q3| ≥ 1e-1"}
+PERCENTILES = (50.0, 90.0, 99.0, 99.9, 99.99)
+#: The joint-accuracy floor (issue 2): the solver's own error, against float64 on the same input
+#: words and branch, where |sin q3| >= 1e-3.
+JOINT_FLOOR_RAD = 1e-6
+JOINT_FLOOR_BIN = "sin_q3_ge_1e-3"
+#: Joint-error comparisons: key -> (solver, reference pose).
+COMPARISONS = ("fixed_vs_exact", "fixed_vs_quantised", "float32_vs_exact", "float32_vs_quantised",
+               "input_effect")
+DEFAULT_CHUNK = 50_000
+
+
+@dataclass
+class Samples:
+    """Per-pose arrays of a run (N poses)."""
+
+    arm: Arm
+    cfg: FixedConfig
+    seed: int
+    q: np.ndarray                 # (N, 5) the drawn joint vectors
+    branch: np.ndarray            # (N,) float64 branch index matching q
+    branch_match_rad: np.ndarray  # (N,) max |wrap(q64[branch] - q)|
+    sin_q3: np.ndarray            # (N,) |sin q3| (float64 branch)
+    radius: np.ndarray            # (N,) horizontal distance of the tool point from the base axis (cm)
+    height: np.ndarray            # (N,) tool point z (cm)
+    wrist_dist: np.ndarray        # (N,) distance joint 2 axis -> wrist centre (cm)
+    joint_err: dict = field(default_factory=dict)   # COMPARISONS key -> (N, 5) signed rad
+    position_err: dict = field(default_factory=dict)  # "fixed" / "float32" / "float64" -> (N,) cm
+    approach_err: dict = field(default_factory=dict)  # same keys -> (N,) rad
+    status_fixed: np.ndarray = None   # (N,) fixed status bits
+    status_float64: np.ndarray = None  # (N,) float64 status bits of the branch (exact pose)
+    input_saturated: int = 0
+    timing: dict = field(default_factory=dict)
+
+
+def _unit_angle(u, v):
+    """Angle (rad) between direction vectors (..., 3), robust for tiny angles."""
+    cross = np.linalg.norm(np.cross(u, v), axis=-1)
+    dot = np.sum(u * v, axis=-1)
+    return np.arctan2(cross, dot)
+
+
+def _take(q_all, branch):
+    return q_all[np.arange(len(branch)), branch].astype(np.float64)
+
+
+def _task_errors(arm, q, p, a):
+    p_fk, _, _, a_fk = ref.fk(arm, q)
+    return np.linalg.norm(p_fk - p, axis=-1), _unit_angle(a_fk, a)
+
+
+def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
+    """Everything of one chunk of joint vectors."""
+    from ik5r.firmware.vector import solve_batch
+
+    cfg = k.cfg
+    count = len(q)
+    t0 = time.perf_counter()
+    p, n, o, a = ref.fk(arm, q)
+    r64 = ref.ik(arm, p, a, n, o)
+    diff = ref.wrap(r64.q - q[:, None, :])
+    branch = np.argmin(np.sum(diff**2, axis=-1), axis=1)
+    q64 = _take(r64.q, branch)
+    out = {
+        "q": q, "branch": branch,
+        "branch_match_rad": np.max(np.abs(diff[np.arange(count), branch]), axis=-1),
+        "sin_q3": np.abs(np.sin(q64[:, 2] + arm.theta_offset[2])),
+        "radius": np.hypot(p[:, 0], p[:, 1]), "height": p[:, 2].copy(),
+        "status_float64": r64.status[np.arange(count), branch],
+    }
+    t = q64 + np.asarray(arm.theta_offset)
+    out["wrist_dist"] = np.sqrt(arm.a[1] ** 2 + arm.a[2] ** 2 + 2 * arm.a[1] * arm.a[2] * np.cos(t[:, 2]))
+    pe, ae = _task_errors(arm, q64, p, a)
+    out["position_float64"], out["approach_float64"] = pe, ae
+    timing["float64_s"] = timing.get("float64_s", 0.0) + time.perf_counter() - t0
+
+    # Fixed point: quantise, solve the branch, dequantise.
+    t0 = time.perf_counter()
+    poses, input_status = PoseBatch.quantise(cfg, p, a, n, o)
+    poses = poses.with_branch(branch)
+    out["input_saturated"] = int(np.count_nonzero(input_status & st.SATURATED))
+    t1 = time.perf_counter()
+    q_a, status = poses.solve(partial(solve_batch, k))
+    timing["fixed_solver_s"] = timing.get("fixed_solver_s", 0.0) + time.perf_counter() - t1
+    q_fx = np.asarray(q_a, dtype=np.float64) * 2.0**-cfg.frac_angle
+    out["status_fixed"] = np.asarray(status, dtype=np.int64)
+    deq_l, deq_u = 2.0**-cfg.frac_length, 2.0**-cfg.frac_unit
+    r_deq = ref.ik(arm, poses.p * deq_l, poses.a * deq_u, poses.n * deq_u, poses.o * deq_u, confirm_tolerance_cm=None)
+    q64_deq = _take(r_deq.q, branch)
+    out["fixed_vs_exact"] = ref.wrap(q_fx - q64)
+    out["fixed_vs_quantised"] = ref.wrap(q_fx - q64_deq)
+    out["input_effect"] = ref.wrap(q64_deq - q64)
+    out["position_fixed"], out["approach_fixed"] = _task_errors(arm, q_fx, p, a)
+    timing["fixed_s"] = timing.get("fixed_s", 0.0) + time.perf_counter() - t0
+
+    # float32: the same algorithm on float32-rounded inputs.
+    t0 = time.perf_counter()
+    p32, a32, n32, o32 = (v.astype(np.float32) for v in (p, a, n, o))
+    t1 = time.perf_counter()
+    r32 = ref.ik(arm, p32, a32, n32, o32, dtype=np.float32, confirm_tolerance_cm=None)
+    timing["float32_solver_s"] = timing.get("float32_solver_s", 0.0) + time.perf_counter() - t1
+    q32 = _take(r32.q, branch)
+    r64_32 = ref.ik(arm, p32.astype(np.float64), a32.astype(np.float64), n32.astype(np.float64),
+                    o32.astype(np.float64), confirm_tolerance_cm=None)
+    out["float32_vs_exact"] = ref.wrap(q32 - q64)
+    out["float32_vs_quantised"] = ref.wrap(q32 - _take(r64_32.q, branch))
+    out["position_float32"], out["approach_float32"] = _task_errors(arm, q32, p, a)
+    timing["float32_s"] = timing.get("float32_s", 0.0) + time.perf_counter() - t0
+    return out
+
+
+def compute(arm: Arm, cfg: FixedConfig, vectors: int, seed: int = 0, *, chunk: int = DEFAULT_CHUNK,
+            progress: bool = True) -> Samples:
+    """Draw ``vectors`` joint vectors (uniform in the limits, ``seed``) and solve them all three ways."""
+    from tqdm import tqdm
+
+    if vectors < 1:
+        raise ValueError("need at least one vector")
+    start = time.perf_counter()
+    k = constants(cfg, arm)
+    q_all = ref.random_joints(arm, vectors, np.random.default_rng(seed))
+    timing: dict = {}
+    parts = []
+    bounds = range(0, vectors, chunk)
+    for lo in tqdm(bounds, desc=f"report {cfg.name}", unit="chunk", disable=not progress,
+                   total=len(bounds)):
+        parts.append(_chunk(arm, k, q_all[lo:lo + chunk], timing))
+
+    def cat(key):
+        return np.concatenate([part[key] for part in parts])
+
+    samples = Samples(
+        arm=arm, cfg=cfg, seed=seed, q=cat("q"), branch=cat("branch"),
+        branch_match_rad=cat("branch_match_rad"), sin_q3=cat("sin_q3"), radius=cat("radius"),
+        height=cat("height"), wrist_dist=cat("wrist_dist"),
+        joint_err={key: cat(key) for key in COMPARISONS},
+        position_err={s: cat(f"position_{s}") for s in ("fixed", "float32", "float64")},
+        approach_err={s: cat(f"approach_{s}") for s in ("fixed", "float32", "float64")},
+        status_fixed=cat("status_fixed"), status_float64=cat("status_float64"),
+        input_saturated=sum(part["input_saturated"] for part in parts),
+    )
+    timing["total_s"] = time.perf_counter() - start
+    timing["fixed_poses_per_s"] = vectors / timing["fixed_solver_s"] if timing.get("fixed_solver_s") else None
+    samples.timing = timing
+    return samples
+
+
+# ---------------------------------------------------------------------------------------------
+# Reduction to figures
+
+
+def _f(x):
+    """A plain JSON number (None for NaN / inf / missing)."""
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _max_rms(x) -> dict:
+    x = np.abs(np.asarray(x, dtype=np.float64))
+    if x.size == 0:
+        return {"max": None, "rms": None, "mean": None}
+    return {"max": _f(x.max()), "rms": _f(np.sqrt(np.mean(x * x))), "mean": _f(x.mean())}
+
+
+def _distribution(x) -> dict:
+    out = _max_rms(x)
+    if np.size(x):
+        for pct, value in zip(PERCENTILES, np.percentile(np.abs(x), PERCENTILES)):
+            out[f"p{pct:g}"] = _f(value)
+    return out
+
+
+def _ratio(num, den):
+    return _f(num / den) if num is not None and den else None
+
+
+def _bin_masks(samples: Samples, extra=None) -> dict:
+    masks = {key: samples.sin_q3 >= lo for key, lo in SIN_Q3_BINS.items()}
+    return masks if extra is None else {key: m & extra for key, m in masks.items()}
+
+
+def _input_lsb(cfg: FixedConfig):
+    return 2.0**-cfg.frac_length, 2.0**-cfg.frac_unit, 2.0**-cfg.frac_angle
+
+
+def _input_terms(arm: Arm, cfg: FixedConfig) -> dict:
+    """Worst-case input quantisation: |dp|, dphi, |dw| (first order) and the base-axis radius.
+
+    Near the base axis the plane of the arm turns by dq1 ~ (sqrt(2)/2 LSB_length) / rho; the approach,
+    projected onto the turned plane, then loses a factor cos(dq1), which moves phi by up to dq1^2 / 4
+    and the wrist centre by hypot(a4, d5) dq1^2 / 4. ``axis_radius_cm`` is the rho below which that
+    second-order term exceeds the direct position term |dp|.
+    """
+    h_l, h_u, _ = _input_lsb(cfg)
+    wrist_offset = math.hypot(arm.a[3], arm.d[4])
+    dp = math.sqrt(3) / 2 * h_l
+    dphi = math.sqrt(3) / 2 * h_u
+    dq1_num = math.sqrt(2) / 2 * h_l
+    return {"wrist_offset_cm": wrist_offset, "dp": dp, "dphi": dphi, "dw": dp + wrist_offset * dphi,
+            "dq1_numerator_cm": dq1_num, "axis_radius_cm": dq1_num / math.sqrt(4 * dp / wrist_offset)}
+
+
+def joint_figures(samples: Samples) -> dict:
+    """Per comparison, per |sin q3| bin, per joint: max / RMS in rad and in angle LSB.
+
+    ``*_off_axis`` repeat the end-to-end comparisons without the poses closer to the base axis than
+    ``axis_radius_cm`` (there input quantisation turns the arm's plane, see :func:`_input_terms`).
+    """
+    lsb = 2.0**-samples.cfg.frac_angle
+    axis_radius = _input_terms(samples.arm, samples.cfg)["axis_radius_cm"]
+    off_axis = samples.radius >= axis_radius
+    out = {"angle_lsb_rad": lsb, "axis_radius_cm": axis_radius,
+           "near_axis_count": int(np.count_nonzero(~off_axis)),
+           "bins": {key: {"min_abs_sin_q3": lo, "label": BIN_LABELS[key],
+                          "count": int(np.count_nonzero(samples.sin_q3 >= lo)),
+                          "off_axis_count": int(np.count_nonzero((samples.sin_q3 >= lo) & off_axis))}
+                    for key, lo in SIN_Q3_BINS.items()}}
+    plans = [(comp, comp, None) for comp in COMPARISONS]
+    plans += [(f"{comp}_off_axis", comp, off_axis) for comp in ("fixed_vs_exact", "float32_vs_exact")]
+    for name_out, comp, extra in plans:
+        err = samples.joint_err[comp]
+        out[name_out] = {}
+        for key, mask in _bin_masks(samples, extra).items():
+            per = {}
+            for j, name in enumerate(JOINTS):
+                s = _max_rms(err[mask, j])
+                per[name] = {"max_rad": s["max"], "rms_rad": s["rms"],
+                             "max_lsb": _ratio(s["max"], lsb), "rms_lsb": _ratio(s["rms"], lsb)}
+            out[name_out][key] = per
+    own = out["fixed_vs_quantised"][JOINT_FLOOR_BIN]
+    worst = max((own[name]["max_rad"] for name in JOINTS if own[name]["max_rad"] is not None), default=None)
+    out["floor"] = {"bound_rad": JOINT_FLOOR_RAD, "comparison": "fixed_vs_quantised",
+                    "bin": JOINT_FLOOR_BIN, "max_rad": worst,
+                    "met": worst is not None and worst <= JOINT_FLOOR_RAD}
+    return out
+
+
+def conditioning_figures(samples: Samples) -> dict:
+    """First-order input-quantisation terms and how the measured input effect compares.
+
+    The 2-link inverse Jacobian of the wrist centre w: dq2 = |dw| / (a2 |s3|),
+    dq3 = D |dw| / (a2 a3 |s3|) (D = |w - joint 2 axis|); |dw| <= |dp| + hypot(a4, d5) |dphi|
+    with |dp| <= sqrt(3)/2 LSB_length and |dphi| <= sqrt(3)/2 LSB_unit, plus hypot(a4, d5) dq1^2 / 4
+    near the base axis. q1 (and q5 through it): dq1 <= (sqrt(2)/2 LSB_length) / rho. The solver's own
+    rounding of cos q3 to the unit format adds LSB_unit / 2 / |s3| to q3.
+    """
+    arm, cfg = samples.arm, samples.cfg
+    a2, a3 = arm.a[1], arm.a[2]
+    h_l, h_u, h_a = _input_lsb(cfg)
+    terms = _input_terms(arm, cfg)
+    dp, dphi, dw, wrist_offset = terms["dp"], terms["dphi"], terms["dw"], terms["wrist_offset_cm"]
+    off_axis = samples.radius >= terms["axis_radius_cm"]
+    masks = _bin_masks(samples, off_axis)
+    effect = np.abs(samples.joint_err["input_effect"])
+    own = np.abs(samples.joint_err["fixed_vs_quantised"])
+    bins = {}
+    for key, lo in SIN_Q3_BINS.items():
+        m = masks[key]
+        entry = {"min_abs_sin_q3": lo, "off_axis_count": int(np.count_nonzero(m))}
+        if lo > 0:
+            entry["bound_q2_rad"] = 2 * dw / (a2 * lo)
+            entry["bound_q3_rad"] = 2 * (a2 + a3) * dw / (a2 * a3 * lo)
+            entry["bound_q4_rad"] = dphi + entry["bound_q2_rad"] + entry["bound_q3_rad"]
+            entry["c3_rounding_q3_rad"] = h_u / 2 / lo
+            for name in ("bound_q2_rad", "bound_q3_rad", "bound_q4_rad", "c3_rounding_q3_rad"):
+                entry[name.replace("_rad", "_lsb")] = entry[name] / h_a
+        entry["measured_input_effect_max_rad"] = {
+            name: (_f(effect[m, j].max()) if m.any() else None) for j, name in enumerate(JOINTS)}
+        entry["measured_fixed_own_max_rad"] = {
+            name: (_f(own[m, j].max()) if m.any() else None) for j, name in enumerate(JOINTS)}
+        bins[key] = entry
+    # Per-pose bounds (all poses, including the base-axis term), and the largest fraction of them the
+    # measured input effect used (<= 1 where the first-order analysis holds).
+    s3 = np.maximum(samples.sin_q3, 1e-300)
+    dq1 = terms["dq1_numerator_cm"] / np.maximum(samples.radius, 1e-300)
+    dw_pose = dp + wrist_offset * (dphi + np.minimum(dq1, np.pi) ** 2 / 4)
+    per_pose = {"q1": dq1, "q2": dw_pose / (a2 * s3), "q3": samples.wrist_dist * dw_pose / (a2 * a3 * s3)}
+    used = {name: _f(np.max(effect[:, JOINTS.index(name)] / bound)) for name, bound in per_pose.items()}
+    # The solver's own error expressed as the wrist-centre error that would explain it (first order,
+    # poses away from the singular elbow): its internal length-format arithmetic acts like |dw|.
+    away = samples.sin_q3 >= 1e-2
+    implied = {"from_q2": own[away, 1] * a2 * samples.sin_q3[away] / h_l,
+               "from_q3": own[away, 2] * a2 * a3 * samples.sin_q3[away] / samples.wrist_dist[away] / h_l}
+    return {
+        "lsb": {"length_cm": h_l, "unit": h_u, "angle_rad": h_a},
+        "wrist_offset_cm": wrist_offset,
+        "max_input_error": {"position_cm": dp, "approach_rad": dphi, "wrist_centre_cm": dw},
+        "axis_radius_cm": terms["axis_radius_cm"],
+        "near_axis_count": int(np.count_nonzero(~off_axis)),
+        "min_radius_cm": _f(samples.radius.min()),
+        "min_abs_sin_q3": _f(samples.sin_q3.min()),
+        "formulae": {
+            "q1": "dq1 <= (sqrt(2)/2 LSB_length) / rho   (rho: tool point to base axis)",
+            "q2": "dq2 <= |dw| / (a2 |sin q3|)",
+            "q3": "dq3 <= D |dw| / (a2 a3 |sin q3|) <= (a2 + a3) |dw| / (a2 a3 |sin q3|)",
+            "q4": "dq4 <= dphi + dq2 + dq3",
+            "wrist": "|dw| <= sqrt(3)/2 LSB_length + hypot(a4, d5) (sqrt(3)/2 LSB_unit + dq1^2 / 4)",
+            "axis": "rho_axis = (sqrt(2)/2 LSB_length) / sqrt(4 |dp| / hypot(a4, d5)): below it dq1^2/4 dominates |dw|",
+            "c3_rounding": "solver's own: dq3 ~ (LSB_unit / 2) / |sin q3|",
+            "bins": "bin bounds: at the bin's smallest |sin q3|, rho >= rho_axis (|dw| <= 2 x first-order term)",
+        },
+        "bins": bins,
+        "max_fraction_of_per_pose_bound_used": used,
+        "solver_own_equivalent_wrist_error_lsb_length": {
+            key: {"max": _max_rms(v)["max"], "rms": _max_rms(v)["rms"]} for key, v in implied.items()},
+        "input_wrist_error_bound_lsb_length": dw / h_l,
+    }
+
+
+def task_figures(samples: Samples) -> dict:
+    out = {}
+    for solver in ("fixed", "float32", "float64"):
+        out[solver] = {"position_cm": _distribution(samples.position_err[solver]),
+                       "approach_rad": _distribution(samples.approach_err[solver])}
+    fx, f32 = out["fixed"], out["float32"]
+    out["ratio_fixed_over_float32"] = {
+        "position_max": _ratio(fx["position_cm"]["max"], f32["position_cm"]["max"]),
+        "position_rms": _ratio(fx["position_cm"]["rms"], f32["position_cm"]["rms"]),
+        "approach_max": _ratio(fx["approach_rad"]["max"], f32["approach_rad"]["max"]),
+        "approach_rms": _ratio(fx["approach_rad"]["rms"], f32["approach_rad"]["rms"]),
+    }
+    for solver in ("fixed", "float32"):
+        worst = {}
+        for unit, err in (("position_cm", samples.position_err[solver]), ("approach_rad", samples.approach_err[solver])):
+            i = int(np.argmax(err))
+            worst[unit] = {"radius_cm": _f(samples.radius[i]), "height_cm": _f(samples.height[i]),
+                           "abs_sin_q3": _f(samples.sin_q3[i]), "error": _f(err[i])}
+        out[solver]["worst_pose"] = worst
+    # Poses the fixed solver flags (bits other than the harmless singular ones), e.g. a tool point
+    # quantised onto the base axis: the plane then comes from the approach, the requested shoulder
+    # branch may not exist and the solver clips and reports UNREACHABLE.
+    flagged = (samples.status_fixed & ~(st.SINGULAR_ELBOW | st.SINGULAR_BASE)) != 0
+    out["fixed_flagged"] = {
+        "count": int(np.count_nonzero(flagged)),
+        "position_cm_max": _f(samples.position_err["fixed"][flagged].max()) if flagged.any() else None,
+        "unflagged_position_cm": _distribution(samples.position_err["fixed"][~flagged]),
+        "unflagged_approach_rad": _distribution(samples.approach_err["fixed"][~flagged]),
+    }
+    out["fixed_beats_float32"] = bool(
+        fx["position_cm"]["max"] < f32["position_cm"]["max"]
+        and fx["position_cm"]["rms"] < f32["position_cm"]["rms"])
+    return out
+
+
+def status_figures(samples: Samples) -> dict:
+    def counts(bits):
+        values, num = np.unique(bits, return_counts=True)
+        return {st.describe(v): int(c) for v, c in sorted(zip(values, num), key=lambda vc: -vc[1])}
+
+    per_bit = {name: int(np.count_nonzero(samples.status_fixed & bit)) for bit, name in st.NAMES.items()}
+    harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
+    return {
+        "fixed": counts(samples.status_fixed),
+        "fixed_per_bit": per_bit,
+        "float64": counts(samples.status_float64),
+        "fixed_differs_from_float64": int(np.count_nonzero(
+            samples.status_fixed != (samples.status_float64 & ~st.OUT_OF_LIMITS))),
+        "fixed_not_ok": int(np.count_nonzero(samples.status_fixed & ~harmless)),
+        "input_words_saturated": int(samples.input_saturated),
+    }
+
+
+def figures(samples: Samples) -> dict:
+    """Every figure of the quantisation report as a JSON-ready dict of plain numbers."""
+    cfg, arm = samples.cfg, samples.arm
+    return {
+        "config": {"name": cfg.name, "source": cfg.source, "width": cfg.width,
+                   "frac_length": cfg.frac_length, "frac_unit": cfg.frac_unit,
+                   "frac_angle": cfg.frac_angle, "iterations": cfg.iterations,
+                   "rounding": cfg.rounding},
+        "arm": arm.name,
+        "vectors": int(len(samples.q)),
+        "seed": int(samples.seed),
+        "timing": {key: _f(v) for key, v in samples.timing.items()},
+        "branches": {"counts": [int(c) for c in np.bincount(samples.branch, minlength=ref.N_BRANCHES)],
+                     "max_match_rad": _f(samples.branch_match_rad.max())},
+        "joint_error": joint_figures(samples),
+        "conditioning": conditioning_figures(samples),
+        "task_space": task_figures(samples),
+        "status": status_figures(samples),
+    }
+
+
+def _g(x, digits=3):
+    return "-" if x is None else f"{x:.{digits}g}"
+
+
+def summary_text(fig: dict, out_dir=None) -> str:
+    """The one-screen terminal summary of a figures dict (also for ``make demo``)."""
+    ts, je = fig["task_space"], fig["joint_error"]
+    fx, f32 = ts["fixed"], ts["float32"]
+    ratio = ts["ratio_fixed_over_float32"]
+    t = fig["timing"]
+    rate = t.get("fixed_poses_per_s")
+    lines = [
+        f"ik5r quantisation report: config {fig['config']['name']}, arm {fig['arm']}, "
+        f"N = {fig['vectors']:,}, seed {fig['seed']}, {_g(t.get('total_s'), 3)} s"
+        + (f" (fixed solver {rate:,.0f} poses/s)" if rate else ""),
+        "",
+        f"{'task space vs target':<24}{'fixed':>12}{'float32':>12}{'fixed/f32':>11}",
+    ]
+    for label, key, unit in (("position max", "max", "position_cm"), ("position rms", "rms", "position_cm"),
+                             ("position p99.9", "p99.9", "position_cm"),
+                             ("approach max", "max", "approach_rad"), ("approach rms", "rms", "approach_rad")):
+        r = _ratio(fx[unit][key], f32[unit][key])
+        u = "cm" if unit == "position_cm" else "rad"
+        lines.append(f"{label + ' (' + u + ')':<24}{_g(fx[unit][key]):>12}{_g(f32[unit][key]):>12}{_g(r):>11}")
+    lines += ["", f"joint error, max in angle LSB (2^-{fig['config']['frac_angle']} rad)"
+              f"{'':9}" + "".join(f"{j:>9}" for j in JOINTS)]
+    for comp, label in (("fixed_vs_exact", "fixed vs f64 exact"),
+                        ("fixed_vs_exact_off_axis", "fixed vs f64 exact, rho>=axis"),
+                        ("fixed_vs_quantised", "fixed vs f64 quantised"),
+                        ("float32_vs_exact", "float32 vs f64 exact")):
+        for key in ("all", "sin_q3_ge_1e-2"):
+            row = je[comp][key]
+            name = f"{label}, {'all' if key == 'all' else '|s3|>=1e-2'}"
+            lines.append(f"  {name:<51}" + "".join(f"{_g(row[j]['max_lsb']):>9}" for j in JOINTS))
+    fl = ts["fixed_flagged"]
+    if fl["count"]:
+        lines.append(f"{'position max, unflagged':<24}{_g(fl['unflagged_position_cm']['max']):>12}"
+                     f"{'':>12}{_g(_ratio(fl['unflagged_position_cm']['max'], f32['position_cm']['max'])):>11}"
+                     f"   ({fl['count']:,} flagged poses: max {_g(fl['position_cm_max'])} cm)")
+    status = fig["status"]["fixed"]
+    lines += ["", "fixed status: " + ", ".join(f"{k} {v:,}" for k, v in status.items())]
+    floor = je["floor"]
+    lines.append(f"joint error vs f64 on the same input words, |sin q3| >= 1e-3: max {_g(floor['max_rad'])} rad"
+                 f" (floor {floor['bound_rad']:g}: {'met' if floor['met'] else 'NOT met'})")
+    verdict = "YES" if ts["fixed_beats_float32"] else "NO"
+    lines.append(f"fixed beats float32 on max and RMS position error: {verdict} "
+                 f"(ratios {_g(ratio['position_max'])}, {_g(ratio['position_rms'])})")
+    if out_dir is not None:
+        lines.append(f"report: {out_dir}/index.html")
+    return "\n".join(lines)

@@ -1,0 +1,237 @@
+"""Regenerate the README's results section from measurement records kept in the repository.
+
+    python -m ik5r.tools.results [--build build] [--sweep build/sweep] [--readme README.md] [--no-collect]
+
+Two steps:
+
+1. **collect** (skipped with ``--no-collect``): the measurements of this machine's ``build/`` are
+   copied into ``docs/results/records/``: each ``build/synth/*/result.json`` (``ik5r synth``, a
+   shipped config, nextpnr seed 1, whose Verilog is what this checkout generates) as
+   ``synth/<module>_<config>_<target>-<device>.json`` with the SHA-256 of that Verilog (of its
+   body: the text after the header comment, whose commit line changes with every commit; see
+   ``ik5r.hdl.provenance``), the sweep's
+   ``sweep.json`` and plots (``ik5r sweep``), and ``bench.json`` / ``bench.md`` (``make bench``).
+   A record is replaced only by a newer measurement of the same design point.
+2. **render**: the text between the ``<!-- results:begin -->`` and ``<!-- results:end -->``
+   markers of the README is rewritten from the records alone. A synthesis record whose Verilog
+   hash is not that of the Verilog this checkout generates is left out (and named on stdout).
+
+So the figures in the README are never typed, survive a fresh clone (``build/`` is not kept), and
+each one can be traced to the JSON record it came from.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+from pathlib import Path
+
+from .routes import routes_part
+
+BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
+SHIPPED = ("q32w", "q32", "q24", "q18")
+PLOTS = ("error_vs_luts.png", "fmax_vs_width.png")
+#: Keys of a synth result that describe this machine's cache, not the measurement.
+LOCAL_KEYS = ("cache_dir", "cached", "key")
+
+
+def _num(value, fmt="{:,.0f}") -> str:
+    return "–" if value is None else fmt.format(value)
+
+
+class VerilogOfCheckout:
+    """The Verilog this checkout generates for the design point of a synth result (memoised)."""
+
+    def __init__(self):
+        self._texts = {}
+
+    def text(self, r: dict) -> str:
+        from ik5r.core.fxconfig import constants, load_config
+        from ik5r.hdl.generate import generate
+
+        dsp = r.get("dsp", "generic")
+        serial = r.get("serial")
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial)
+        if key not in self._texts and r["block"] == "cpu":
+            from .softcpu import soc_design  # the SoC with the firmware this checkout builds
+            self._texts[key] = soc_design(constants(load_config(r["config"])), r["arch"])[0]
+        if key not in self._texts:
+            options = {} if dsp == "generic" else {"dsp": dsp}
+            if serial:
+                options["serial"] = serial
+            self._texts[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
+                                        r.get("tag_width", 0), **options)[0]
+        return self._texts[key]
+
+    def sha256(self, r: dict) -> str:
+        """SHA-256 of the Verilog's body (without the header comment): the records made before
+        the header existed hashed the same bytes, and a new commit does not make them stale."""
+        from ik5r.hdl.provenance import body_sha256
+        return body_sha256(self.text(r))
+
+
+def _record_name(r: dict) -> str:
+    return f"{r['module']}_{r['config']}_{r['target']}-{r['device']}.json"
+
+
+def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: VerilogOfCheckout) -> list[str]:
+    """Copy this machine's measurements into ``records`` (see the module docstring); returns what
+    was written."""
+    from ik5r.hdl.provenance import body_sha256
+
+    written = []
+    synth_dir = records / "synth"
+    for path in sorted(build.glob("synth/*/result.json"), key=lambda p: p.stat().st_mtime):
+        r = json.loads(path.read_text())
+        # Runs at other nextpnr seeds (robustness checks) are not the design point's figure.
+        # A run that did not fit its device is a measurement too (no Fmax, fits_device false).
+        placed = r.get("fmax_mhz") is not None or (r.get("fits_device") is False and r.get("pnr_error"))
+        if r.get("config") not in SHIPPED or r.get("seed", 1) != 1 or not placed:
+            continue
+        design = path.parent / "design.v"
+        if not design.exists() or body_sha256(design.read_text()) != verilog.sha256(r):
+            continue
+        record = {k: v for k, v in r.items() if k not in LOCAL_KEYS}
+        record["verilog_sha256"] = verilog.sha256(r)
+        record["measured_at"] = path.stat().st_mtime
+        target = synth_dir / _record_name(r)
+        if target.exists() and json.loads(target.read_text()).get("measured_at", 0) >= record["measured_at"]:
+            continue
+        synth_dir.mkdir(parents=True, exist_ok=True)
+        target.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+        written.append(str(target))
+    if (sweep / "sweep.json").exists():
+        records.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(sweep / "sweep.json", records / "sweep.json")
+        written.append(str(records / "sweep.json"))
+        docs.mkdir(parents=True, exist_ok=True)
+        for plot in PLOTS:
+            if (sweep / plot).exists():
+                shutil.copyfile(sweep / plot, docs / plot)
+                written.append(str(docs / plot))
+    for path in sorted(build.glob("firmware/*.json")):
+        target = records / "firmware" / path.name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(path, target)
+        written.append(str(target))
+    for name in ("bench.json", "bench.md", "bench_arms.json", "bench_arms.md"):
+        if (build / "bench" / name).exists():
+            records.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(build / "bench" / name, records / name)
+            written.append(str(records / name))
+    return written
+
+
+def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], list[str]]:
+    """The synthesis table from the records whose Verilog is this checkout's, and the names of
+    the records left out."""
+    rows, stale = [], []
+    for path in sorted((records / "synth").glob("*.json")):
+        r = json.loads(path.read_text())
+        if _current(r, verilog):
+            rows.append(r)
+        else:
+            stale.append(path.name)
+    if not rows:
+        return ["No synthesis results yet: run `ik5r synth` (see above)."], stale
+    rows.sort(key=lambda r: (r["config"], r["block"], r["arch"]))
+    lines = ["| block | arch | primitives | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
+             "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
+        lines.append(f"| {r['block']} | {arch} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']}"
+                     f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
+                     f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
+                     f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
+                     f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
+                     f"{_num(r.get('results_per_second'), '{:.3g}')} |")
+    return lines, stale
+
+
+def _current(r: dict, verilog: VerilogOfCheckout) -> bool:
+    """Whether the record's Verilog is what this checkout generates (a soft CPU record needs
+    the cross compiler to tell: without it, the record counts as not current)."""
+    from .softcpu import SoftCpuError
+
+    try:
+        return r.get("verilog_sha256") == verilog.sha256(r)
+    except SoftCpuError:
+        return False
+
+
+def bench_table(records: Path) -> list[str]:
+    path = records / "bench.md"
+    return path.read_text().rstrip().splitlines() if path.exists() else ["No benchmark yet: run `make bench`."]
+
+
+def arms_part(records: Path) -> list[str]:
+    """Any arm (issue 17): the numeric solver's bench, and the seed papers' tables beside ik5r's."""
+    from .seedtables_report import tables
+
+    bench, seeds = records / "bench_arms.md", records / "arms.json"
+    lines = bench.read_text().rstrip().splitlines() if bench.exists() else ["No bench yet: run `make bench`."]
+    if seeds.exists():
+        lines += ["", "Details, assumptions and plots: [docs/arms.md](docs/arms.md).", "",
+                  *tables(json.loads(seeds.read_text())).replace("### ", "#### ").splitlines()]
+    return lines
+
+
+def sweep_part(records: Path) -> list[str]:
+    path = records / "sweep.json"
+    if not path.exists():
+        return ["No sweep yet: run `ik5r sweep -o build/sweep`."]
+    points = json.loads(path.read_text())["points"]
+    lines = [f"![{plot}](docs/results/{plot})" for plot in PLOTS if (records.parent / plot).exists()]
+    lines += ["", "| block | arch | width | LUTs | DSPs | Fmax (MHz) | max position error (cm) | "
+              "RMS position error (cm) | Pareto |", "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
+    for p in sorted(points, key=lambda p: (p["block"], p["arch"], p["width"])):
+        lines.append(f"| {p['block']} | {p['arch']} | {p['width']} | {_num(p.get('luts'))} | {_num(p.get('dsps'))} | "
+                     f"{_num(p.get('fmax_mhz'), '{:.1f}')} | {_num(p.get('position_err_max_cm'), '{:.3g}')} | "
+                     f"{_num(p.get('position_err_rms_cm'), '{:.3g}')} | {'yes' if p.get('pareto') else ''} |")
+    return lines
+
+
+def section(records: Path, verilog: VerilogOfCheckout) -> tuple[str, list[str]]:
+    synth, stale = synth_table(records, verilog)
+    parts = [BEGIN, "", "*Generated by `python -m ik5r.tools.results` from the records in `docs/results/records/`; "
+             "do not edit by hand.*", "",
+             "### Speed (`make bench`)", "", *bench_table(records), "",
+             "### Any serial arm: numeric IK (`make bench`, `python -m ik5r.tools.seedtables`)", "", *arms_part(records), "",
+             "### Synthesis (`ik5r synth`, Yosys + nextpnr, out of context)", "", *synth, "",
+             *routes_part(records, lambda r: _current(r, verilog)), "",
+             "### Word-length sweep (`ik5r sweep`)", "", *sweep_part(records), "", END]
+    return "\n".join(parts), stale
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m ik5r.tools.results", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--build", default="build", help="where ik5r synth and make bench wrote")
+    parser.add_argument("--sweep", default="build/sweep", help="the sweep's output folder")
+    parser.add_argument("--readme", default="README.md")
+    parser.add_argument("--no-collect", action="store_true",
+                        help="render from the records as they are (copy nothing from --build)")
+    args = parser.parse_args(argv)
+    readme = Path(args.readme)
+    text = readme.read_text()
+    if BEGIN not in text or END not in text:
+        raise SystemExit(f"{readme}: no {BEGIN} ... {END} markers")
+    docs = readme.parent / "docs" / "results"
+    records = docs / "records"
+    verilog = VerilogOfCheckout()
+    if not args.no_collect:
+        for path in collect(Path(args.build), Path(args.sweep), records, docs, verilog):
+            print(f"recorded {path}")
+    body, stale = section(records, verilog)
+    for name in stale:
+        print(f"left out {name}: its Verilog is not what this checkout generates (re-run ik5r synth)")
+    head, rest = text.split(BEGIN, 1)
+    _, tail = rest.split(END, 1)
+    readme.write_text(head + body + tail)
+    print(f"{readme}: results section regenerated")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,110 @@
+"""Three routes to the IK on one FPGA, from the records: the C solver on a soft CPU (rv32im and
+rv32i), the compact IK core and the pipelined IK core (``python -m ik5r.tools.results`` renders it).
+
+A route's area and Fmax come from its synthesis record (``records/synth``), a soft CPU's cycles
+per pose from its ``ik5r firmware`` record (``records/firmware``: mean over the poses, measured
+cycle by cycle); a core's cycles per pose and latency from its synthesis record. Derived
+columns: latency = cycles of one pose / Fmax; poses/s = Fmax / cycles per pose; per 1,000 LUT4 =
+poses/s / (LUT4 / 1,000). The verdict lines are computed from the same numbers.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+CONFIG = "q32w"
+#: (label, synth record, firmware record or None): the routes in table order.
+ROUTES = (
+    ("soft CPU: VexRiscv, rv32im (Nios II/f class)", "ik5r_soc_vexriscv_{c}_ecp5-25k", "vexriscv_rv32im_{c}"),
+    ("soft CPU: VexRiscv, rv32i code (software multiply)", "ik5r_soc_vexriscv_{c}_ecp5-25k", "vexriscv_rv32i_{c}"),
+    ("soft CPU: VexRiscv_Min, rv32i (Nios II/e class)", "ik5r_soc_vexriscv_min_{c}_ecp5-25k", "vexriscv_min_rv32i_{c}"),
+    ("soft CPU: VexRiscv, rv32im, on the 85k", "ik5r_soc_vexriscv_{c}_ecp5-85k", "vexriscv_rv32im_{c}"),
+    ("compact IK core", "ik5r_ik_compact_{c}_ecp5-25k", None),
+    ("pipelined IK core (ECP5 DSP + carry primitives)", "ik5r_ik_dspecp5_pipelined_{c}_ecp5-85k", None),
+)
+
+
+def _load(path: Path):
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
+def route_rows(records: Path, is_current) -> list[dict]:
+    """One dict per route whose records exist: figures and derived columns."""
+    rows = []
+    for label, synth_name, fw_name in ROUTES:
+        s = _load(records / "synth" / f"{synth_name.format(c=CONFIG)}.json")
+        fw = _load(records / "firmware" / f"{fw_name.format(c=CONFIG)}.json") if fw_name else None
+        if s is None or not s.get("fmax_mhz") or (fw_name and fw is None):
+            continue
+        if fw:
+            cycles, latency_cycles = fw["cycles_per_solve"]["mean"], fw["cycles_per_solve"]["mean"]
+        else:
+            cycles, latency_cycles = s["cycles_per_result"], s["latency_cycles"]
+        fmax = s["fmax_mhz"]
+        poses = fmax * 1e6 / cycles
+        rows.append({"label": label, "device": f"{s['target']}-{s['device']}", "luts": s["luts"],
+                     "ffs": s["ffs"], "dsps": s["dsps"], "brams": s["brams"], "fmax": fmax,
+                     "cycles": cycles, "latency_us": latency_cycles / fmax, "poses": poses,
+                     "per_kilo_lut": poses / (s["luts"] / 1000), "current": is_current(s),
+                     "mismatches": None if fw is None else fw["mismatches"],
+                     "vectors": None if fw is None else fw["vectors"], "cpu": bool(fw),
+                     "firmware": fw_name})
+    return rows
+
+
+def _fmt(value, digits=0) -> str:
+    return f"{value:,.{digits}f}"
+
+
+def _ratio(a: float, b: float) -> str:
+    return f"{a / b:,.1f}x" if a >= b else f"1/{b / a:,.1f}"
+
+
+def _verdict(rows: list[dict]) -> list[str]:
+    """One line per IK core against the rv32im soft CPU on the same device (else the 25k)."""
+    cpus = {r["device"]: r for r in rows if r["cpu"] and "rv32im" in r["label"]}
+    lines = []
+    for core in (r for r in rows if not r["cpu"]):
+        cpu = cpus.get(core["device"]) or cpus.get("ecp5-25k")
+        if cpu is None:
+            continue
+        per_lut = "beats" if core["per_kilo_lut"] > cpu["per_kilo_lut"] else "does NOT beat"
+        lines.append(
+            f"- **{core['label']}** on the {core['device']} vs the rv32im soft CPU on the {cpu['device']}"
+            f"{' (no soft CPU record on the ' + core['device'] + ')' if cpu['device'] != core['device'] else ''}: "
+            f"{_ratio(core['luts'], cpu['luts'])} the LUT4, {_fmt(core['dsps'])} vs {_fmt(cpu['dsps'])} DSPs, "
+            f"{_fmt(core['brams'])} vs {_fmt(cpu['brams'])} block RAMs, {_ratio(core['fmax'], cpu['fmax'])} "
+            f"the clock, {_ratio(core['cycles'], cpu['cycles'])} the cycles per pose, "
+            f"{_ratio(core['latency_us'], cpu['latency_us'])} the latency, {_ratio(core['poses'], cpu['poses'])} "
+            f"the poses/s and {_ratio(core['per_kilo_lut'], cpu['per_kilo_lut'])} the poses/s per 1,000 LUT4: "
+            f"it {per_lut} the soft CPU per LUT.")
+    return lines
+
+
+def routes_part(records: Path, is_current) -> list[str]:
+    """The README subsection: the table and the verdict."""
+    rows = route_rows(records, is_current)
+    head = [f"### Three routes: firmware on a soft CPU vs the IK cores ({CONFIG})", ""]
+    if not rows:
+        return head + ["No records yet: run `make firmware` and `ik5r synth --block cpu --device 25k`."]
+    lines = head + [
+        "| route | device | LUT4 | FF | DSP | BRAM | Fmax (MHz) | cycles/pose | latency (us) | poses/s "
+        "| poses/s per 1,000 LUT4 |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    for r in rows:
+        stale = "" if r["current"] else " (record of other Verilog)"
+        lines.append(f"| {r['label']}{stale} | {r['device']} | {_fmt(r['luts'])} | {_fmt(r['ffs'])} | "
+                     f"{_fmt(r['dsps'])} | {_fmt(r['brams'])} | {_fmt(r['fmax'], 1)} | {_fmt(r['cycles'])} | "
+                     f"{_fmt(r['latency_us'], 2)} | {_fmt(r['poses'])} | {_fmt(r['per_kilo_lut'])} |")
+    checked = []  # one entry per firmware record (the 85k row reuses the 25k's)
+    for r in rows:
+        if r["cpu"] and all(r["firmware"] != c["firmware"] for c in checked):
+            checked.append(r)
+    notes = ["", "Soft CPU cycles per pose: mean over the poses of `ik5r firmware` (random reachable + "
+             "directed set; read the pose from RAM, `ik5r_solve`, write the result), cycle-accurate "
+             "in Verilator; " + "; ".join(f"{r['label'].split(': ')[1]}: {r['vectors']:,} poses, "
+                                          f"{r['mismatches']} mismatches" for r in checked) + ". "
+             "The SoC's block RAMs hold the 16 KiB program/data RAM and the CPU's caches and register file.",
+             "", *_verdict(rows)]
+    return lines + notes

