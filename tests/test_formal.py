@@ -32,7 +32,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from ik5r.fxconfig import constants, load_config
+from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.formal.contract import MUTATIONS, TAG_WIDTH
 from ik5r.hdl.formal.run import (INDUCTION_ONLY, JOBS, ORDER_INDUCTION, harness, prove,
                                  prove_fifo_lemma, prove_stash_lemma, stash_lemma_links)
