@@ -16,7 +16,10 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
   against a ghost queue of the tags inside: ``hdl/formal/sequenced.py``); BMC from reset to
   2 x latency + 4 cycles for the iterative blocks.
 * the stash lemma (the real stash RAM code, at the pipelined core's distance and width, is a
-  delay line), by k-induction in seconds (default run).
+  delay line), by k-induction in seconds (default run); the FIFO lemma (the real output FIFO
+  keeps the marks' order: ``hdl/formal/fifo.py``), on the sqrt block's FIFO in the default run,
+  on the pipelined IK core's 257-deep one with that core's order job (slow set: tens of solver
+  minutes, see the record).
 
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
