@@ -72,7 +72,8 @@ def proofs(request):
     """Starts the proof jobs of this module's selected tests in a pool of two."""
     selected = []
     for item in request.session.items:
-        if item.module is request.module and hasattr(item, "callspec"):
+        if (item.module is request.module and hasattr(item, "callspec")
+                and "block" in item.callspec.params):
             params = item.callspec.params
             key = (params.get("check", "control"), params["block"], params["arch"],
                    params.get("mutation"))
