@@ -9,15 +9,23 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 * ``order`` (two marked items: none invented or duplicated, B not before A, A not lost):
   k-induction for the pipelined blocks (the marks tracked through the delay line, the FIFO's
   write register, a shadow of its RAM and its output register: ``hdl/formal/pipelined.py``;
-  acos's, a 64-entry FIFO and ~2 solver minutes, in the slow set) and for the compact core (the sequenced engine, against a ghost queue of the tags inside:
-  ``hdl/formal/sequenced.py``); BMC from reset to 2 x latency + 4 cycles for the iterative blocks
-  (default run), the pipelined IK core (its tags pass through stash RAMs; slow set) and the
-  staged core (slow set; out of reach in practice, see the record's ``not_run``).
+  acos's, a 64-entry FIFO and ~2 solver minutes, in the slow set), for the pipelined IK core
+  (the same, its tag followed through its stash RAM by a ghost delay line that the stash lemma
+  justifies: ``hdl/formal/stash.py``; slow set), for the staged core (its one item's stage, step
+  and tag register: ``hdl/formal/iterative.py``) and for the compact core (the sequenced engine,
+  against a ghost queue of the tags inside: ``hdl/formal/sequenced.py``); BMC from reset to
+  2 x latency + 4 cycles for the iterative blocks.
+* the stash lemma (the real stash RAM code, at the pipelined core's distance and width, is a
+  delay line), by k-induction in seconds (default run); the FIFO lemma (the real output FIFO
+  keeps the marks' order: ``hdl/formal/fifo.py``), on the sqrt block's FIFO in the default run,
+  on the pipelined IK core's 257-deep one with that core's order job (slow set: tens of solver
+  minutes, see the record).
 
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
-broken hold must break the order induction of a pipelined block and the control induction of the
-compact core. The jobs of the selected tests run two at a time (each is a solver subprocess),
+broken hold must break the order induction of a pipelined block, of the staged core (default
+run) and of the pipelined IK core (slow set), and the control induction of the compact core; a
+stash lemma claiming a distance one off must fail. The jobs of the selected tests run two at a time (each is a solver subprocess),
 started when the first test of this module is reached.
 """
 
@@ -27,8 +35,11 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from ik5r.hdl.formal.contract import MUTATIONS
-from ik5r.hdl.formal.run import INDUCTION_ONLY, JOBS, ORDER_INDUCTION, prove
+from ik5r.core.fxconfig import constants, load_config
+from ik5r.hdl.formal.contract import MUTATIONS, TAG_WIDTH
+from ik5r.hdl.formal.run import (INDUCTION_ONLY, JOBS, ORDER_INDUCTION, harness, prove,
+                                 prove_fifo_lemma, prove_stash_lemma, stash_lemma_links)
+from ik5r.hdl.generate import build
 
 pytestmark = pytest.mark.formal
 
@@ -45,8 +56,7 @@ MUTANTS = [(mutation, block, arch) for mutation in MUTATIONS
 
 
 #: Jobs left to the slow set (minutes each): see the module docstring.
-SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined"), ("order", "ik", "staged"),
-        ("order", "acos", "pipelined")}
+SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined"), ("order", "acos", "pipelined")}
 
 
 def _param(check, block, arch):
@@ -62,7 +72,8 @@ def proofs(request):
     """Starts the proof jobs of this module's selected tests in a pool of two."""
     selected = []
     for item in request.session.items:
-        if item.module is request.module and hasattr(item, "callspec"):
+        if (item.module is request.module and hasattr(item, "callspec")
+                and "block" in item.callspec.params):
             params = item.callspec.params
             key = (params.get("check", "control"), params["block"], params["arch"],
                    params.get("mutation"))
@@ -85,6 +96,9 @@ def test_contract_proved(proofs, check, block, arch):
     assert r.config == "q18"
     if check == "control" or (block, arch) in ORDER_INDUCTION:
         assert r.method == "k-induction"
+        if check == "order" and (block, arch) == ("ik", "pipelined"):
+            # Its stash and FIFO lemmas proved, its control group assumed (proved by its job).
+            assert [lemma["status"] for lemma in r.lemmas] == ["PASS", "PASS", "ASSUMED"], r.lemmas
     else:
         assert r.method == "bmc"
         assert r.depth == 2 * r.latency + 4
@@ -113,18 +127,73 @@ def test_injected_fault_breaks_the_induction(proofs, mutation, block, arch):
     assert r.failed and set(r.failed) <= BROKEN[mutation], r.failed
 
 
-#: A broken hold in a pipelined block under the order group's k-induction: the component pops
+#: A broken hold in a pipelined block or IK core under the order group's k-induction: the component pops
 #: its FIFO while the output is held, so the items counted inside and the marks' places no
 #: longer agree (the induction step, or a counterexample from reset, fails).
-ORDER_MUTANTS = [("order", "ready_glitch", "sqrt", "pipelined")]
+#: A tag fault (``tag_flip``: the output tag's LSB inverted on its way out, the component
+#: intact) must break the order induction of the IK cores (their tracking is new: not vacuous).
+ORDER_MUTANTS = [pytest.param("order", mutation, block, arch, id=f"order-{mutation}-{block}-{arch}")
+                 for mutation, block, arch in (("ready_glitch", "sqrt", "pipelined"),
+                                               ("ready_glitch", "ik", "staged"),
+                                               ("ready_glitch", "ik", "pipelined"),
+                                               ("tag_flip", "ik", "staged"),
+                                               ("tag_flip", "ik", "pipelined"))]
 ORDER_BROKEN = BROKEN["ready_glitch"] | {"fifo_refill", "mark_output", "mark_ram", "mark_a_once",
-                                         "mark_b_once", "order", "a_not_lost", "mark_waiting"}
+                                         "mark_b_once", "order", "a_not_lost", "mark_waiting",
+                                         "mark_stage", "mark_occupied", "mark_fifo", "mark_invented",
+                                         "fifo_mark_once"}
 
 
-@pytest.mark.parametrize("check,mutation,block,arch", ORDER_MUTANTS,
-                         ids=[f"{c}-{m}-{b}-{a}" for c, m, b, a in ORDER_MUTANTS])
+@pytest.mark.parametrize("check,mutation,block,arch", ORDER_MUTANTS)
 def test_injected_fault_breaks_the_order_induction(proofs, check, mutation, block, arch):
     r = proofs((check, block, arch, mutation))
     assert r.status in ("FAIL", "UNKNOWN"), f"{mutation} not caught: {r.status} {r.detail}"
     assert r.method == "k-induction"
     assert r.failed and set(r.failed) <= ORDER_BROKEN, r.failed
+    if mutation == "tag_flip":
+        # Not the control group (it is not broken): the marks' own assertions.
+        assert not set(r.failed) & BROKEN["ready_glitch"], r.failed
+
+
+@pytest.fixture(scope="module")
+def stash_links():
+    """(origin, where, word width) of the pipelined IK core's stash RAM(s) carrying the tag."""
+    dut = build("ik", "pipelined", constants(load_config("q18")), tag_width=TAG_WIDTH)
+    module = dut.elaborate(None)
+    # Elaborated only to read its stash links: not a design to use.
+    for elaboratable in (dut, module, *(sub for sub, _ in module._named_submodules.values())):
+        elaboratable._MustUse__silence = True
+    return stash_lemma_links(dut)
+
+
+def test_stash_lemma_proved(stash_links):
+    """The assumption the pipelined IK core's order induction makes (hdl/formal/stash.py)."""
+    assert stash_links, "the core's tag no longer passes a stash RAM: drop the lemma"
+    for link in stash_links:
+        lemma = prove_stash_lemma(*link)
+        assert lemma["status"] == "PASS", lemma
+        assert lemma["method"] == "k-induction"
+
+
+def test_stash_lemma_with_a_wrong_distance_fails(stash_links):
+    """The lemma is not vacuous: claiming the delay one cycle longer (the real RAM) breaks the
+    induction on the delay assertion; on a short stash (same code) BMC finds the counterexample
+    from reset (on the core's 184-cycle stash that BMC takes many minutes)."""
+    lemma = prove_stash_lemma(*stash_links[0], skew=1)
+    assert lemma["status"] in ("FAIL", "UNKNOWN") and lemma["failed"] == ["stash_delay"], lemma
+    short = prove_stash_lemma(1, 12, 2, skew=1, method="bmc")
+    assert short["status"] == "FAIL" and short["failed"] == ["stash_delay"], short
+
+
+@pytest.mark.parametrize("without", ["mark_invented", "fifo_mark_once"])
+def test_fifo_lemma_needs_its_environment(without):
+    """The FIFO lemma (hdl/formal/fifo.py; the pipelined IK core's, depth 257, is proved in the
+    slow set with that core's order job) on the sqrt block's FIFO: proved, and without one of
+    its assumptions (tag 3 written, or a mark written twice) it fails."""
+    top = harness("sqrt", "pipelined", "q18", ("order",))
+    top._MustUse__silence = True
+    layout, depth = top.dut.o.payload.shape(), top.dut.capacity
+    if without == "mark_invented":
+        assert prove_fifo_lemma(layout, depth)["status"] == "PASS"
+    broken = prove_fifo_lemma(layout, depth, without=without)
+    assert broken["status"] in ("FAIL", "UNKNOWN") and broken["failed"], broken

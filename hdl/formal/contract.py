@@ -43,8 +43,11 @@ reset.
   is empty only while at most one item is queued) these are inductive.
 
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
-yet taken, :mod:`.sequenced`; the pipelined blocks (``inductive_order``): k-induction with the
-marks' places tracked, :mod:`.pipelined`; the others: bounded model checking from reset; Wolper's
+yet taken, :mod:`.sequenced`; the pipelined blocks and IK core (``inductive_order``): k-induction
+with the marks' places tracked, :mod:`.pipelined` (the IK core's tag through its stash RAM,
+:mod:`.stash`, its output FIFO by the FIFO's lemma, :mod:`.fifo`); the staged IK core
+(``inductive_order``): k-induction with its one item's place tracked, :mod:`.iterative`; the
+iterative blocks: bounded model checking from reset; Wolper's
 data-independence argument: a component that never reads its tags keeps order for all data iff
 it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,
@@ -59,7 +62,8 @@ others 0, at free times:
 ``mutation`` injects a fault for the self-test: ``"ready_glitch"`` (the component sees
 ``o.ready`` high when a free input says so: a broken hold), ``"drop_input"`` (an item the
 upstream handed over never reaches the component: a lost tag), ``"payload_flip"`` (a held
-output's LSB flips).
+output's LSB flips), ``"tag_flip"`` (the output tag's LSB is inverted on its way out: an item
+comes out with another's mark; the order group must fail).
 """
 
 from __future__ import annotations
@@ -74,13 +78,18 @@ from amaranth.hdl._ast import AnySeq
 from ..datapath import Datapath, SharedStage
 from ..stream_block import StreamBlock
 from ..seq_core import SequencedIKCore
+from .iterative import track_item
 from .pipelined import elaborate_fifo, track_marks
 from .sequenced import elaborate_engine, sequencer, tag_queue
 
-__all__ = ["CHECKS", "MUTATIONS", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
+__all__ = ["CHECKS", "MUTATIONS", "OUTSIDE", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
 
 #: Faults the self-test injects (see the module docstring).
-MUTATIONS = ("ready_glitch", "drop_input", "payload_flip")
+MUTATIONS = ("ready_glitch", "drop_input", "payload_flip", "tag_flip")
+
+#: Faults outside the component (between it and the environment): the control group's
+#: invariants, about the component, still hold, so an order job may assume them.
+OUTSIDE = ("tag_flip",)
 
 #: The property groups (module docstring), one SymbiYosys job each.
 CHECKS = ("control", "order")
@@ -148,7 +157,8 @@ class StreamContract(Elaboratable):
     ``tag_width=TAG_WIDTH``. Its free inputs are :attr:`ports`."""
 
     def __init__(self, dut: StreamBlock, *, checks=CHECKS, mutation: str | None = None,
-                 inductive_order: bool = False):
+                 inductive_order: bool = False, control_assumed: bool = False,
+                 fifo_lemma: bool = False):
         if not checks or not set(checks) <= set(CHECKS):
             raise ValueError(f"checks must be a non-empty subset of {CHECKS}, got {checks!r}")
         if mutation is not None and mutation not in MUTATIONS:
@@ -156,9 +166,21 @@ class StreamContract(Elaboratable):
         if dut.tag_width != TAG_WIDTH:
             raise ValueError(f"dut.tag_width must be {TAG_WIDTH}, got {dut.tag_width}")
         self.checks = tuple(checks)
-        #: A pipelined block's ``order`` group with the invariants of :mod:`.pipelined` (for
-        #: k-induction; the IK core's tags take its stash RAMs, which they do not follow).
+        #: The ``order`` group with the invariants that make it inductive: :mod:`.pipelined`
+        #: (a pipelined build; the IK core's tag stash through :mod:`.stash`), :mod:`.iterative`
+        #: (an iterative build: the staged IK core).
         self.inductive_order = inductive_order
+        #: In an ``order`` job without ``control``: the control group's assertions (conservation,
+        #: credits, the FIFO's) as ``Assume`` s, sound only where the ``control`` job of the same
+        #: component (same harness, data abstraction and memory cuts, no fault) proves them: they
+        #: then hold in every reachable state of this job's model, which is that model plus ghost
+        #: registers and ``Assume`` s (which only remove behaviours).
+        if control_assumed and ("control" in checks or mutation not in (None, *OUTSIDE)):
+            raise ValueError("control_assumed: only for an order job of a fault-free component")
+        self.control_assumed = control_assumed
+        #: The tracked ``order`` group of a pipelined build with its output FIFO by the FIFO's
+        #: lemma (:mod:`.fifo`), not by a shadow of each RAM entry.
+        self.fifo_lemma = fifo_lemma
         self.dut = dut
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
@@ -177,6 +199,14 @@ class StreamContract(Elaboratable):
         self.assert_names = {}
 
     def _assert(self, test, name: str):
+        check = Assert(test, name, src_loc_at=1)
+        self.assert_names[(os.path.basename(check.src_loc[0]), check.src_loc[1])] = name
+        return check
+
+    def _invariant(self, test, name: str):
+        """A control assertion, or its ``Assume`` where :attr:`control_assumed`."""
+        if self.control_assumed:
+            return Assume(test, name, src_loc_at=1)
         check = Assert(test, name, src_loc_at=1)
         self.assert_names[(os.path.basename(check.src_loc[0]), check.src_loc[1])] = name
         return check
@@ -211,6 +241,8 @@ class StreamContract(Elaboratable):
         ]
         o_payload = Signal.like(dut.o.payload)
         m.d.comb += o_payload.eq(dut.o.payload)
+        if self.mutation == "tag_flip":
+            m.d.comb += o_payload.tag.eq(dut.o.payload.tag ^ 1)
         taken_in = ~rst & i_valid & dut.i.ready
         taken_out = ~rst & o_valid & o_ready
         self._environment(m, rst)
@@ -235,7 +267,12 @@ class StreamContract(Elaboratable):
                     inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
                     self._credits(m, inner, inside)
                 track_marks(m, dut, inner, self.fifo, self.fifo_module, _find_signal, marks,
-                            o_valid, o_payload, self._assert)
+                            o_valid, o_payload, self._assert, fifo_lemma=self.fifo_lemma)
+            elif self.inductive_order:
+                # By k-induction: where the one item inside is (:mod:`.iterative`).
+                if inside is None:
+                    self._conservation(m, inner, taken_in, taken_out, past_rst)
+                track_item(m, dut, inner, _find_signal, marks, o_valid, self._assert)
         return m
 
     def _environment(self, m, rst):
@@ -276,15 +313,15 @@ class StreamContract(Elaboratable):
             name = self.dut._dp.name
             occupancy = occupancy + self.fifo.level + _find_signal(inner, f"{name}_fifo_write")
         m.d.comb += [
-            self._assert(inside <= capacity, "capacity"),
-            self._assert(inside == occupancy, "conservation"),
-            self._assert(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
+            self._invariant(inside <= capacity, "capacity"),
+            self._invariant(inside == occupancy, "conservation"),
+            self._invariant(~self.dut.o.valid | (inside != 0), "no_output_without_input"),
         ]
         if self.sequenced:
             # No credits: i.ready is the input register's being free, so it must mean room.
-            m.d.comb += self._assert(~self.dut.i.ready | (inside < capacity), "ready_has_room")
+            m.d.comb += self._invariant(~self.dut.i.ready | (inside < capacity), "ready_has_room")
         with m.If(past_rst):
-            m.d.comb += self._assert(~self.dut.o.valid & (inside == 0), "reset_empties")
+            m.d.comb += self._invariant(~self.dut.o.valid & (inside == 0), "reset_empties")
         return inside
 
     def _segment_counts(self, m, stages, taken_in):
@@ -304,7 +341,7 @@ class StreamContract(Elaboratable):
                 m.d.sync += count.eq(count + 1)
             with m.Elif(part[-1] & ~entering):
                 m.d.sync += count.eq(count - 1)
-            m.d.comb += self._assert(count == sum(part), "segment_count")
+            m.d.comb += self._invariant(count == sum(part), "segment_count")
             counts.append(count)
         return sum(counts)
 
@@ -315,12 +352,12 @@ class StreamContract(Elaboratable):
         fifo = self.fifo
         capacity = self.dut.capacity
         m.d.comb += [
-            self._assert(credits + inside == capacity, "credits"),
-            self._assert(self.dut.i.ready == (credits != 0), "ready_is_credit"),
-            self._assert(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
+            self._invariant(credits + inside == capacity, "credits"),
+            self._invariant(self.dut.i.ready == (credits != 0), "ready_is_credit"),
+            self._invariant(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
             # SyncFIFOBuffered's own invariant: its output register is empty only while at
             # most one item is queued behind it (it is refilled the cycle after).
-            self._assert(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
+            self._invariant(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
         ]
 
     def _marks(self, m, rst, taken_in, taken_out, o_valid, o_tag):

@@ -25,12 +25,21 @@ assumes (``Assume``) that the RAM's registered read data carry that tag while ``
 the RAM's own semantics (a read returns the last write to its address; the FIFO never reads and
 writes one entry in the same cycle; the RAM and the shadow start from zeros and neither is
 reset), so every behaviour of the real block is one of the cut model's: the proof holds for it.
+
+**Long pipelines.** The pipelined IK core's tag skips 184 stages in a stash RAM: the stages
+there take their tags from a ghost delay line tied to the stash's output by the stash lemma
+(:func:`.stash.stash_tags`). Its 256-entry FIFO behind 187 stages is out of reach entry by
+entry: with ``fifo_lemma`` the FIFO's RAM is not shadowed; the FIFO's lemma (:mod:`.fifo`,
+proved on its own) says where the marks are in it, and this job asserts the lemma's premises.
 """
 
 from __future__ import annotations
 
-from amaranth.hdl import Array, Assume, Module, Signal
+from amaranth.hdl import Assume, Module, Signal
 from amaranth.lib import data
+
+from .fifo import fifo_contract, fifo_environment, fifo_ghosts, shadow
+from .stash import stash_tags
 
 __all__ = ["elaborate_fifo", "track_marks"]
 
@@ -45,85 +54,92 @@ def elaborate_fifo(inner: Module, name: str, platform):
     return fifo, module
 
 
-def _stage_places(dp, inner: Module, find):
-    """(valid bit, tag register) of every register stage, in pipeline order."""
+def _stage_places(m, dut, inner: Module, find):
+    """(valid bit, tag) of every register stage, in pipeline order: its tag register, or where
+    the tag is in a stash RAM (the IK core) the ghost delay line of :func:`.stash.stash_tags`."""
     places = []
-    for name, _, count, iterated in dp.stages:
+    for name, _, count, iterated in dut._dp.stages:
         for step in range(count):
             prefix = f"{name}{step}" if iterated else name
-            places.append((find(inner, f"{prefix}_valid"), find(inner, f"{prefix}_tag")))
-    return places
+            try:
+                tag = find(inner, f"{prefix}_tag")
+            except LookupError:
+                tag = None
+            places.append((find(inner, f"{prefix}_valid"), tag))
+    return stash_tags(m, dut, inner, places, find)
 
 
-def _shadow(m, fifo, fifo_module, find, layout, r_tag):
-    """The shadow of the RAM's tag bits and the assumption tying the read data to it."""
-    produce, consume = find(fifo_module, "produce"), find(fifo_module, "consume")
-    inner_level, inner_r_rdy = find(fifo_module, "inner_level"), find(fifo_module, "inner_r_rdy")
-    depth = fifo.depth - 1
-    w_tag = data.View(layout, fifo.w_data).tag
-    shadow = Array(Signal(len(r_tag), name=f"shadow_{j}", reset_less=True) for j in range(depth))
-    read = Signal(len(r_tag), name="shadow_read", reset_less=True)
-    with m.If(fifo.w_en & fifo.w_rdy):
-        m.d.sync += shadow[produce].eq(w_tag)
-    reading = inner_r_rdy & (~fifo.r_rdy | fifo.r_en)
-    with m.If(reading):
-        m.d.sync += read.eq(shadow[consume])
-    with m.If(fifo.r_rdy):
-        m.d.comb += Assume(r_tag == read)
-    return shadow, produce, consume, inner_level, reading, depth
-
-
-def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payload, check):
+def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payload, check,
+                fifo_lemma: bool = False):
     """Assert (``check(test, name)``) where the marks are (module docstring). ``marks``:
     {mark: (sent, got)} and ``"waiting"``: the counter of cycles without ``o.valid`` while A
-    is inside; ``o_payload``: the output payload (a View)."""
-    dp, name = dut._dp, dut._dp.name
-    stages = _stage_places(dp, inner, find)
+    is inside; ``o_payload``: the output payload (a View). ``fifo_lemma``: the FIFO by its
+    lemma (:mod:`.fifo`) instead of the shadow of its RAM's entries."""
+    name = dut._dp.name
+    stages = _stage_places(m, dut, inner, find)
     latency = len(stages)
     write = find(inner, f"{name}_fifo_write")
     write_tag = data.View(dut.o.payload.shape(), find(inner, f"{name}_fifo_data")).tag
-    shadow, produce, consume, inner_level, reading, depth = _shadow(
-        m, fifo, fifo_module, find, dut.o.payload.shape(), o_payload.tag)
-    bits = (depth - 1).bit_length()
-    lives = [((j - consume)[:bits] < inner_level) if bits else (inner_level != 0) for j in range(depth)]
     # Only the marks 0, 1, 2 are inside: an item tagged 3 would come out as an invented mark.
     unused = (1 << len(o_payload.tag)) - 1
     m.d.comb += [check(~valid | (tag != unused), "mark_invented") for valid, tag in stages]
     m.d.comb += check(~write | (write_tag != unused), "mark_invented")
-    m.d.comb += [check(~live | (shadow[j] != unused), "mark_invented") for j, live in enumerate(lives)]
+    if fifo_lemma:
+        ghosts = fifo_ghosts(m, fifo, fifo_module, find, write_tag)
+        # The FIFO's own output tag (o_payload is what the environment sees, a fault between).
+        r_tag = data.View(dut.o.payload.shape(), fifo.r_data).tag
+        m.d.comb += [Assume(test) for test, _ in fifo_contract(fifo, r_tag, ghosts)]
+        m.d.comb += [check(test, name) for test, name in fifo_environment(fifo, write_tag, ghosts)]
+        entries = None
+    else:
+        entries, produce, consume, inner_level, reading = shadow(
+            m, fifo, fifo_module, find, data.View(dut.o.payload.shape(), fifo.w_data).tag, o_payload.tag)
+        bits = len(consume)
+        lives = [((j - consume)[:bits] < inner_level) if bits else (inner_level != 0)
+                 for j in range(len(entries))]
+        m.d.comb += [check(~live | (entries[j] != unused), "mark_invented") for j, live in enumerate(lives)]
     where = {}
     for mark in (1, 2):
         sent, got = marks[mark]
         inside = Signal(name=f"mark{mark}_inside")
         age = Signal(range(latency + 3), name=f"mark{mark}_age")
-        slot = Signal(bits, name=f"mark{mark}_slot")
-        rank = Signal(bits, name=f"mark{mark}_rank")
-        in_fifo, in_ram = Signal(name=f"mark{mark}_in_fifo"), Signal(name=f"mark{mark}_in_ram")
-        m.d.comb += [
-            inside.eq(sent & ~got),
-            rank.eq(slot - consume),
-            in_fifo.eq(inside & (age == latency + 2)),
-        ]
+        in_fifo = Signal(name=f"mark{mark}_in_fifo")
+        m.d.comb += [inside.eq(sent & ~got), in_fifo.eq(inside & (age == latency + 2))]
         with m.If(marks["taken_in"] & (marks["i_tag"] == mark)):
             m.d.sync += age.eq(1)
         with m.Elif((age != 0) & (age <= latency + 1)):
             m.d.sync += age.eq(age + 1)
-        # in_ram: written to the RAM and not yet read from it (the entry is reused after).
-        with m.If(inside & (age == latency + 1)):
-            m.d.sync += [slot.eq(produce), in_ram.eq(1)]
-        with m.Elif(reading & (consume == slot)):
-            m.d.sync += in_ram.eq(0)
-        m.d.comb += check(~in_ram | (in_fifo & (rank < inner_level)), "mark_ram")
+        if fifo_lemma:
+            _, _, in_ram, out, rank = ghosts[mark]
+            m.d.comb += check(in_fifo == (in_ram | out), "mark_fifo")
+            m.d.comb += check(~in_ram | (rank < ghosts["inner_level"]), "mark_ram")
+        else:
+            in_ram, rank, slot = _in_ram(m, mark, inside, age, latency, produce, consume, reading)
+            m.d.comb += check(~in_ram | (in_fifo & (rank < inner_level)), "mark_ram")
+            for j, live in enumerate(lives):
+                m.d.comb += check((live & (entries[j] == mark)) == (in_ram & (slot == j)), "mark_ram")
         m.d.comb += check(~got | sent, "mark_got_sent")
         m.d.comb += check(~inside | ((age != 0) & (age <= latency + 2)), "mark_age")
         for s, (valid, tag) in enumerate(stages):
             m.d.comb += check((valid & (tag == mark)) == (inside & (age == s + 1)), "mark_stage")
         m.d.comb += check((write & (write_tag == mark)) == (inside & (age == latency + 1)), "mark_write")
-        for j, live in enumerate(lives):
-            m.d.comb += check((live & (shadow[j] == mark)) == (in_ram & (slot == j)), "mark_ram")
         m.d.comb += check((o_valid & (o_payload.tag == mark)) == (in_fifo & ~in_ram), "mark_output")
         where[mark] = (inside, age, rank, in_fifo, in_ram)
     _order_invariants(m, marks, where, latency, o_valid, check)
+
+
+def _in_ram(m, mark, inside, age, latency, produce, consume, reading):
+    """The mark's RAM entry (``slot``): written to the RAM and not yet read from it (the entry
+    is reused after); returns (in_ram, rank: entries ahead of it, slot)."""
+    slot = Signal(len(consume), name=f"mark{mark}_slot")
+    rank = Signal(len(consume), name=f"mark{mark}_rank")
+    in_ram = Signal(name=f"mark{mark}_in_ram")
+    m.d.comb += rank.eq(slot - consume)
+    with m.If(inside & (age == latency + 1)):
+        m.d.sync += [slot.eq(produce), in_ram.eq(1)]
+    with m.Elif(reading & (consume == slot)):
+        m.d.sync += in_ram.eq(0)
+    return in_ram, rank, slot
 
 
 def _order_invariants(m, marks, where, latency, o_valid, check):

