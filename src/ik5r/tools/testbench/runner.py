@@ -339,7 +339,9 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     t_gen = time.perf_counter() - t_gen
     build_seconds = _build(sim, sources, bdir, waves, verbose, cflags)
 
-    work = bdir / "run"
+    # One work folder per process and thread: concurrent runs of one build (pytest-xdist workers,
+    # report threads) would otherwise read each other's job and result files.
+    work = bdir / f"run-{os.getpid()}-{threading.get_ident()}"
     work.mkdir(exist_ok=True)
     for name in ("result_stream.json", "result_bulk.json"):
         (work / name).unlink(missing_ok=True)
