@@ -33,7 +33,13 @@ from ik5r.hdl.expr import add_sub
 from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
 from ik5r.hdl.modes import ARCHS
 from ik5r.hdl.sqrt import Sqrt
-from ik5r.tools.testbench.amaranth_stream import check_output_held, compare, run_stream
+from ik5r.tools.testbench.amaranth_stream import (
+    check_output_held,
+    compare,
+    output_held_phase,
+    run_phases,
+    run_stream,
+)
 from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, PRIMITIVE_MODELS, generate_cached
 
 CONFIGS = ("q18", "q32")
@@ -142,16 +148,19 @@ def check_block(dut, inputs, expected, tag_width=0):
     if tag_width:
         inputs = [dict(item, tag=rng.getrandbits(tag_width)) for item in inputs]
         expected = [dict(exp, tag=item["tag"]) for exp, item in zip(expected, inputs)]
-    # Full rate: exact latency and throughput.
-    outputs, accepted, produced = run_stream(dut, inputs)
+    # Full rate, then random gaps and back-pressure (fewer items: the order and the handshakes
+    # are the point), then the output held: one simulation.
+    subset = slice(0, 120 if dut.arch == "pipelined" else 40)
+    held = slice(0, dut.capacity + 40)
+    full, stalled, held_result = run_phases(dut, [(inputs, {}), (inputs[subset], {"stall_seed": 11}),
+                                                  output_held_phase(dut, inputs[held])])
+    outputs, accepted, produced = full
     compare(inputs, expected, outputs)
+    # Exact latency and throughput.
     assert [p - a for a, p in zip(accepted, produced)] == [dut.latency] * len(inputs)
     assert all(b - a == dut.cycles_per_result for a, b in zip(accepted, accepted[1:]))
-    # Random gaps and back-pressure (fewer items: the order and the handshakes are the point).
-    subset = slice(0, 120 if dut.arch == "pipelined" else 40)
-    outputs, _, _ = run_stream(dut, inputs[subset], stall_seed=11)
-    compare(inputs[subset], expected[subset], outputs)
-    check_output_held(dut, inputs[:dut.capacity + 40], expected[:dut.capacity + 40])
+    compare(inputs[subset], expected[subset], stalled[0])
+    check_output_held(dut, inputs[held], expected[held], held_result)
 
 
 
@@ -306,11 +315,11 @@ def _port_stubs(models, folder: Path) -> list[Path]:
     not elaborate a model body for each of the hundreds of uniquely parameterised CCU2C cells of
     the ECP5 IK core (most of this test's time before). The models: test_primitive_models_lint."""
     stubs = []
-    for model in models:
-        text = Path(model).read_text()
+    for source in models:
+        text = Path(source).read_text()
         start = text.index("module ")
         header = text[start:text.index(");", start) + 2]
-        stub = folder / Path(model).name
+        stub = folder / Path(source).name
         stub.write_text("/* verilator lint_off UNUSEDSIGNAL */\n/* verilator lint_off UNUSEDPARAM */\n"
                         "/* verilator lint_off UNDRIVEN */\n`default_nettype none\n"
                         f"{header}\nendmodule\n`default_nettype wire\n")

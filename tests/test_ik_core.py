@@ -24,7 +24,13 @@ from ik5r.firmware import model
 from ik5r.firmware.poses import FIELDS, concat
 from ik5r.firmware.vectors import directed_poses, random_poses
 from ik5r.hdl.ik_core import IKCore
-from ik5r.tools.testbench.amaranth_stream import check_output_held, compare, run_stream
+from ik5r.tools.testbench.amaranth_stream import (
+    check_output_held,
+    compare,
+    output_held_phase,
+    run_phases,
+    run_stream,
+)
 from ik5r.tools.testbench.blocks import IK_OUTPUTS, ik_outputs
 from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, generate_cached
 
@@ -75,18 +81,20 @@ def test_pipelined(cfg):
     expected = with_tags(items, expected_of(k, poses))
     dut = IKCore(constants=k, arch="pipelined", tag_width=TAG_WIDTH)
     assert dut.cycles_per_result == 1
-    outputs, accepted, produced = run_stream(dut, items)
+    # Full rate; random gaps and back-pressure with one long stall; the output held until the
+    # core is full, then released (the poses again, as many as needed): one simulation.
+    sub = slice(0, 150)
+    repeats, count = -(-(dut.capacity + 40) // len(items)), dut.capacity + 40
+    held_items, held_expected = (items * repeats)[:count], (expected * repeats)[:count]
+    full, stalled, held = run_phases(dut, [(items, {}), (items[sub], {"stall_seed": 5, "long_stall": True}),
+                                           output_held_phase(dut, held_items)])
+    outputs, accepted, produced = full
     compare(items, expected, outputs)
     # Full rate: one pose per clock in, fixed latency out.
     assert accepted == list(range(len(items)))
     assert [b - a for a, b in zip(accepted, produced)] == [dut.latency] * len(items)
-    # Random gaps and back-pressure, one long stall.
-    sub = slice(0, 150)
-    outputs, _, _ = run_stream(dut, items[sub], stall_seed=5, long_stall=True)
-    compare(items[sub], expected[sub], outputs)
-    # The output held until the core is full, then released (the poses again, as many as needed).
-    repeats = -(-(dut.capacity + 40) // len(items))
-    check_output_held(dut, (items * repeats)[:dut.capacity + 40], (expected * repeats)[:dut.capacity + 40])
+    compare(items[sub], expected[sub], stalled[0])
+    check_output_held(dut, held_items, held_expected, held)
 
 
 @pytest.mark.slow
