@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import os
 
-from amaranth.hdl import Array, Assert, Assume, Elaboratable, Module, Signal
+from amaranth.hdl import Array, Assert, Assume, Const, Elaboratable, Module, Mux, Signal
+from amaranth.hdl._ast import AnyConst
 from amaranth.lib import data
 from amaranth.lib.fifo import SyncFIFOBuffered
 
@@ -119,6 +120,9 @@ class FifoLemma(Elaboratable):
     ``layout``'s ``tag`` field) keeps the marks' order (module docstring)."""
 
     def __init__(self, layout, depth: int, without: str | None = None):
+        if depth < 2 or (depth - 1) & (depth - 2):
+            # The ranks are pointer differences modulo 2 ** bits: a RAM of 2 ** n entries.
+            raise ValueError(f"FIFO depth {depth}: the lemma needs a depth of 2 ** n + 1")
         self.layout, self.depth = layout, depth
         #: The self-test: one of the environment's assumptions (by name) left out.
         self.without = without
@@ -155,21 +159,44 @@ class FifoLemma(Elaboratable):
                 m.d.comb += Assume(test)
         for test, name in fifo_contract(fifo, r_tag, ghosts):
             m.d.comb += self._assert(test, name)
-        self._entries(m, fifo, inner, find, w_tag, r_tag, ghosts)
+        pointers = _pointers(inner, find)
+        _read_assumption(m, fifo, pointers, r_tag, ghosts)
+        self._entry(m, fifo, pointers, w_tag, ghosts)
         return m
 
-    def _entries(self, m, fifo, inner, find, w_tag, r_tag, ghosts):
-        """The invariants over the RAM's entries that make the contract inductive."""
-        entries, _, consume, inner_level, _ = shadow(m, fifo, inner, find, w_tag, r_tag)
+    def _entry(self, m, fifo, pointers, w_tag, ghosts):
+        """The invariants that make the contract inductive: of the entry at one arbitrary
+        address (its tag shadowed) and of the marks' slots; none per entry."""
+        produce, consume, inner_level, _ = pointers
         bits = len(consume)
-        lives = [((j - consume)[:bits] < inner_level) if bits else (inner_level != 0)
-                 for j in range(len(entries))]
-        for j, live in enumerate(lives):
-            m.d.comb += self._assert(~live | (entries[j] != UNUSED), "fifo_entry_invented")
-            for mark in MARKS:
-                _, slot, in_ram, _, _ = ghosts[mark]
-                m.d.comb += self._assert((live & (entries[j] == mark)) == (in_ram & (slot == j)),
-                                         "fifo_entry")
+        address = Signal(bits, name="fifo_address")
+        m.d.comb += address.eq(AnyConst(bits))
+        held = Signal(len(w_tag), name="fifo_address_tag", reset_less=True)
+        with m.If(fifo.w_en & fifo.w_rdy & (produce == address)):
+            m.d.sync += held.eq(w_tag)
+        live = Signal(name="fifo_address_live")
+        m.d.comb += live.eq((address - consume)[:bits] < inner_level)
+        m.d.comb += self._assert(~live | (held != UNUSED), "fifo_entry_invented")
         for mark in MARKS:
-            _, _, _, out, _ = ghosts[mark]
+            _, slot, in_ram, out, _ = ghosts[mark]
+            m.d.comb += self._assert((live & (held == mark)) == (in_ram & (slot == address)),
+                                     "fifo_entry")
             m.d.comb += self._assert(~out | fifo.r_rdy, "fifo_out_valid")
+        (_, slot_a, in_ram_a, _, _), (_, slot_b, in_ram_b, _, _) = (ghosts[mark] for mark in MARKS)
+        m.d.comb += self._assert(~(in_ram_a & in_ram_b) | (slot_a != slot_b), "fifo_slots")
+
+
+def _read_assumption(m, fifo, pointers, r_tag, ghosts):
+    """The RAM's read data (cut: free values) carry the tag of the entry read: mark X if it is
+    X's slot while X is in the RAM, else an unmarked tag (0) -- the ``fifo_entry`` invariants
+    at the address read (module docstring: why this is sound)."""
+    _, consume, _, inner_r_rdy = pointers
+    expected = Const(0, len(r_tag))
+    for mark in reversed(MARKS):
+        _, slot, in_ram, _, _ = ghosts[mark]
+        expected = Mux(in_ram & (slot == consume), mark, expected)
+    read = Signal(len(r_tag), name="fifo_read_tag", reset_less=True)
+    with m.If(inner_r_rdy & (~fifo.r_rdy | fifo.r_en)):
+        m.d.sync += read.eq(expected)
+    with m.If(fifo.r_rdy):
+        m.d.comb += Assume(r_tag == read)
