@@ -9,15 +9,45 @@ job is beyond reach, so the FIFO gets a proof of its own:
 **Ghosts** (:func:`fifo_ghosts`, from the FIFO's ports and pointers only): mark X is *written*
 when ``w_en & w_rdy`` with tag X; it is then *in the RAM* at entry ``slot`` (``produce`` then)
 until the FIFO reads that entry into its output register, where it is *out* until popped
-(``r_rdy & r_en``); ``rank`` = ``slot - consume`` (entries ahead of it).
+(``r_rdy & r_en``); ``rank`` = ``slot - consume`` (entries ahead of it). An entry is *live*
+while it is between the pointers (``address - consume < inner_level``, modulo the RAM's 2 ** n
+entries).
 
-**The lemma** (:class:`FifoLemma`: k-induction on the real ``SyncFIFOBuffered`` of the core's
-width and depth, its RAM read through the tag shadow of :mod:`.pipelined`, whose ``Assume`` is
-the RAM's own semantics): if the writer never writes tag 3 and never writes mark X while X is
-in the RAM or out (:func:`fifo_environment`; a write while full is refused, and is no write),
-then (:func:`fifo_contract`) the output shows mark X exactly while X is out, a mark in the RAM
-is between the pointers (``rank < inner_level``), never both in the RAM and out, and the output
+**The lemma** (:class:`FifoLemma`: k-induction, depth 2, on the real ``SyncFIFOBuffered`` of the
+core's width and depth): if the writer never writes tag 3 and never writes mark X while X is in
+the RAM or out (:func:`fifo_environment`; a write while full is refused, and is no write), then
+(:func:`fifo_contract`) the output shows mark X exactly while X is out, a mark in the RAM is
+between the pointers (``rank < inner_level``), never both in the RAM and out, and the output
 never shows tag 3.
+
+**How, without a shadow of every entry** (a tracked-entry proof): the RAM is cut (its read data
+are free values) and
+
+* the *read assumption* (``Assume``, :func:`_read_assumption`): the tag the FIFO reads from entry
+  ``consume`` into its output register is mark X iff that entry is X's ``slot`` while X is in
+  the RAM, and never tag 3 (latched at the read in ``fifo_read_mark``, assumed of the output
+  register while ``r_rdy``);
+* the *tracked entry* (:meth:`FifoLemma._entry`): one arbitrary address (``AnyConst``, fixed in
+  a trace) and a shadow of its tag, written as the RAM is (on a write at ``produce`` equal to
+  it). Asserted: a live tracked entry never holds tag 3; it holds mark X iff it is X's slot
+  while X is in the RAM; A and B never share a slot; a mark out means ``r_rdy``; and when the
+  FIFO reads the tracked entry, the read assumption's tag agrees with its shadow
+  (``fifo_read_entry``).
+
+Every invariant is about the pointers, the ghosts and one entry, none per entry, so the
+induction does not grow with the depth (depth 257, 98 bits: seconds; the shadow of all 256
+entries had no verdict after 49 CPU minutes).
+
+*Why the read assumption is sound* (the cut RAM plus this ``Assume`` has every behaviour of the
+real one). A live entry's shadow is the real RAM's tag at that address: the write that made it
+live wrote both, the FIFO writes only at ``produce`` and never a live entry (``w_rdy`` is low
+while full) and reads only live entries. Take a real trace (the RAM not cut, the environment
+kept) and suppose some assertion of the lemma fails in it, first at cycle t, for the tracked
+address a. At every read before t the read address was live and ``fifo_read_entry`` held for
+it (no assertion failed before t, for any address), so the tag assumed there is the real RAM's.
+So the real trace up to t satisfies every assumption (the one at t is about registers loaded
+before t; no assertion reads the cut RAM's data at t) and, with the tracked address a, fails an
+assertion at t: a trace the proof excludes. So no assertion fails in a real trace.
 
 **Its use** (``fifo_lemma=True`` in :func:`.pipelined.track_marks`): the core's job cuts the
 FIFO's RAM (as in the control group), keeps the same ghosts, assumes (``Assume``) the contract
@@ -93,39 +123,43 @@ def fifo_ghosts(m, fifo, fifo_module, find, w_tag) -> dict:
     return ghosts
 
 
-def fifo_contract(fifo, r_tag, ghosts) -> list:
-    """What the FIFO guarantees (the lemma's conclusion): [(test, name)]."""
+def fifo_contract(fifo, r_tag, ghosts, check) -> list:
+    """What the FIFO guarantees (the lemma's conclusion): ``check(test, name)`` of each (one
+    line each: a failed assertion is named by its line)."""
     inner_level = ghosts["inner_level"]
-    tests = [(~fifo.r_rdy | (r_tag != UNUSED), "fifo_invented")]
+    checks = [check(~fifo.r_rdy | (r_tag != UNUSED), "fifo_invented")]
     for mark in MARKS:
         _, _, in_ram, out, rank = ghosts[mark]
-        tests += [((fifo.r_rdy & (r_tag == mark)) == out, "fifo_out"),
-                  (~in_ram | (rank < inner_level), "fifo_ram"),
-                  (~(in_ram & out), "fifo_once")]
-    return tests
+        checks.append(check((fifo.r_rdy & (r_tag == mark)) == out, "fifo_out"))
+        checks.append(check(~in_ram | (rank < inner_level), "fifo_ram"))
+        checks.append(check(~(in_ram & out), "fifo_once"))
+    return checks
 
 
-def fifo_environment(fifo, w_tag, ghosts) -> list:
-    """What the FIFO's writer must do (the lemma's assumptions): [(test, name)]."""
+def fifo_environment(fifo, w_tag, ghosts, check) -> list:
+    """What the FIFO's writer must do (the lemma's assumptions): ``check(test, name)`` of each."""
     # (Not that it never writes while full: a write the FIFO refuses is no write of the ghosts.)
-    tests = [(~fifo.w_en | (w_tag != UNUSED), "mark_invented")]
+    checks = [check(~fifo.w_en | (w_tag != UNUSED), "mark_invented")]
     for mark in MARKS:
         written, _, in_ram, out, _ = ghosts[mark]
-        tests.append((~written | ~(in_ram | out), "fifo_mark_once"))
-    return tests
+        checks.append(check(~written | ~(in_ram | out), "fifo_mark_once"))
+    return checks
 
 
 class FifoLemma(Elaboratable):
     """The output FIFO of a pipelined build (``SyncFIFOBuffered(width, depth)``, the tag at
     ``layout``'s ``tag`` field) keeps the marks' order (module docstring)."""
 
-    def __init__(self, layout, depth: int, without: str | None = None):
+    def __init__(self, layout, depth: int, without: str | None = None, skew: int = 0):
         if depth < 2 or (depth - 1) & (depth - 2):
             # The ranks are pointer differences modulo 2 ** bits: a RAM of 2 ** n entries.
             raise ValueError(f"FIFO depth {depth}: the lemma needs a depth of 2 ** n + 1")
         self.layout, self.depth = layout, depth
-        #: The self-test: one of the environment's assumptions (by name) left out.
+        #: The self-test: one of the environment's assumptions (by name), or the assumption on
+        #: the RAM's read data (``"fifo_read"``), left out.
         self.without = without
+        #: The self-test: the read assumption taken at ``consume + skew`` (a wrong RAM model).
+        self.skew = skew
         self.w_en, self.r_en = Signal(name="env_w_en"), Signal(name="env_r_en")
         self.w_data = Signal(layout, name="env_w_data")
         #: (file name, line) of each assertion -> its name (how SymbiYosys names a failed one).
@@ -154,17 +188,16 @@ class FifoLemma(Elaboratable):
         w_tag = self.w_data.tag
         r_tag = data.View(self.layout, fifo.r_data).tag
         ghosts = fifo_ghosts(m, fifo, inner, find, w_tag)
-        for test, name in fifo_environment(fifo, w_tag, ghosts):
-            if name != self.without:
-                m.d.comb += Assume(test)
-        for test, name in fifo_contract(fifo, r_tag, ghosts):
-            m.d.comb += self._assert(test, name)
+        environment = fifo_environment(fifo, w_tag, ghosts, lambda test, name: (test, name))
+        m.d.comb += [Assume(test) for test, name in environment if name != self.without]
+        m.d.comb += fifo_contract(fifo, r_tag, ghosts, self._assert)
         pointers = _pointers(inner, find)
-        _read_assumption(m, fifo, pointers, r_tag, ghosts)
-        self._entry(m, fifo, pointers, w_tag, ghosts)
+        tracked = _read_assumption(m, fifo, pointers, r_tag, ghosts, self.skew,
+                                   assume=self.without != "fifo_read")
+        self._entry(m, fifo, pointers, w_tag, ghosts, tracked)
         return m
 
-    def _entry(self, m, fifo, pointers, w_tag, ghosts):
+    def _entry(self, m, fifo, pointers, w_tag, ghosts, tracked):
         """The invariants that make the contract inductive: of the entry at one arbitrary
         address (its tag shadowed) and of the marks' slots; none per entry."""
         produce, consume, inner_level, _ = pointers
@@ -184,19 +217,33 @@ class FifoLemma(Elaboratable):
             m.d.comb += self._assert(~out | fifo.r_rdy, "fifo_out_valid")
         (_, slot_a, in_ram_a, _, _), (_, slot_b, in_ram_b, _, _) = (ghosts[mark] for mark in MARKS)
         m.d.comb += self._assert(~(in_ram_a & in_ram_b) | (slot_a != slot_b), "fifo_slots")
+        # The read assumption at the tracked entry is its shadow: so at every address read.
+        reading = _pointers_reading(fifo, pointers) & (consume == address)
+        for mark in MARKS:
+            m.d.comb += self._assert(~reading | ((held == mark) == (tracked == mark)),
+                                     "fifo_read_entry")
 
 
-def _read_assumption(m, fifo, pointers, r_tag, ghosts):
-    """The RAM's read data (cut: free values) carry the tag of the entry read: mark X if it is
-    X's slot while X is in the RAM, else an unmarked tag (0) -- the ``fifo_entry`` invariants
-    at the address read (module docstring: why this is sound)."""
-    _, consume, _, inner_r_rdy = pointers
-    expected = Const(0, len(r_tag))
+def _pointers_reading(fifo, pointers):
+    """The FIFO reads its RAM (entry ``consume``) into its output register this cycle."""
+    return pointers[3] & (~fifo.r_rdy | fifo.r_en)
+
+
+def _read_assumption(m, fifo, pointers, r_tag, ghosts, skew: int = 0, assume: bool = True):
+    """The RAM's read data (cut: free values) carry the tag of the entry read: mark X iff that
+    entry is X's slot while X is in the RAM, and never tag 3 (module docstring: why this is
+    sound); returns the mark expected at ``consume`` (0: none). ``skew``, ``assume``: the
+    self-test's wrong RAM model, or none."""
+    consume = pointers[1]
+    tracked = Const(0, 2)
     for mark in reversed(MARKS):
         _, slot, in_ram, _, _ = ghosts[mark]
-        expected = Mux(in_ram & (slot == consume), mark, expected)
-    read = Signal(len(r_tag), name="fifo_read_tag", reset_less=True)
-    with m.If(inner_r_rdy & (~fifo.r_rdy | fifo.r_en)):
-        m.d.sync += read.eq(expected)
-    with m.If(fifo.r_rdy):
-        m.d.comb += Assume(r_tag == read)
+        tracked = Mux(in_ram & (slot == (consume + skew)[:len(consume)]), mark, tracked)
+    read = Signal(2, name="fifo_read_mark", reset_less=True)
+    with m.If(_pointers_reading(fifo, pointers)):
+        m.d.sync += read.eq(tracked)
+    if assume:
+        with m.If(fifo.r_rdy):
+            m.d.comb += [Assume((r_tag == mark) == (read == mark)) for mark in MARKS]
+            m.d.comb += Assume(r_tag != UNUSED)
+    return tracked

@@ -88,8 +88,8 @@ def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payloa
         ghosts = fifo_ghosts(m, fifo, fifo_module, find, write_tag)
         # The FIFO's own output tag (o_payload is what the environment sees, a fault between).
         r_tag = data.View(dut.o.payload.shape(), fifo.r_data).tag
-        m.d.comb += [Assume(test) for test, _ in fifo_contract(fifo, r_tag, ghosts)]
-        m.d.comb += [check(test, name) for test, name in fifo_environment(fifo, write_tag, ghosts)]
+        m.d.comb += fifo_contract(fifo, r_tag, ghosts, lambda test, name: Assume(test))
+        m.d.comb += fifo_environment(fifo, write_tag, ghosts, check)
         entries = None
     else:
         entries, produce, consume, inner_level, reading = shadow(

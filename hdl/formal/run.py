@@ -234,16 +234,22 @@ def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth:
             "detail": detail, "failed": failed}
 
 
-def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: str | None = None) -> dict:
-    """:class:`.fifo.FifoLemma` by k-induction (its RAM cut and read through the tag shadow);
-    ``without``: the self-test's missing assumption."""
+def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: str | None = None,
+                     skew: int = 0, method: str = "k-induction", bmc_depth: int = 8) -> dict:
+    """:class:`.fifo.FifoLemma` by k-induction (depth :data:`INDUCTION_DEPTH`; its RAM cut, the
+    marks' slots and one arbitrary entry tracked), or by BMC from reset to ``bmc_depth`` cycles
+    (the self-test's counterexamples); ``without``: the self-test's missing assumption,
+    ``skew``: its read assumption at the wrong entry."""
     start = time.monotonic()
-    top = FifoLemma(layout, depth, without)
+    top = FifoLemma(layout, depth, without, skew)
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
-    status, detail, failed, cpu = _run_sby(text, top.assert_names, "prove", INDUCTION_DEPTH,
+    mode, steps = {"k-induction": ("prove", INDUCTION_DEPTH), "bmc": ("bmc", bmc_depth)}[method]
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, steps,
                                            _MEMORIES["control"], workdir, f"fifo-{depth}")
     return {"lemma": f"the output FIFO (SyncFIFOBuffered, depth {depth}, {layout.size} bits) keeps "
-                     "the marks' order" + (f" (without {without})" if without else ""), "method": "k-induction", "depth": INDUCTION_DEPTH,
+                     "the marks' order" + (f" (without {without})" if without else "")
+                     + (f" (read assumption at consume + {skew})" if skew else ""),
+            "method": method, "depth": steps,
             "status": status, "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
             "detail": detail, "failed": failed}
 
