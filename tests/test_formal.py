@@ -11,21 +11,24 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
   write register, a shadow of its RAM and its output register: ``hdl/formal/pipelined.py``;
   acos's, a 64-entry FIFO and ~2 solver minutes, in the slow set), for the pipelined IK core
   (the same, its tag followed through its stash RAM by a ghost delay line that the stash lemma
-  justifies: ``hdl/formal/stash.py``; slow set), for the staged core (its one item's stage, step
+  justifies: ``hdl/formal/stash.py``, and through its output FIFO by the FIFO lemma; default
+  run, ~20 CPU s with both lemmas), for the staged core (its one item's stage, step
   and tag register: ``hdl/formal/iterative.py``) and for the compact core (the sequenced engine,
   against a ghost queue of the tags inside: ``hdl/formal/sequenced.py``); BMC from reset to
   2 x latency + 4 cycles for the iterative blocks.
 * the stash lemma (the real stash RAM code, at the pipelined core's distance and width, is a
   delay line), by k-induction in seconds (default run); the FIFO lemma (the real output FIFO
-  keeps the marks' order: ``hdl/formal/fifo.py``), on the sqrt block's FIFO in the default run,
-  on the pipelined IK core's 257-deep one with that core's order job (slow set: tens of solver
-  minutes, see the record).
+  keeps the marks' order: ``hdl/formal/fifo.py``: the marks' slots and one arbitrary entry
+  tracked, not every entry), by k-induction on the sqrt block's FIFO and, with that core's order
+  job, on the pipelined IK core's 257-deep one (seconds each).
 
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
 broken hold must break the order induction of a pipelined block, of the staged core (default
-run) and of the pipelined IK core (slow set), and the control induction of the compact core; a
-stash lemma claiming a distance one off must fail. The jobs of the selected tests run two at a time (each is a solver subprocess),
+run) and of the pipelined IK core, and the control induction of the compact core; a stash lemma
+claiming a distance one off must fail; the FIFO lemma on the core's FIFO must fail (by induction
+and by BMC from reset) without each of its assumptions or with its read assumption at the wrong
+entry. The jobs of the selected tests run two at a time (each is a solver subprocess),
 started when the first test of this module is reached.
 """
 
