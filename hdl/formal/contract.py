@@ -44,8 +44,8 @@ reset.
 
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
 yet taken, :mod:`.sequenced`; the pipelined blocks and IK core (``inductive_order``): k-induction
-with the marks' places tracked, :mod:`.pipelined` (the IK core's tag through its stash RAM,
-:mod:`.stash`, its output FIFO by the FIFO's lemma, :mod:`.fifo`); the staged IK core
+with the marks' places tracked, :mod:`.pipelined` (the output FIFO by the FIFO's lemma,
+:mod:`.fifo`; the IK core's tag through its stash RAM, :mod:`.stash`); the staged IK core
 (``inductive_order``): k-induction with its one item's place tracked, :mod:`.iterative`; the
 iterative blocks: bounded model checking from reset; Wolper's
 data-independence argument: a component that never reads its tags keeps order for all data iff
@@ -157,8 +157,7 @@ class StreamContract(Elaboratable):
     ``tag_width=TAG_WIDTH``. Its free inputs are :attr:`ports`."""
 
     def __init__(self, dut: StreamBlock, *, checks=CHECKS, mutation: str | None = None,
-                 inductive_order: bool = False, control_assumed: bool = False,
-                 fifo_lemma: bool = False):
+                 inductive_order: bool = False, control_assumed: bool = False):
         if not checks or not set(checks) <= set(CHECKS):
             raise ValueError(f"checks must be a non-empty subset of {CHECKS}, got {checks!r}")
         if mutation is not None and mutation not in MUTATIONS:
@@ -178,9 +177,6 @@ class StreamContract(Elaboratable):
         if control_assumed and ("control" in checks or mutation not in (None, *OUTSIDE)):
             raise ValueError("control_assumed: only for an order job of a fault-free component")
         self.control_assumed = control_assumed
-        #: The tracked ``order`` group of a pipelined build with its output FIFO by the FIFO's
-        #: lemma (:mod:`.fifo`), not by a shadow of each RAM entry.
-        self.fifo_lemma = fifo_lemma
         self.dut = dut
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
@@ -267,7 +263,7 @@ class StreamContract(Elaboratable):
                     inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
                     self._credits(m, inner, inside)
                 track_marks(m, dut, inner, self.fifo, self.fifo_module, _find_signal, marks,
-                            o_valid, o_payload, self._assert, fifo_lemma=self.fifo_lemma)
+                            o_valid, o_payload, self._assert)
             elif self.inductive_order:
                 # By k-induction: where the one item inside is (:mod:`.iterative`).
                 if inside is None:

@@ -1,10 +1,12 @@
-"""The output FIFO keeps the marks' order: a lemma, so that a long pipeline's order job need not
-follow the marks through the FIFO's RAM entry by entry.
+"""The output FIFO keeps the marks' order: a lemma, so that a pipelined build's order job need
+not follow the marks through the FIFO's RAM entry by entry.
 
-:func:`.pipelined.track_marks` follows the marks into the output FIFO (``SyncFIFOBuffered``:
-a RAM between the ``consume`` and ``produce`` pointers, then the output register) with a shadow
-of every RAM entry's tag. For the pipelined IK core (a 256-entry RAM behind 187 stages) that
-job is beyond reach, so the FIFO gets a proof of its own:
+The output FIFO of a pipelined build (``SyncFIFOBuffered``: a RAM between the ``consume`` and
+``produce`` pointers, then the output register) once was followed in the order job with a
+shadow of every RAM entry's tag: ~2 solver minutes for the pipelined acos's 64 entries, no
+verdict for the IK core's 256 (behind 187 stages). So the FIFO gets a proof of its own, for
+each build's payload layout and FIFO depth (:func:`.run.prove` runs it before the build's
+order job):
 
 **Ghosts** (:func:`fifo_ghosts`, from the FIFO's ports and pointers only): mark X is *written*
 when ``w_en & w_rdy`` with tag X; it is then *in the RAM* at entry ``slot`` (``produce`` then)
@@ -13,9 +15,10 @@ until the FIFO reads that entry into its output register, where it is *out* unti
 while it is between the pointers (``address - consume < inner_level``, modulo the RAM's 2 ** n
 entries).
 
-**The lemma** (:class:`FifoLemma`: k-induction, depth 2, on the real ``SyncFIFOBuffered`` of the
-core's width and depth): if the writer never writes tag 3 and never writes mark X while X is in
-the RAM or out (:func:`fifo_environment`; a write while full is refused, and is no write), then
+**The lemma** (:class:`FifoLemma`: k-induction, depth 2, on the real ``SyncFIFOBuffered`` of
+the build's payload width and FIFO depth): if the writer never writes tag 3 and never writes
+mark X while X is in the RAM or out (:func:`fifo_environment`; a write while full is refused,
+and is no write), then
 (:func:`fifo_contract`) the output shows mark X exactly while X is out, a mark in the RAM is
 between the pointers (``rank < inner_level``), never both in the RAM and out, and the output
 never shows tag 3.
@@ -49,12 +52,12 @@ So the real trace up to t satisfies every assumption (the one at t is about regi
 before t; no assertion reads the cut RAM's data at t) and, with the tracked address a, fails an
 assertion at t: a trace the proof excludes. So no assertion fails in a real trace.
 
-**Its use** (``fifo_lemma=True`` in :func:`.pipelined.track_marks`): the core's job cuts the
-FIFO's RAM (as in the control group), keeps the same ghosts, assumes (``Assume``) the contract
-and asserts the environment. Sound by induction over time: the contract at cycle t depends
-only on the FIFO's inputs before t (its output register, pointers and ghosts are registers),
-the environment at cycle t is asserted by the core's job at t, so in a real trace the first
-cycle where an assertion of the core's job or the contract failed cannot exist (at that cycle
+**Its use** (:func:`.pipelined.track_marks`, every pipelined build's order job): the build's
+job cuts the FIFO's RAM (as in the control group), keeps the same ghosts, assumes (``Assume``)
+the contract and asserts the environment. Sound by induction over time: the contract at cycle
+t depends only on the FIFO's inputs before t (its output register, pointers and ghosts are
+registers), the environment at cycle t is asserted by the build's job at t, so in a real trace
+the first cycle where an assertion of the build's job or the contract failed cannot exist (at that cycle
 the environment held before it, so the contract holds, so the job's assertions hold). This
 composition step is argued, the two proofs are machine-checked.
 """
@@ -63,12 +66,12 @@ from __future__ import annotations
 
 import os
 
-from amaranth.hdl import Array, Assert, Assume, Const, Elaboratable, Module, Mux, Signal
+from amaranth.hdl import Assert, Assume, Const, Elaboratable, Module, Mux, Signal
 from amaranth.hdl._ast import AnyConst
 from amaranth.lib import data
 from amaranth.lib.fifo import SyncFIFOBuffered
 
-__all__ = ["FifoLemma", "fifo_contract", "fifo_environment", "fifo_ghosts", "shadow"]
+__all__ = ["FifoLemma", "fifo_contract", "fifo_environment", "fifo_ghosts"]
 
 #: The marks (A, B) and the unused tag (see :meth:`.contract.StreamContract._marks`).
 MARKS, UNUSED = (1, 2), 3
@@ -78,23 +81,6 @@ def _pointers(fifo_module, find):
     produce, consume = find(fifo_module, "produce"), find(fifo_module, "consume")
     inner_level, inner_r_rdy = find(fifo_module, "inner_level"), find(fifo_module, "inner_r_rdy")
     return produce, consume, inner_level, inner_r_rdy
-
-
-def shadow(m, fifo, fifo_module, find, w_tag, r_tag):
-    """The shadow of the RAM's tag bits and the assumption tying the read data to it (the RAM's
-    semantics, see :mod:`.pipelined`); returns (shadow, produce, consume, inner_level, reading)."""
-    produce, consume, inner_level, inner_r_rdy = _pointers(fifo_module, find)
-    depth = fifo.depth - 1
-    entries = Array(Signal(len(r_tag), name=f"shadow_{j}", reset_less=True) for j in range(depth))
-    read = Signal(len(r_tag), name="shadow_read", reset_less=True)
-    with m.If(fifo.w_en & fifo.w_rdy):
-        m.d.sync += entries[produce].eq(w_tag)
-    reading = inner_r_rdy & (~fifo.r_rdy | fifo.r_en)
-    with m.If(reading):
-        m.d.sync += read.eq(entries[consume])
-    with m.If(fifo.r_rdy):
-        m.d.comb += Assume(r_tag == read)
-    return entries, produce, consume, inner_level, reading
 
 
 def fifo_ghosts(m, fifo, fifo_module, find, w_tag) -> dict:
