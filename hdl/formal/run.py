@@ -101,7 +101,7 @@ def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
 
 #: Jobs whose ``order`` induction (fault-free) assumes the control group's assertions instead of
 #: proving them again (:attr:`.contract.StreamContract.control_assumed`): the pipelined IK core,
-#: whose ``control`` job proves them (k-induction, minutes); the order job is then a lemma user
+#: whose ``control`` job proves them (k-induction, ~35 CPU s); the order job is then a lemma user
 #: of that job, listed in its :attr:`Result.lemmas`.
 ORDER_ASSUMES_CONTROL = {("ik", "pipelined")}
 
