@@ -4,28 +4,31 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 
 * ``control`` (hold, conservation, reset, credits): k-induction (depth 2, every reachable state)
   on the real component with its data abstracted, for every block (atan2, rotate, sqrt, acos;
-  pipelined and iterative) and IK core build (pipelined, staged, compact). The pipelined IK
-  core's (minutes) is in the slow set.
+  pipelined and iterative) and IK core build (pipelined, staged, compact); the pipelined IK
+  core's (~40 CPU s: the occupancy by ghost prefix counters) too.
 * ``order`` (two marked items: none invented or duplicated, B not before A, A not lost):
   k-induction for the pipelined blocks (the marks tracked through the delay line, the FIFO's
-  write register, a shadow of its RAM and its output register: ``hdl/formal/pipelined.py``;
-  acos's, a 64-entry FIFO and ~2 solver minutes, in the slow set), for the pipelined IK core
-  (the same, its tag followed through its stash RAM by a ghost delay line that the stash lemma
-  justifies: ``hdl/formal/stash.py``; slow set), for the iterative blocks and the staged core
-  (their one item's stage, step and tag register: ``hdl/formal/iterative.py``) and for the
-  compact core (the sequenced engine, against a ghost queue of the tags inside:
-  ``hdl/formal/sequenced.py``).
+  write register, its RAM and its output register: ``hdl/formal/pipelined.py``; the FIFO by
+  the FIFO lemma, proved first for the block's FIFO: acos's, a 65-deep FIFO, ~25 CPU s), for the
+  pipelined IK core (the same, its tag followed through its stash RAM by a ghost delay line that
+  the stash lemma justifies: ``hdl/formal/stash.py``, and its FIFO by the FIFO lemma at depth
+  257; ~20 CPU s with both lemmas), for the iterative blocks and the staged core (their one
+  item's stage, step and tag register: ``hdl/formal/iterative.py``) and for the compact core
+  (the sequenced engine, against a ghost queue of the tags inside: ``hdl/formal/sequenced.py``).
 * the stash lemma (the real stash RAM code, at the pipelined core's distance and width, is a
   delay line), by k-induction in seconds (default run); the FIFO lemma (the real output FIFO
-  keeps the marks' order: ``hdl/formal/fifo.py``), on the sqrt block's FIFO in the default run,
-  on the pipelined IK core's 257-deep one with that core's order job (slow set: tens of solver
-  minutes, see the record).
+  keeps the marks' order: ``hdl/formal/fifo.py``: the marks' slots and one arbitrary entry
+  tracked, not every entry), by k-induction with each pipelined build's order job, for its
+  FIFO's width and depth (33, 65 or 257: seconds each).
 
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
-broken hold must break the order induction of a pipelined block, of an iterative block and of
-the staged core (default run; a flipped output tag too) and of the pipelined IK core (slow set), and the control induction of the compact core; a
-stash lemma claiming a distance one off must fail. The jobs of the selected tests run two at a time (each is a solver subprocess),
+broken hold must break the order induction of a pipelined block, of an iterative block, of the
+staged core and of the pipelined IK core (a flipped output tag too: the iterative block and both
+IK cores), and the control induction of the compact core; a stash lemma
+claiming a distance one off must fail; the FIFO lemma on the core's FIFO must fail (by induction
+and by BMC from reset) without each of its assumptions or with its read assumption at the wrong
+entry. The jobs of the selected tests run two at a time (each is a solver subprocess),
 started when the first test of this module is reached.
 """
 
@@ -37,8 +40,16 @@ import pytest
 
 from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.formal.contract import MUTATIONS, OUTSIDE, TAG_WIDTH
-from ik5r.hdl.formal.run import (INDUCTION_ONLY, JOBS, ORDER_INDUCTION, harness, prove,
-                                 prove_fifo_lemma, prove_stash_lemma, stash_lemma_links)
+from ik5r.hdl.formal.run import (
+    INDUCTION_ONLY,
+    JOBS,
+    ORDER_INDUCTION,
+    harness,
+    prove,
+    prove_fifo_lemma,
+    prove_stash_lemma,
+    stash_lemma_links,
+)
 from ik5r.hdl.generate import build
 
 pytestmark = pytest.mark.formal
@@ -55,8 +66,9 @@ MUTANTS = [(mutation, block, arch) for mutation in MUTATIONS if mutation not in 
            for block, arch in (("sqrt", "pipelined"), ("sqrt", "iterative"))]
 
 
-#: Jobs left to the slow set (minutes each): see the module docstring.
-SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined"), ("order", "acos", "pipelined")}
+#: Jobs left to the slow set (minutes each): none since every job is cheap (the last two, the
+#: pipelined IK core's control and the pipelined acos's order, ~40 and ~25 CPU s).
+SLOW = set()
 
 
 def _param(check, block, arch):
@@ -99,6 +111,10 @@ def test_contract_proved(proofs, check, block, arch):
     if check == "order" and (block, arch) == ("ik", "pipelined"):
         # Its stash and FIFO lemmas proved, its control group assumed (proved by its job).
         assert [lemma["status"] for lemma in r.lemmas] == ["PASS", "PASS", "ASSUMED"], r.lemmas
+    elif check == "order" and arch == "pipelined":
+        # Its FIFO lemma (hdl/formal/fifo.py) proved for its FIFO's width and depth.
+        assert [lemma["status"] for lemma in r.lemmas] == ["PASS"], r.lemmas
+        assert f"depth {r.capacity}," in r.lemmas[0]["lemma"], r.lemmas
 
 
 @pytest.mark.parametrize("mutation,block,arch", MUTANTS, ids=[f"{m}-{b}-{a}" for m, b, a in MUTANTS])
@@ -184,15 +200,34 @@ def test_stash_lemma_with_a_wrong_distance_fails(stash_links):
     assert short["status"] == "FAIL" and short["failed"] == ["stash_delay"], short
 
 
-@pytest.mark.parametrize("without", ["mark_invented", "fifo_mark_once"])
-def test_fifo_lemma_needs_its_environment(without):
-    """The FIFO lemma (hdl/formal/fifo.py; the pipelined IK core's, depth 257, is proved in the
-    slow set with that core's order job) on the sqrt block's FIFO: proved, and without one of
-    its assumptions (tag 3 written, or a mark written twice) it fails."""
-    top = harness("sqrt", "pipelined", "q18", ("order",))
+@pytest.fixture(scope="module")
+def fifo_shape():
+    """(payload layout, depth) of the output FIFO of the pipelined IK core (257). The FIFO
+    lemma itself is proved with each pipelined build's order job (test_contract_proved)."""
+    top = harness("ik", "pipelined", "q18", ("order",))
     top._MustUse__silence = True
-    layout, depth = top.dut.o.payload.shape(), top.dut.capacity
-    if without == "mark_invented":
-        assert prove_fifo_lemma(layout, depth)["status"] == "PASS"
-    broken = prove_fifo_lemma(layout, depth, without=without)
-    assert broken["status"] in ("FAIL", "UNKNOWN") and broken["failed"], broken
+    return top.dut.o.payload.shape(), top.dut.capacity
+
+
+#: The FIFO lemma's self-test: a premise left out (tag 3 written, a mark written twice, the
+#: assumption on the RAM's read data) or the read assumption taken at the wrong entry (skew), and
+#: the assertions that may fail first.
+FIFO_MUTANTS = {"mark_invented": {"fifo_entry_invented", "fifo_invented"},
+                "fifo_mark_once": {"fifo_once", "fifo_entry", "fifo_slots", "fifo_out", "fifo_ram",
+                                   "fifo_read_entry"},
+                "fifo_read": {"fifo_out", "fifo_invented"},
+                "skew": {"fifo_read_entry", "fifo_out", "fifo_invented"}}
+
+
+@pytest.mark.parametrize("without", sorted(FIFO_MUTANTS))
+def test_fifo_lemma_needs_its_premises(fifo_shape, without):
+    """On the pipelined IK core's FIFO (depth 257): without one of its assumptions, or with its
+    read assumption at the next entry, the lemma's induction fails, and BMC from reset finds a
+    counterexample (so the lemma's assumptions are not vacuous, and its tracked entry checks the
+    read assumption)."""
+    layout, depth = fifo_shape
+    kwargs = {"skew": 1} if without == "skew" else {"without": without}
+    for method in ("k-induction", "bmc"):
+        broken = prove_fifo_lemma(layout, depth, method=method, **kwargs)
+        assert broken["status"] in (("FAIL", "UNKNOWN") if method == "k-induction" else ("FAIL",)), broken
+        assert broken["failed"] and set(broken["failed"]) <= FIFO_MUTANTS[without], broken

@@ -11,26 +11,28 @@ is, ``age`` cycles after it was accepted: in stage ``age - 1`` (``age`` <= laten
 entry it was written to (``slot``, a ghost register) while that entry is between the pointers,
 else in the output register.
 
-:func:`track_marks` asserts exactly that, both ways (a stage, the write register, a live RAM
-entry, the output register holds mark X iff X is inside and there, so it is nowhere else and
-never duplicated), A ahead of B, and bounds on the marks' ``waiting`` counter: with the
-``conservation`` and ``credits`` invariants (the FIFO never overflows) these make the marks'
-assertions inductive.
+:func:`track_marks` asserts exactly that, both ways (a stage, the write register, the output
+register holds mark X iff X is inside and there, so it is nowhere else and never duplicated; in
+the RAM it is between the pointers), A ahead of B, and bounds on the marks' ``waiting``
+counter: with the ``conservation`` and ``credits`` invariants (the FIFO never overflows) these
+make the marks' assertions inductive.
 
-**The RAM.** An assertion cannot read an Amaranth memory's contents, so the job's Yosys script
-cuts the FIFO's RAM (its read data become free values, as in the ``control`` group) and
-:func:`track_marks` keeps a *shadow* of its tag bits: written on the FIFO's write enable at
-``produce`` with the written tag, read on its read enable at ``consume`` into a register, and
-assumes (``Assume``) that the RAM's registered read data carry that tag while ``r_rdy``. This is
-the RAM's own semantics (a read returns the last write to its address; the FIFO never reads and
-writes one entry in the same cycle; the RAM and the shadow start from zeros and neither is
-reset), so every behaviour of the real block is one of the cut model's: the proof holds for it.
+**The FIFO, by its lemma.** An assertion cannot read an Amaranth memory's contents, so the job's
+Yosys script cuts the FIFO's RAM (its read data become free values, as in the ``control``
+group), and the FIFO is taken by its lemma (:mod:`.fifo`, proved on its own for the block's
+payload layout and FIFO depth, a job of its own run first: :func:`.run.prove`): the FIFO's
+ghosts (where each mark was written, whether it is in the RAM or in the output register) are
+kept here from the FIFO's ports and pointers, the lemma's conclusion (the output shows mark X
+exactly while X is out; a mark in the RAM is between the pointers) is assumed (``Assume``) and
+its premises (never tag 3 written, never a mark written while it is in the FIFO) are asserted.
+The composition is sound by induction over time (:mod:`.fifo`, "Its use"). So no invariant is per
+RAM entry and the job does not grow with the FIFO's depth (the pipelined acos's 64 entries,
+the IK core's 256). (Earlier the job shadowed the tag of every RAM entry: acos's order job
+took ~2 solver minutes, the IK core's had no verdict.)
 
 **Long pipelines.** The pipelined IK core's tag skips 184 stages in a stash RAM: the stages
 there take their tags from a ghost delay line tied to the stash's output by the stash lemma
-(:func:`.stash.stash_tags`). Its 256-entry FIFO behind 187 stages is out of reach entry by
-entry: with ``fifo_lemma`` the FIFO's RAM is not shadowed; the FIFO's lemma (:mod:`.fifo`,
-proved on its own) says where the marks are in it, and this job asserts the lemma's premises.
+(:func:`.stash.stash_tags`).
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ from __future__ import annotations
 from amaranth.hdl import Assume, Module, Signal
 from amaranth.lib import data
 
-from .fifo import fifo_contract, fifo_environment, fifo_ghosts, shadow
+from .fifo import fifo_contract, fifo_environment, fifo_ghosts
 from .stash import stash_tags
 
 __all__ = ["elaborate_fifo", "track_marks"]
@@ -69,12 +71,11 @@ def _stage_places(m, dut, inner: Module, find):
     return stash_tags(m, dut, inner, places, find)
 
 
-def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payload, check,
-                fifo_lemma: bool = False):
+def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payload, check):
     """Assert (``check(test, name)``) where the marks are (module docstring). ``marks``:
     {mark: (sent, got)} and ``"waiting"``: the counter of cycles without ``o.valid`` while A
-    is inside; ``o_payload``: the output payload (a View). ``fifo_lemma``: the FIFO by its
-    lemma (:mod:`.fifo`) instead of the shadow of its RAM's entries."""
+    is inside; ``o_payload``: the output payload (a View). The output FIFO by its lemma
+    (:mod:`.fifo`): its conclusion assumed, its premises asserted."""
     name = dut._dp.name
     stages = _stage_places(m, dut, inner, find)
     latency = len(stages)
@@ -84,20 +85,11 @@ def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payloa
     unused = (1 << len(o_payload.tag)) - 1
     m.d.comb += [check(~valid | (tag != unused), "mark_invented") for valid, tag in stages]
     m.d.comb += check(~write | (write_tag != unused), "mark_invented")
-    if fifo_lemma:
-        ghosts = fifo_ghosts(m, fifo, fifo_module, find, write_tag)
-        # The FIFO's own output tag (o_payload is what the environment sees, a fault between).
-        r_tag = data.View(dut.o.payload.shape(), fifo.r_data).tag
-        m.d.comb += [Assume(test) for test, _ in fifo_contract(fifo, r_tag, ghosts)]
-        m.d.comb += [check(test, name) for test, name in fifo_environment(fifo, write_tag, ghosts)]
-        entries = None
-    else:
-        entries, produce, consume, inner_level, reading = shadow(
-            m, fifo, fifo_module, find, data.View(dut.o.payload.shape(), fifo.w_data).tag, o_payload.tag)
-        bits = len(consume)
-        lives = [((j - consume)[:bits] < inner_level) if bits else (inner_level != 0)
-                 for j in range(len(entries))]
-        m.d.comb += [check(~live | (entries[j] != unused), "mark_invented") for j, live in enumerate(lives)]
+    ghosts = fifo_ghosts(m, fifo, fifo_module, find, write_tag)
+    # The FIFO's own output tag (o_payload is what the environment sees, a fault between).
+    r_tag = data.View(dut.o.payload.shape(), fifo.r_data).tag
+    m.d.comb += fifo_contract(fifo, r_tag, ghosts, lambda test, name: Assume(test))
+    m.d.comb += fifo_environment(fifo, write_tag, ghosts, check)
     where = {}
     for mark in (1, 2):
         sent, got = marks[mark]
@@ -109,15 +101,9 @@ def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payloa
             m.d.sync += age.eq(1)
         with m.Elif((age != 0) & (age <= latency + 1)):
             m.d.sync += age.eq(age + 1)
-        if fifo_lemma:
-            _, _, in_ram, out, rank = ghosts[mark]
-            m.d.comb += check(in_fifo == (in_ram | out), "mark_fifo")
-            m.d.comb += check(~in_ram | (rank < ghosts["inner_level"]), "mark_ram")
-        else:
-            in_ram, rank, slot = _in_ram(m, mark, inside, age, latency, produce, consume, reading)
-            m.d.comb += check(~in_ram | (in_fifo & (rank < inner_level)), "mark_ram")
-            for j, live in enumerate(lives):
-                m.d.comb += check((live & (entries[j] == mark)) == (in_ram & (slot == j)), "mark_ram")
+        _, _, in_ram, out, rank = ghosts[mark]
+        m.d.comb += check(in_fifo == (in_ram | out), "mark_fifo")
+        m.d.comb += check(~in_ram | (rank < ghosts["inner_level"]), "mark_ram")
         m.d.comb += check(~got | sent, "mark_got_sent")
         m.d.comb += check(~inside | ((age != 0) & (age <= latency + 2)), "mark_age")
         for s, (valid, tag) in enumerate(stages):
@@ -126,20 +112,6 @@ def track_marks(m, dut, inner, fifo, fifo_module, find, marks, o_valid, o_payloa
         m.d.comb += check((o_valid & (o_payload.tag == mark)) == (in_fifo & ~in_ram), "mark_output")
         where[mark] = (inside, age, rank, in_fifo, in_ram)
     _order_invariants(m, marks, where, latency, o_valid, check)
-
-
-def _in_ram(m, mark, inside, age, latency, produce, consume, reading):
-    """The mark's RAM entry (``slot``): written to the RAM and not yet read from it (the entry
-    is reused after); returns (in_ram, rank: entries ahead of it, slot)."""
-    slot = Signal(len(consume), name=f"mark{mark}_slot")
-    rank = Signal(len(consume), name=f"mark{mark}_rank")
-    in_ram = Signal(name=f"mark{mark}_in_ram")
-    m.d.comb += rank.eq(slot - consume)
-    with m.If(inside & (age == latency + 1)):
-        m.d.sync += [slot.eq(produce), in_ram.eq(1)]
-    with m.Elif(reading & (consume == slot)):
-        m.d.sync += in_ram.eq(0)
-    return in_ram, rank, slot
 
 
 def _order_invariants(m, marks, where, latency, o_valid, check):

