@@ -23,7 +23,7 @@ from ik5r.core import status as S
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from . import seq_isa as X
-from .expr import add_sub, asr, saturate, select
+from .expr import add_sub, asr_radix4, saturate, select
 from .seq_program import ik_program
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
@@ -188,10 +188,13 @@ class SeqEngine(wiring.Component):
         cop = pre("cop")
         quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
         decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
-        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters.
-        shift = Signal(range(len(self.prog.atan)), name="cordic_shift")
+        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters:
+        # a register for each (the y shifter's holds the complement: not merged with x's).
+        shift_x = Signal(range(len(self.prog.atan)), name="cordic_shift_x")
+        shift_y_n = Signal(range(len(self.prog.atan)), name="cordic_shift_y_n")
         with m.If(~stall):
-            m.d.sync += shift.eq(Mux(quarter, 0, pre("ci")))
+            m.d.sync += [shift_x.eq(Mux(quarter, 0, pre("ci"))), shift_y_n.eq(~Mux(quarter, 0, pre("ci")))]
+        shift = (shift_x, ~shift_y_n)
         dec = {name: Signal(name=f"dec_{name}") for name in decoded}
         with m.If(~stall):
             m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
@@ -272,8 +275,8 @@ class SeqEngine(wiring.Component):
         x, y, z = regs["cx"], regs["cy"], regs["cz"]
         quarter = dec["quarter"]
         ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
-        x_next = add_sub(Mux(quarter, 0, x), asr(y, shift), ccw)
-        y_next = add_sub(Mux(quarter, 0, y), asr(x, shift), ~ccw)
+        x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
+        y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
         z_next = add_sub(z, step, ccw)
         ones_abs = Mux(y[-1], ~y, y)
         v = (x | ones_abs).as_unsigned()
