@@ -10,6 +10,12 @@ addresses the data memory and the CORDIC step-angle ROM; their outputs are regis
 the instruction executes from its own register two clocks after the read (``READ_AHEAD``), so
 every unit reads registers only (a block RAM's clock-to-output is ~6 ns on an ECP5). A wait on a word
 port (no input word, output not taken) holds every register, including the RAM outputs.
+
+The slowest paths are the two one-clock loops of arithmetic: the accumulator's adder (its right
+operand a one-hot select of its own few sources, :data:`~.seq_isa.ADDER_SOURCES`, not the B bus
+with its input word and CORDIC registers; the sum and the compare enter the accumulator, F and
+status muxes last) and a CORDIC micro-rotation (a barrel shifter of 4-way stages, each with its
+own shift register, into the x or y adder).
 """
 
 from __future__ import annotations
