@@ -21,6 +21,17 @@ def asr(value, amount):
     return value >> amount
 
 
+def asr_radix4(value, amount):
+    """``value >> amount`` (arithmetic for a signed value) by an unsigned Value, as a barrel
+    shifter of 4-way stages (two amount bits each: one LUT5 level on an ECP5), least significant
+    first."""
+    value = Value.cast(value)
+    for lsb in range(0, len(amount), 2):
+        bits = amount[lsb:lsb + 2]
+        value = select([value.shift_right(j << lsb) for j in range(1 << len(bits))], bits)
+    return value
+
+
 def extend(value, width):
     """``value`` sign- (or zero-) extended to ``width`` bits, as raw bits."""
     fill = value[-1] if value.shape().signed else Const(0, 1)

@@ -10,6 +10,12 @@ addresses the data memory and the CORDIC step-angle ROM; their outputs are regis
 the instruction executes from its own register two clocks after the read (``READ_AHEAD``), so
 every unit reads registers only (a block RAM's clock-to-output is ~6 ns on an ECP5). A wait on a word
 port (no input word, output not taken) holds every register, including the RAM outputs.
+
+The slowest paths are the two one-clock loops of arithmetic: the accumulator's adder (its right
+operand a one-hot select of its own few sources, :data:`~.seq_isa.ADDER_SOURCES`, not the B bus
+with its input word and CORDIC registers; the sum and the compare enter the accumulator, F and
+status muxes last) and a CORDIC micro-rotation (a barrel shifter of 4-way stages, each with its
+own shift register, into the x or y adder).
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ from ik5r.core import status as S
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from . import seq_isa as X
-from .expr import add_sub, asr, saturate, select
+from .expr import add_sub, asr_radix4, saturate, select
 from .seq_program import ik_program
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
@@ -66,6 +72,8 @@ class SeqEngine(wiring.Component):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         self.prog = ik_program(constants)
+        if any(i.get("alu", 0) in X.ADDING and i.get("bsel", 0) not in X.ADDER_SOURCES for i in self.prog.code):
+            raise ValueError(f"the program adds a B-bus source outside {X.ADDER_SOURCES} (seq_isa.ADDER_SOURCES)")
         self.widths = w = self.prog.widths
         w.tag = tag_width
         self.cycles = len(self.prog.code)
@@ -148,7 +156,7 @@ class SeqEngine(wiring.Component):
         cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
-        self._alu(m, f, dec, acc, bus, cond, regs, run, w)
+        self._alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
         self._cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
         self._multiplier(m, f, pre("sh"), bus, regs, run, w)
         self._sqrt(m, f, acc, regs, run, w)
@@ -162,21 +170,37 @@ class SeqEngine(wiring.Component):
         # Controls of the wide datapaths decoded a clock early, from registers (their fan-out
         # to 80-bit muxes and adders was the slowest path).
         alu_op, bsel = pre("alu"), pre("bsel")
+
+        def alu_is(*ops):
+            return Cat(*(alu_op == op for op in ops)).any()
+
+        adding = alu_is(*X.ADDING)
         decoded = {
-            "sub": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPGT) | (alu_op == X.A_CMPLT),
-            "carry": (alu_op == X.A_SUB) | (alu_op == X.A_NEG) | (alu_op == X.A_CMPLT),
-            "left_zero": (alu_op == X.A_NEG) | (alu_op == X.A_MLD),
-            "right_product": (alu_op == X.A_MLD) | (alu_op == X.A_MACC),
-            "right_acc": alu_op == X.A_NEG,
+            "sub": alu_is(X.A_SUB, X.A_NEG, X.A_CMPGT, X.A_CMPLT),
+            "carry": alu_is(X.A_SUB, X.A_NEG, X.A_CMPLT),
+            "left_zero": alu_is(X.A_NEG, X.A_MLD),
+            # The adder's right operand (one-hot): the product, or one of ADDER_SOURCES.
+            "right_product": alu_is(X.A_MLD, X.A_MACC),
+            "right_acc": alu_is(X.A_NEG) | (adding & (bsel == X.B_ACC)),
+            "right_mem": adding & (bsel == X.B_MEM),
+            "right_root": adding & (bsel == X.B_ROOT),
+            "cmp": alu_is(X.A_CMPGT, X.A_CMPLT), "gt": alu_is(X.A_CMPGT),
+            "acc_total": alu_is(X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC),
+            "acc_cond": alu_is(X.A_LD, X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC, X.A_SHR1,
+                               X.A_SHR4, X.A_SHR16),
+            "sat": alu_is(X.A_SATI, X.A_SATW),
             **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
         }
         cop = pre("cop")
         quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
         decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
-        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters.
-        shift = Signal(range(len(self.prog.atan)), name="cordic_shift")
+        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters:
+        # a register for each (the y shifter's holds the complement: not merged with x's).
+        shift_x = Signal(range(len(self.prog.atan)), name="cordic_shift_x")
+        shift_y_n = Signal(range(len(self.prog.atan)), name="cordic_shift_y_n")
         with m.If(~stall):
-            m.d.sync += shift.eq(Mux(quarter, 0, pre("ci")))
+            m.d.sync += [shift_x.eq(Mux(quarter, 0, pre("ci"))), shift_y_n.eq(~Mux(quarter, 0, pre("ci")))]
+        shift = (shift_x, ~shift_y_n)
         dec = {name: Signal(name=f"dec_{name}") for name in decoded}
         with m.If(~stall):
             m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
@@ -211,48 +235,45 @@ class SeqEngine(wiring.Component):
             "rem": Signal(w.radicand // 2 + 2, name="rem"),
         }
 
-    def _alu(self, m, f, dec, acc, bus, cond, regs, run, w):
+    def _alu(self, m, f, dec, acc, bus, mem_q, cond, regs, run, w):
         op = f("alu")
-        product = regs["prod"]
+        # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
+        # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
+        right = Signal(signed(w.acc), name="alu_right")
+        m.d.comb += right.eq(Mux(dec["right_product"], regs["prod"], 0) | Mux(dec["right_acc"], acc, 0)
+                             | Mux(dec["right_mem"], mem_q, 0) | Mux(dec["right_root"], regs["root"], 0))
         left = Mux(dec["left_zero"], 0, acc)
-        right = Mux(dec["right_product"], product, Mux(dec["right_acc"], acc, bus))
+        wide = Signal(w.acc + 1, name="alu_wide")
+        m.d.comb += wide.eq(Cat(dec["carry"], left)
+                            + Cat(dec["carry"], (right ^ dec["sub"].replicate(w.acc))[:w.acc]))
         total = Signal(signed(w.acc), name="alu_sum")
-        m.d.comb += total.eq(left + Mux(dec["sub"], ~right, right) + dec["carry"])
+        m.d.comb += total.eq(wide[1:])
+        # A compare's result: the sign of acc - b (CMPLT) or of acc - b - 1, inverted (CMPGT).
+        result = Signal(name="alu_compare")
+        m.d.comb += result.eq(total[-1] ^ dec["gt"])
         sat_i, clip_i = saturate(acc, w.internal)
         sat_w, clip_w = saturate(acc, w.word)
-        shifted = {X.A_SHR1: acc.shift_right(1), X.A_SHR4: acc.shift_right(4),
-                   X.A_SHR16: acc.shift_right(16)}
-        event = Signal(name="alu_event")
-        m.d.comb += event.eq(cond)
+        # Everything but the sum is ready early: the sum (and the compare) enter at the last
+        # mux of the accumulator, the F flag and the status bits.
+        early = Signal(signed(w.acc), name="alu_early")
+        m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
+                                 Mux(op == X.A_SHR4, acc.shift_right(4),
+                                     Mux(op == X.A_SHR16, acc.shift_right(16),
+                                         Mux(op == X.A_SATI, sat_i, sat_w))))))
+        # A compare's event is its result (under the condition); other ops' events are early.
+        other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
+        on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
+        on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
         with m.If(run):
-            with m.If(op == X.A_LD):
-                with m.If(cond):
-                    m.d.sync += acc.eq(bus)
-            with m.Elif((op == X.A_ADD) | (op == X.A_SUB) | (op == X.A_NEG) | (op == X.A_MLD)
-                        | (op == X.A_MACC)):
-                with m.If(cond):
-                    m.d.sync += acc.eq(total)
-            with m.Elif((op == X.A_SHR1) | (op == X.A_SHR4) | (op == X.A_SHR16)):
-                with m.If(cond):
-                    m.d.sync += acc.eq(Mux(op == X.A_SHR1, shifted[X.A_SHR1],
-                                           Mux(op == X.A_SHR4, shifted[X.A_SHR4],
-                                               shifted[X.A_SHR16])))
-            with m.Elif(op == X.A_SATI):
-                m.d.sync += acc.eq(sat_i)
-                m.d.comb += event.eq(cond & clip_i)
-            with m.Elif(op == X.A_SATW):
-                m.d.sync += acc.eq(sat_w)
-                m.d.comb += event.eq(cond & clip_w)
-            with m.Elif((op == X.A_CMPGT) | (op == X.A_CMPLT)):
-                result = Mux(op == X.A_CMPGT, ~total[-1], total[-1])
-                m.d.comb += event.eq(cond & result)
-                with m.If(cond):
-                    m.d.sync += regs["flag"].eq(result)
+            with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
+                m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
+            with m.If(dec["cmp"] & cond):
+                m.d.sync += regs["flag"].eq(result)
             with m.Elif(op == X.A_SETF):
                 m.d.sync += regs["flag"].eq(cond)
             # Status bits reach the register a clock after their event.
             pending = Signal(STATUS_BITS, name="status_pending")
-            m.d.sync += [pending.eq(Mux(event, f("stat"), 0)),
+            m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
                          regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
 
     def _cordic(self, m, f, dec, shift, bus, cond, step, regs, run, w):
@@ -260,8 +281,8 @@ class SeqEngine(wiring.Component):
         x, y, z = regs["cx"], regs["cy"], regs["cz"]
         quarter = dec["quarter"]
         ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
-        x_next = add_sub(Mux(quarter, 0, x), asr(y, shift), ccw)
-        y_next = add_sub(Mux(quarter, 0, y), asr(x, shift), ~ccw)
+        x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
+        y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
         z_next = add_sub(z, step, ccw)
         ones_abs = Mux(y[-1], ~y, y)
         v = (x | ones_abs).as_unsigned()

@@ -33,6 +33,13 @@ B_MEM, B_IN, B_CX, B_CY, B_CZ, B_ROOT, B_REM, B_ACC = range(8)
 (A_NOP, A_LD, A_ADD, A_SUB, A_NEG, A_CMPGT, A_CMPLT, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW,
  A_MLD, A_MACC, A_SETF) = range(15)
 
+#: The B-bus sources an adding ALU operation (``ADDING``) may take: the adder has its own operand
+#: select of these few registers, off the B bus (the input word's and the CORDIC's paths through
+#: the B bus into the adder's carry chain were the engine's slowest). Other sources are loaded
+#: (``LD``, the CORDIC and multiplier loads).
+ADDING = (A_ADD, A_SUB, A_CMPGT, A_CMPLT)
+ADDER_SOURCES = (B_MEM, B_ROOT, B_ACC)
+
 #: Condition sources (``ca``, ``cb``; ``cai``, ``cbi`` invert): always, F, shoulder_back,
 #: elbow_down, has_roll, CORDIC zero vector.
 C_ONE, C_F, C_BACK, C_DOWN, C_ROLL, C_ZERO = range(6)
@@ -168,6 +175,9 @@ class Machine:
         w = self.w
         b = self.bus(ins, mem_word, inputs)
         cond = self.cond(ins)
+        if ins.get("alu", 0) in ADDING and ins.get("bsel", 0) not in ADDER_SOURCES:
+            raise ValueError(f"an adding ALU operation on B-bus source {ins.get('bsel')} "
+                             f"(the adder takes {ADDER_SOURCES}) at {ins}")
         acc, f, event = self.acc, self.f, cond
         op = ins.get("alu", 0)
         if op in (A_CMPGT, A_CMPLT):

@@ -34,7 +34,7 @@ def test_collect_and_render(tmp_path):
     current = generate("sqrt", "iterative", constants(load_config("q18")))[0]
     _write_run(build, "old", _synth_result(luts=999), current, 1_000)
     _write_run(build, "new", _synth_result(luts=123), current, 2_000)
-    _write_run(build, "seed3", _synth_result(luts=7, seed=3), current, 3_000)
+    _write_run(build, "seed3", _synth_result(luts=7, fmax=99.04, seed=3), current, 3_000)
     _write_run(build, "stale", _synth_result(block="atan2", luts=555), "module other; endmodule\n", 3_000)
     (build / "bench").mkdir()
     (build / "bench" / "bench.md").write_text("| solver | poses/s |\n| --- | ---: |\n| float | 42 |\n")
@@ -47,10 +47,12 @@ def test_collect_and_render(tmp_path):
     assert names == ["ik5r_sqrt_iterative_q18_ecp5-85k.json"]     # newest seed-1 run, current Verilog
     record = json.loads((records / "synth" / names[0]).read_text())
     assert record["luts"] == 123 and "cache_dir" not in record and len(record["verilog_sha256"]) == 64
+    assert record["fmax_mhz_by_seed"] == {"1": 111.5, "3": 99.0}     # a robustness run, same Verilog
     text = readme.read_text()
     assert text.startswith("# title\n") and text.endswith("tail\n") and "old text" not in text
     assert "| sqrt | iterative | generic | q18 | ecp5-85k speed 6 | 123 |" in text
     assert "| float | 42 |" in text and "No sweep yet" in text
+    assert "sqrt iterative q18 on the ecp5-85k: Fmax 111.5, 99.0 MHz at nextpnr seeds 1, 3" in text
 
     # Render from the records alone (a fresh clone has no build/); a record whose Verilog hash is
     # not this checkout's is left out.

@@ -128,6 +128,21 @@ def test_program_is_short_and_shared():
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
 
 
+def test_adder_sources_checked():
+    """The adder takes only ``seq_isa.ADDER_SOURCES`` (its own operand select, off the B bus):
+    the interpreter refuses an adding operation on another source (the engine refuses the
+    program), and every shipped program keeps to them."""
+    prog = ik_program(_k("q18"))
+    for cfg in ("q18", "q24", "q32", "q32w"):
+        code = ik_program(_k(cfg)).code
+        assert all(ins.get("bsel", 0) in seq_isa.ADDER_SOURCES for ins in code
+                   if ins.get("alu", 0) in seq_isa.ADDING)
+    bad = {"alu": seq_isa.A_ADD, "bsel": seq_isa.B_CX}
+    prog.code = [bad] + prog.code[1:]
+    with pytest.raises(ValueError, match="adding ALU operation"):
+        seq_isa.run(prog, [0] * (len(seq_isa.INPUT_WORDS) + 1))
+
+
 @pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))
 def test_core_full_rate_and_stalls(cfg):
     k = _k(cfg)

@@ -101,6 +101,7 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
         synth_dir.mkdir(parents=True, exist_ok=True)
         target.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
         written.append(str(target))
+    written += _other_seeds(build, synth_dir, verilog)
     if (sweep / "sweep.json").exists():
         records.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(sweep / "sweep.json", records / "sweep.json")
@@ -120,6 +121,36 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
             records.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(build / "bench" / name, records / name)
             written.append(str(records / name))
+    return written
+
+
+def _other_seeds(build: Path, synth_dir: Path, verilog: VerilogOfCheckout) -> list[str]:
+    """The Fmax of the runs at other nextpnr seeds (robustness checks) of a recorded design point
+    (same Verilog, clock constraint and placer), added to its record as ``fmax_mhz_by_seed``."""
+    from ik5r.hdl.provenance import body_sha256
+
+    runs = {}
+    for path in build.glob("synth/*/result.json"):
+        r = json.loads(path.read_text())
+        design = path.parent / "design.v"
+        if r.get("config") not in SHIPPED or r.get("fmax_mhz") is None or not design.exists():
+            continue
+        sha = body_sha256(design.read_text())
+        if sha == verilog.sha256(r):
+            key = (_record_name(r), sha, r.get("freq_target_mhz"), r.get("placer"))
+            runs.setdefault(key, {})[str(r.get("seed", 1))] = round(r["fmax_mhz"], 1)
+    written = []
+    for (name, sha, freq, placer), by_seed in runs.items():
+        target = synth_dir / name
+        record = json.loads(target.read_text()) if target.exists() else {}
+        if (record.get("verilog_sha256"), record.get("freq_target_mhz"), record.get("placer")) != (sha, freq, placer):
+            continue
+        by_seed = dict(sorted({**record.get("fmax_mhz_by_seed", {}), **by_seed,
+                               "1": round(record["fmax_mhz"], 1)}.items(), key=lambda kv: int(kv[0])))
+        if len(by_seed) > 1 and by_seed != record.get("fmax_mhz_by_seed"):
+            record["fmax_mhz_by_seed"] = by_seed
+            target.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+            written.append(str(target))
     return written
 
 
@@ -146,6 +177,13 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
                      f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")
+    for r in rows:
+        if r.get("fmax_mhz_by_seed"):
+            seeds, freq = r["fmax_mhz_by_seed"], r.get("freq_target_mhz")
+            constraint = f" and {freq:g} MHz constraint" if freq else ""
+            lines += ["", f"{r['block']} {r['arch']} {r['config']} on the {r['target']}-{r['device']}: Fmax "
+                      f"{', '.join(f'{v:.1f}' for v in seeds.values())} MHz at nextpnr seeds "
+                      f"{', '.join(seeds)} (same Verilog{constraint}; the table gives seed 1)."]
     return lines, stale
 
 
