@@ -219,8 +219,11 @@ def sweep_part(records: Path) -> list[str]:
     path = records / "sweep.json"
     if not path.exists():
         return ["No sweep yet: run `ik5r sweep -o build/sweep`."]
-    points = json.loads(path.read_text())["points"]
+    sweep = json.loads(path.read_text())
+    points = sweep["points"]
     lines = [f"![{plot}](docs/results/{plot})" for plot in PLOTS if (records.parent / plot).exists()]
+    if sweep["meta"].get("note"):      # a caveat kept with the record (e.g. points of an older core)
+        lines += ["", f"**{sweep['meta']['note']}**"]
     lines += ["", "| block | arch | width | LUTs | DSPs | Fmax (MHz) | max position error (cm) | "
               "RMS position error (cm) | Pareto |", "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
     for p in sorted(points, key=lambda p: (p["block"], p["arch"], p["width"])):
