@@ -52,7 +52,7 @@ def _sizes(arch: str, dsp: str) -> tuple[int, int]:
         return 2000, 2000
     if arch != "pipelined":
         return 300, 500
-    return (2000, 2000) if dsp == "generic" else (500, 500)
+    return (2000, 2000) if dsp == "generic" else (250, 250)
 
 
 CASES = [
