@@ -36,7 +36,9 @@ from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, generate_cached
 
 CONFIGS = ("q18", "q32")
 #: q32w: q32's words on a 38-bit internal format (``ik.internal_guard_bits`` = 6).
-PIPELINED_CONFIGS = CONFIGS + ("q32w",)
+#: q32w in the slow set: its pipelined core's Verilog is simulated in the default run by cocotb on
+#: Verilator and (the ECP5 variant) on Icarus, tests/test_cocotb_core.py.
+PIPELINED_CONFIGS = CONFIGS + (pytest.param("q32w", marks=pytest.mark.slow),)
 TAG_WIDTH = 6
 
 
