@@ -32,7 +32,8 @@ def _under_xdist(config) -> bool:
 def _case_weight(item) -> int:
     """A rough rank of a test's cost (larger runs first under xdist; ties keep collection order).
     Simulations of the pipelined IK core and Verilator builds are the long poles, then the other
-    cocotb cases, then the tests that convert or simulate the IK core in Amaranth."""
+    cocotb cases, then the tests that convert or simulate the IK core in Amaranth, then the IK
+    cores' proof jobs."""
     name = item.nodeid
     if item.get_closest_marker("sim") is not None and hasattr(item, "callspec"):
         params = item.callspec.params
@@ -43,6 +44,9 @@ def _case_weight(item) -> int:
         return weight
     if any(part in name for part in ("test_ik_core.py", "test_verilator_lint", "test_verilog_deterministic[ik]")):
         return 40
+    if "test_formal.py" in name and "-ik-" in name:
+        return 30      # the IK cores' proof jobs: up to a CPU minute each
+
     return 0
 
 
@@ -66,6 +70,13 @@ def pytest_collection_modifyitems(config, items):
     head = items[:2 * workers]
     if workers and len(head) == 2 * workers:
         items[:2 * workers] = [item for i in range(workers) for item in (head[i], head[-1 - i])]
+
+
+@pytest.fixture(scope="session")
+def under_xdist(request) -> bool:
+    """Whether this run is split over pytest-xdist workers (each collects every test: a module
+    fixture that starts the jobs of all selected tests would run each of them once per worker)."""
+    return _under_xdist(request.config)
 
 
 @pytest.fixture(scope="module")

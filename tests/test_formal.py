@@ -29,8 +29,9 @@ IK cores: the pipelined one's in the slow set), and the control induction of the
 (slow set); a stash lemma
 claiming a distance one off must fail; the FIFO lemma on the core's FIFO must fail (by induction
 and by BMC from reset) without each of its assumptions or with its read assumption at the wrong
-entry. The jobs of the selected tests run two at a time (each is a solver subprocess),
-started when the first test of this module is reached.
+entry. In one process the jobs of the selected tests run two at a time (each is a solver
+subprocess), started when the first test of this module is reached; under xdist each job runs in
+its test.
 """
 
 from __future__ import annotations
@@ -80,9 +81,23 @@ def _param(check, block, arch):
 PROOFS = [_param(check, block, arch) for check in ("control", "order") for block, arch in JOBS]
 
 
+def _prove(key):
+    """A fault in the control group: a counterexample from reset (BMC), except in the compact
+    core (see SEQUENCED_MUTANTS); in the order group: the default (induction)."""
+    check, block, arch, mutation = key
+    method = "bmc" if mutation and check == "control" and (block, arch) not in INDUCTION_ONLY else None
+    return prove(block, arch, check, mutation=mutation, method=method)
+
+
 @pytest.fixture(scope="module")
-def proofs(request):
-    """Starts the proof jobs of this module's selected tests in a pool of two."""
+def proofs(request, under_xdist):
+    """``proofs(key)`` is the result of a proof job. One process: the jobs of this module's
+    selected tests start in a pool of two at the first test. Under xdist (``make test``) a job
+    runs when its test asks for it: every worker collects every test, so a pool would run each
+    job once per worker."""
+    if under_xdist:
+        yield _prove
+        return
     selected = []
     for item in request.session.items:
         if (item.module is request.module and hasattr(item, "callspec")
@@ -93,12 +108,7 @@ def proofs(request):
             if key not in selected:
                 selected.append(key)
     with ThreadPoolExecutor(max_workers=2) as pool:
-        # A fault in the control group: a counterexample from reset (BMC), except in the
-        # compact core (see SEQUENCED_MUTANTS); in the order group: the default (induction).
-        futures = {key: pool.submit(prove, key[1], key[2], key[0], mutation=key[3],
-                                    method="bmc" if key[3] and key[0] == "control"
-                                    and key[1:3] not in INDUCTION_ONLY else None)
-                   for key in selected}
+        futures = {key: pool.submit(_prove, key) for key in selected}
         yield lambda key: futures[key].result()
 
 
