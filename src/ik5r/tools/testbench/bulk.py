@@ -132,7 +132,9 @@ class BulkRun:
         """One chunk (the edge set first); returns how many of ``total`` it counts for."""
         job = self.job
         tm = time.perf_counter()
-        inputs = job.inputs(count, salt=salt, edges=first)
+        # The edge set (first chunk): all of it, or what the stream run's stride left out.
+        stride, rest = int(self.opts.get("edge_stride", 1)), bool(self.opts.get("edge_rest", False))
+        inputs = job.inputs(count, salt=salt, edges=first, edge_stride=stride, edge_rest=rest)
         expected = job.expected(inputs, check_scalar=256 if first else 64)
         n = len(next(iter(inputs.values())))
         seqs = np.arange(self.seq, self.seq + n, dtype=np.int64)
@@ -143,7 +145,7 @@ class BulkRun:
         self.check(inputs, expected, seqs, timed_out, done_items)
         self.model_seconds += time.perf_counter() - tm
         self.seq += n
-        return n if not first else n - len(job.spec.edge_inputs(job.pm, job.k)[next(iter(job.spec.inputs))])
+        return n if not first else n - len(next(iter(job.edge_items(stride, rest).values())))
 
     async def run(self, t0: float) -> dict:
         """Every chunk; the ``bulk`` section of the result."""

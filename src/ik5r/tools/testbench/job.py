@@ -36,13 +36,23 @@ class Job:
         self.tag_mod = 1 << self.pm.o.fields[self.tag].width if self.tag else None
         self.serial = d.get("serial")        # {"beat_bits": b} for the word-serial wrapper, else None
 
-    def inputs(self, count: int, salt: int, edges: bool = True, edge_stride: int = 1) -> dict[str, np.ndarray]:
-        """Edge set (if asked; every ``edge_stride``-th item of it) then ``count`` random items, by
-        role, clipped to nothing: the generators stay inside each field's range."""
+    def edge_items(self, stride: int = 1, rest: bool = False) -> dict[str, np.ndarray]:
+        """The edge set by role: every ``stride``-th item (0, stride, ...), or with ``rest`` the
+        others (what a run with that stride left out)."""
+        edges = self.spec.edge_inputs(self.pm, self.k)
+        n = len(next(iter(edges.values())))
+        keep = (np.arange(n) % stride != 0) if rest else (np.arange(n) % stride == 0)
+        return {r: v[keep] for r, v in edges.items()}
+
+    def inputs(self, count: int, salt: int, edges: bool = True, edge_stride: int = 1,
+               edge_rest: bool = False) -> dict[str, np.ndarray]:
+        """Edge set (if asked; :meth:`edge_items` of ``edge_stride`` and ``edge_rest``) then
+        ``count`` random items, by role, clipped to nothing: the generators stay inside each
+        field's range."""
         rng = np.random.default_rng([self.seed, salt])
         parts = []
         if edges:
-            parts.append({r: v[::edge_stride] for r, v in self.spec.edge_inputs(self.pm, self.k).items()})
+            parts.append(self.edge_items(edge_stride, edge_rest))
         if count:
             parts.append(self.spec.random_inputs(rng, count, self.pm, self.k))
         out = {r: np.concatenate([p[r] for p in parts]).astype(np.int64) for r in self.spec.inputs}

@@ -314,7 +314,7 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
               cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None,
-              serial: int | None = None, edge_stride: int = 1) -> dict:
+              serial: int | None = None, edge_stride: int = 1, bulk_edge_rest: bool = False) -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
     ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
@@ -322,7 +322,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     monitor's view (:class:`~ik5r.tools.testbench.components.Monitor`); the run must then fail.
     ``serial=b`` (the compact IK core only): its word-serial wrapper with ``b``-bit beats, in the
     stream test only (:mod:`.serial`). ``edge_stride``: the stream test takes every n-th item of
-    the edge set."""
+    the edge set; ``bulk_edge_rest``: the bulk test takes the other items of it (each edge item
+    once in the run), else all of it."""
     from ik5r.hdl.generate import resolve_arch
 
     arch = resolve_arch(block, arch)
@@ -350,7 +351,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
            "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride,
                            "progress": progress and not bulk_vectors},
                           **({"fault": fault} if fault else {})) if stream_vectors else None,
-           "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk}
+           "bulk": {"vectors": bulk_vectors, "pattern": pattern, "progress": progress, "chunk": chunk,
+                    "edge_stride": edge_stride if bulk_edge_rest else 1, "edge_rest": bulk_edge_rest}
            if bulk_vectors else None}
     t0 = time.perf_counter()
     tests, failed = _run_cocotb(sim, bdir, work, job, waves, seed, quiet=not (verbose or progress))
