@@ -22,6 +22,15 @@ def _run(fault=None):
                      bulk_vectors=0, seed=7, fault=fault)
 
 
+class _Runs(dict):
+    """The run of each kind (clean or a fault), made when a test first asks for it: under xdist
+    the tests of this module land on different workers, each of which needs only its own."""
+
+    def __missing__(self, kind):
+        self[kind] = _run(None if kind == "clean" else {"kind": kind, "at": 5})
+        return self[kind]
+
+
 @pytest.fixture(scope="module")
 def runs():
     from ik5r.tools.testbench.runner import simulator_missing
@@ -29,8 +38,7 @@ def runs():
     missing = simulator_missing(CASE["sim"])
     if missing:
         pytest.fail(f"{missing} (CI installs both simulators)", pytrace=False)
-    return {kind: _run(None if kind == "clean" else {"kind": kind, "at": 5})
-            for kind in ("clean", "flip", "drop", "unstable")}
+    return _Runs()
 
 
 def test_clean_run_checks_hold_across_reset(runs):
