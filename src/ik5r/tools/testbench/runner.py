@@ -101,16 +101,34 @@ def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> 
          _generator_sources_hash(), tool_versions(), platform.python_version()],
         default=str).encode()).hexdigest()[:24]
     body_path, map_path = VERILOG_CACHE / f"{key}.v", VERILOG_CACHE / f"{key}.json"
-    if body_path.is_file() and map_path.is_file():
-        pmap = json.loads(map_path.read_text())
-        return verilog_header(pmap, k, options) + body_path.read_text(), pmap
-    text, pmap = generate(block, arch, k, tag_width, **options)
     VERILOG_CACHE.mkdir(parents=True, exist_ok=True)
-    for path, content in ((body_path, strip_header(text)), (map_path, json.dumps(pmap))):
-        tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-        tmp.write_text(content)
-        os.replace(tmp, path)      # atomic: a parallel test process reads the old or the new file
+    # One conversion per key: a test process asking for a design another is converting waits
+    # for it and reads the cache (xdist workers often need the same IK core at the same time).
+    with _key_lock(VERILOG_CACHE / f"{key}.lock"):
+        if body_path.is_file() and map_path.is_file():
+            pmap = json.loads(map_path.read_text())
+            return verilog_header(pmap, k, options) + body_path.read_text(), pmap
+        text, pmap = generate(block, arch, k, tag_width, **options)
+        for path, content in ((body_path, strip_header(text)), (map_path, json.dumps(pmap))):
+            tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+            tmp.write_text(content)
+            os.replace(tmp, path)      # atomic: a reader without the lock sees the old or the new file
     return text, json.loads(json.dumps(pmap))
+
+
+_KEY_LOCKS: dict[str, threading.Lock] = {}
+
+
+@contextlib.contextmanager
+def _key_lock(path: Path):
+    """Held by one thread of one process at a time (a thread lock, then a lock file)."""
+    lock = _KEY_LOCKS.setdefault(str(path), threading.Lock())
+    with lock, open(path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
