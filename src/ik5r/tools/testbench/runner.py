@@ -121,7 +121,7 @@ _KEY_LOCKS: dict[str, threading.Lock] = {}
 
 @contextlib.contextmanager
 def _key_lock(path: Path):
-    """Held by one thread of one process at a time (a thread lock, then a lock file)."""
+    """Held by one thread of one process at a time (a thread lock per path, then the lock file)."""
     lock = _KEY_LOCKS.setdefault(str(path), threading.Lock())
     with lock, open(path, "a") as handle:
         fcntl.flock(handle, fcntl.LOCK_EX)
@@ -225,12 +225,8 @@ def _build_lock():
         return
     path = ROOT / "build" / "sim" / ".build.lock"
     path.parent.mkdir(parents=True, exist_ok=True)
-    with _BUILD_LOCK, open(path, "w") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
+    with _BUILD_LOCK, _key_lock(path):
+        yield
 
 
 def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0) -> float:
