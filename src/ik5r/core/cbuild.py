@@ -4,18 +4,22 @@ and the numeric kernel (``ik5r.numeric.lmkernel``) both build through it, so nei
 
 The cache is ``$IK5R_CACHE_DIR``, else ``$XDG_CACHE_HOME/ik5r``, else ``~/.cache/ik5r``; a change of
 source, compiler or flag gives a new directory, an unchanged one reuses the build. Builds are
-atomic (temporary file + rename), so concurrent test processes are safe.
+atomic (temporary file + rename), so concurrent test processes are safe, and made once: a process
+wanting a build another is making waits for it (:func:`path_lock`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import os
 import subprocess
 import tempfile
+import threading
 from pathlib import Path
 
-__all__ = ["SANITIZE_FLAGS", "cache_root", "compiler", "keyed_dir", "compile_cached"]
+__all__ = ["SANITIZE_FLAGS", "cache_root", "compiler", "keyed_dir", "compile_cached", "path_lock"]
 
 #: Sanitizer build of the test driver; IK5R_CHECK_BOUNDS traps (in the firmware's C) on a narrowing out of int32.
 SANITIZE_FLAGS = ("-O1", "-g", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-fno-omit-frame-pointer",
@@ -58,6 +62,24 @@ def keyed_dir(prefix: str, contents: dict[str, bytes], flags: tuple[str, ...]) -
     return directory
 
 
+_PATH_LOCKS: dict[str, threading.Lock] = {}
+
+
+@contextlib.contextmanager
+def path_lock(path: Path):
+    """Held by one thread of one process at a time: a thread lock per path, then an exclusive
+    lock on the file ``path`` (created). Around a cached build, a second process wanting the same
+    build waits for the first and then finds it made (pytest-xdist workers often want the same
+    build at the same time)."""
+    lock = _PATH_LOCKS.setdefault(str(path), threading.Lock())
+    with lock, open(path, "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
 def compile_cached(directory: Path, output: str, flags: tuple[str, ...], sources: tuple[str, ...],
                    libs: tuple[str, ...] = ()) -> Path:
     """``directory/output`` built from ``sources`` (in ``directory``) with ``flags`` (``libs``
@@ -65,6 +87,12 @@ def compile_cached(directory: Path, output: str, flags: tuple[str, ...], sources
     target = directory / output
     if target.exists():
         return target
+    with path_lock(directory / f".{output}.lock"):
+        return target if target.exists() else _compile(directory, target, flags, sources, libs)
+
+
+def _compile(directory: Path, target: Path, flags, sources, libs) -> Path:
+    output = target.name
     fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{output}.")
     os.close(fd)
     cmd = [compiler(), *flags, "-I", str(directory), *(str(directory / s) for s in sources), *libs, "-o", tmp]

@@ -16,7 +16,6 @@ such message is one line.
 from __future__ import annotations
 
 import hashlib
-import os
 import shutil
 import subprocess
 import tempfile
@@ -27,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ik5r.core.cbuild import cache_root, path_lock
 from ik5r.core.fxconfig import Constants
 from ik5r.firmware import rv32
-from ik5r.core.cbuild import cache_root
 
 #: Default SoC RAM for simulation: 64 KiB (code + data + stack, the rest a job area).
 SIM_RAM_WORDS = 16384
@@ -86,6 +85,11 @@ def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS) -> Path:
     if binary.exists():
         return binary
     directory.mkdir(parents=True, exist_ok=True)
+    with path_lock(directory / ".build.lock"):
+        return binary if binary.exists() else _build_soc(directory, text, harness, tool, binary)
+
+
+def _build_soc(directory: Path, text: str, harness, tool: str, binary: Path) -> Path:
     (directory / "soc.v").write_text(text)
     shutil.copyfile(harness, directory / "soc_harness.cpp")
     cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "soc.v", "soc_harness.cpp",

@@ -12,7 +12,6 @@ builds are serialised across threads and processes, or run one make job each (:f
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import functools
 import hashlib
 import json
@@ -24,6 +23,7 @@ import time
 from importlib import resources
 from pathlib import Path
 
+from ik5r.core.cbuild import path_lock
 from ik5r.core.fxconfig import constants, load_config
 
 from . import wrapper
@@ -104,7 +104,7 @@ def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> 
     VERILOG_CACHE.mkdir(parents=True, exist_ok=True)
     # One conversion per key: a test process asking for a design another is converting waits
     # for it and reads the cache (xdist workers often need the same IK core at the same time).
-    with _key_lock(VERILOG_CACHE / f"{key}.lock"):
+    with path_lock(VERILOG_CACHE / f"{key}.lock"):
         if body_path.is_file() and map_path.is_file():
             pmap = json.loads(map_path.read_text())
             return verilog_header(pmap, k, options) + body_path.read_text(), pmap
@@ -114,21 +114,6 @@ def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> 
             tmp.write_text(content)
             os.replace(tmp, path)      # atomic: a reader without the lock sees the old or the new file
     return text, json.loads(json.dumps(pmap))
-
-
-_KEY_LOCKS: dict[str, threading.Lock] = {}
-
-
-@contextlib.contextmanager
-def _key_lock(path: Path):
-    """Held by one thread of one process at a time (a thread lock per path, then the lock file)."""
-    lock = _KEY_LOCKS.setdefault(str(path), threading.Lock())
-    with lock, open(path, "a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
@@ -225,7 +210,7 @@ def _build_lock():
         return
     path = ROOT / "build" / "sim" / ".build.lock"
     path.parent.mkdir(parents=True, exist_ok=True)
-    with _BUILD_LOCK, _key_lock(path):
+    with _BUILD_LOCK, path_lock(path):
         yield
 
 
