@@ -17,6 +17,7 @@ from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
 from .datapath import adders_for
 from .ik_datapath import core_datapath
+from .ik_graph import graph_datapath
 from .ik_steps import STATUS_BITS
 from .modes import CORE_ARCHS
 from .stash import Stash
@@ -108,8 +109,10 @@ class IKCore(StreamBlock):
         self._stash = Stash()
         if isinstance(constants, Constants):
             in_fields, out_fields = core_fields(constants)
-            dp = core_datapath(constants, self._stash, bool(tag_width), arch == "compact",
-                               adders_for(dsp))
+            if arch == "pipelined":
+                dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp))
+            else:
+                dp = core_datapath(constants, self._stash, bool(tag_width), True, adders_for(dsp))
         self.options = {}
         super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
                          tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,
