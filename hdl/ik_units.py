@@ -13,7 +13,7 @@ bounds). The semantics of each op are those of :mod:`.seq_lower` (bit-exact on t
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Mux, signed, unsigned
+from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 
 from ik5r.core import fixedpoint
 
@@ -395,7 +395,9 @@ def sat_unit(ctx, name, n) -> Unit:
         unit = ctx.glue(name, [x], [n, flag], lambda a: (fit(a, bits).as_signed(), Const(0, 1)))
         unit.wiring = True
         return unit
-    return ctx.glue(name, [x], [n, flag], lambda a: saturate(a, bits))
+    # expr.saturate reads a value as wide as the word as a word: an unsigned one gets its sign bit.
+    return ctx.glue(name, [x], [n, flag], lambda a: saturate(
+        a if a.shape().signed else Cat(a, Const(0, 1)).as_signed(), bits))
 
 
 def clip_unit(ctx, name, n) -> Unit:
