@@ -112,7 +112,7 @@ class IKCore(StreamBlock):
             if arch == "pipelined":
                 dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp))
             else:
-                dp = core_datapath(constants, self._stash, bool(tag_width), True, adders_for(dsp))
+                dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp), serial=True)
         self.options = {}
         super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
                          tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,

@@ -94,13 +94,18 @@ class _Schedule:
         self.ctx = ctx
         self.units, self.unit_of, self.ready = [], {}, {}
         self.start = {}
+        # One item at a time (serial), stage 0 registers the inputs: the payload is valid only
+        # in the input transfer. Each unit then starts where the one before it ends.
+        self.end = 1 if ctx.serial else 0
         for root in roots:
             self._need(root)
         for unit in self.units:
             start = max((self.ready[id(r)] for r in unit.reads), default=0)
+            start = self.end if ctx.serial else start
             self.start[id(unit)] = start
             for w in unit.writes:
-                self.ready[id(w)] = start + unit.latency
+                self.ready[id(w)] = start + unit.latency(ctx.serial)
+            self.end = max(self.end, start + unit.latency(ctx.serial))
 
     def _producer(self, v):
         if isinstance(v, Derived):
@@ -115,7 +120,7 @@ class _Schedule:
             return
         self.ctx.needed.add(id(v))
         if _is_input(v):
-            self.ready[id(v)] = 0
+            self.ready[id(v)] = int(self.ctx.serial)
             return
         producer = self._producer(v)
         if id(producer) in self.unit_of:
@@ -127,12 +132,14 @@ class _Schedule:
         self.units.append(unit)
 
 
-def graph_datapath(words: Constants, stash: Stash, tag: bool, adders) -> Datapath:
+def graph_datapath(words: Constants, stash: Stash, tag: bool, adders, *, serial: bool = False) -> Datapath:
     """The IK on the internal format (the inputs arrive shifted up, :meth:`IKCore._inputs`; the
-    joints leave rounded back to words): ``j1`` .. ``j5``, ``st`` (and ``tag``)."""
+    joints leave rounded back to words): ``j1`` .. ``j5``, ``st`` (and ``tag``). ``serial``:
+    the units one after the other on one item (the staged core: an iterative build sharing its
+    CORDIC unit), else side by side (pipelined)."""
     joints, status, _ = trace(words)
     keys = _Keys()
-    ctx = Ctx(words.internal, adders, keys)
+    ctx = Ctx(words.internal, adders, keys, serial)
     leaves = _leaves(ctx, status)
     gates = {key: Flag(source) for source, key in FLAG_KEYS.items()}
     sched = _Schedule(ctx, list(joints) + [v for v, _, _ in leaves] + list(gates.values()))
@@ -142,10 +149,15 @@ def graph_datapath(words: Constants, stash: Stash, tag: bool, adders) -> Datapat
         for r in unit.reads:
             uses[keys(ctx.canon(r))].append(sched.start[id(unit)])
     ready = {keys(v): sched.ready[id(v)] for v in map(ctx.canon, _values(sched, gates))}
+    starts = sorted({sched.start[id(u)] for u in sched.units} | {sched.end})
+
+    def boundary(t):
+        """Where a value ready at t can be read: anywhere pipelined, between units serially."""
+        return min(b for b in starts if b >= t) if serial else t
     leaf_at = defaultdict(list)
     for v, bit, gate_keys in leaves:
-        leaf_at[ready[keys(v)]].append((keys(v), bit, gate_keys))
-    end = max([ready[keys(j)] for j in joints] + list(leaf_at) + [1])
+        leaf_at[boundary(ready[keys(v)])].append((keys(v), bit, gate_keys))
+    end = sched.end if serial else max([ready[keys(j)] for j in joints] + list(leaf_at) + [1])
     for t, items in leaf_at.items():
         for key, _, gate_keys in items:
             for k in (key, *gate_keys):
@@ -153,8 +165,10 @@ def graph_datapath(words: Constants, stash: Stash, tag: bool, adders) -> Datapat
     for j in joints:
         uses[keys(j)].append(end)
     if tag:
-        ready["tag"] = 0
+        ready["tag"] = int(serial)
         uses["tag"].append(end)
+    if serial:
+        return _assemble_serial(sched, keys, (ready, uses, boundary), leaf_at, joints, starts, stash)
     return _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash)
 
 
@@ -166,9 +180,10 @@ def _values(sched, gates):
         yield from (r for r in unit.reads if _is_input(r))
 
 
-def _stash_segments(ready, uses, wired):
-    """(put at, take at, key) for each wait longer than a register chain: from a value's
-    ready time to its first reader, and from one reader to the next."""
+def _stash_segments(ready, uses, wired, boundary=None):
+    """(put at, take at, key) for each wait longer than a register chain (serially, with a
+    ``boundary`` of units: every wait from one to a later one, the stash being the source
+    register): from a value's ready time to its first reader, and from one reader to the next."""
     segments = []
     for key, times in uses.items():
         times = sorted(set(times))
@@ -177,7 +192,10 @@ def _stash_segments(ready, uses, wired):
         # A wiring unit's value exists in the stage of its start: it can be put after it.
         first = ready[key] + (key in wired and times[0] > ready[key])
         points = [(first, times[0])] + [(a + 1, b) for a, b in zip(times, times[1:])]
-        segments += [(put, take, key) for put, take in points if take - put > REGISTER_DELAY_MAX]
+        if boundary is None:
+            segments += [(put, take, key) for put, take in points if take - put > REGISTER_DELAY_MAX]
+        else:
+            segments += [(boundary(put), take, key) for put, take in points if take > boundary(put)]
     return segments
 
 
@@ -246,3 +264,36 @@ def _status_fn(items):
             st = st | Mux(cond, Const(bit, STATUS_BITS), Const(0, STATUS_BITS))
         return dict(s, st=st)
     return run
+
+
+def _assemble_serial(sched, keys, timing, leaf_at, joints, starts, stash) -> Datapath:
+    """The staged datapath: stage 0 registers the inputs, then each unit's stages in turn. At
+    each boundary between units the stash takes back what the next unit reads and puts away
+    what waits, the status bits known are ORed in and the values read for the last time dropped."""
+    ready, uses, boundary = timing
+    dp = Datapath("ik", products="sequential", share_units=True, adders=sched.ctx.adders)
+    dp.add("inputs", lambda s: dict(s))
+    for unit in sched.units:
+        dp.declare(**unit.shapes)
+    unit_at = {sched.start[id(u)]: u for u in sched.units}
+    puts = defaultdict(list)
+    for put, take, key in _stash_segments(ready, uses, set(), boundary):
+        puts[put, take].append(key)
+    handles, end = {}, starts[-1]
+    for b in starts:
+        for (put, take) in sorted(puts):
+            if take == b:
+                stash.take(dp, handles.pop((put, take)))
+        dead = [key for key, times in uses.items() if max(times) < b]
+        fns = [_status_fn(leaf_at[b])]
+        if b < end:
+            dp.add_wiring(_stage_fn(fns, dead))
+        for (put, take), keys_ in sorted(puts.items()):
+            if put == b:
+                handles[put, take] = stash.put(dp, *keys_)
+        if b < end:
+            dp.stages.extend(unit_at[b].stages)
+        else:
+            dp.add_wiring(_stage_fn(fns, [], outputs=[keys(j) for j in joints]))
+    stash.check_taken()
+    return dp

@@ -19,7 +19,7 @@ from ik5r.core import fixedpoint
 
 from .chains import compose, namespaced
 from .cordic import Rotate, add_atan2
-from .datapath import Datapath, Stage, _Traced
+from .datapath import Datapath, Stage, StageKind, _Traced
 from .expr import drop, rshift_round, saturate
 from .products import add_products
 from .seq_trace import AnyOf, Check, Compare, Flag, Node, Not, Sop, Zero, bits_of
@@ -30,21 +30,32 @@ __all__ = ["Unit", "Ctx", "Derived", "flatten", "unit_of", "rotate_const_chain"]
 class Unit:
     """Steps computing ``writes`` from ``reads`` (value objects; ints are constants)."""
 
-    def __init__(self, name, reads, writes, steps, *, wiring=False, shapes=None):
+    def __init__(self, name, reads, writes, stages, *, wiring=False, shapes=None):
         reads = [r.args[0] if isinstance(r, Check) else r for r in reads if not isinstance(r, int)]
         self.name, self.reads, self.writes = name, reads, writes
-        self.steps, self.wiring, self.shapes = list(steps), wiring, dict(shapes or {})
+        self.stages, self.wiring, self.shapes = list(stages), wiring, dict(shapes or {})
+        self._steps = None
 
     @property
-    def latency(self) -> int:
+    def steps(self) -> list:
+        """One function per clock (pipelined; a wiring unit's one function is wiring)."""
+        if self._steps is None:
+            self._steps = [self.stages[0].fn] if self.wiring else flatten(self.stages)
+        return self._steps
+
+    def latency(self, serial: bool) -> int:
+        """Clocks from the operands to the results: pipelined (a wiring unit's 0), or in the
+        stages of one item at a time (``serial``: a wiring unit's one registered stage)."""
+        if serial:
+            return sum(stage.count for stage in self.stages)
         return 0 if self.wiring else len(self.steps)
 
 
-def flatten(chain: Datapath) -> list:
-    """A chain's stages as one function per clock (iterated stages unrolled, as the pipelined
+def flatten(stages) -> list:
+    """Stages as one function per clock (iterated stages unrolled, as the pipelined
     build does); wiring stages composed into a neighbour."""
     steps, pending, carried = [], [], None
-    for stage in map(Stage.of, chain.stages):
+    for stage in map(Stage.of, stages):
         if stage.count == 0:
             pending.append(stage.fn)
             continue
@@ -91,12 +102,12 @@ def _reading_carried(fn, carried):
     return run
 
 
-def _edge(first, steps, last):
-    """``steps`` with ``first`` composed in front of the first and ``last`` after the last."""
-    steps = list(steps)
-    steps[0] = compose(first, steps[0])
-    steps[-1] = compose(steps[-1], last)
-    return steps
+def _registered(name, *fns):
+    return [Stage(f"{name}_{i}", StageKind.REGISTERED, fn) for i, fn in enumerate(fns)]
+
+
+def _wiring(fn):
+    return Stage("wiring", StageKind.WIRING, fn, 0)
 
 
 def shape_of(v):
@@ -109,8 +120,11 @@ class Ctx:
     """What a unit builder needs: the internal constants, the adders, the key of a value, the
     values the core needs (``needed``, ids: a unit leaves only those)."""
 
-    def __init__(self, ki, adders, key):
-        self.ki, self.adders, self.key = ki, adders, key
+    def __init__(self, ki, adders, key, serial: bool):
+        self.ki, self.adders, self.key, self.serial = ki, adders, key, serial
+        #: One item at a time (``serial``, the staged core): each multiplier stepped over its
+        #: partial products, the CORDIC steps on one shared unit.
+        self.products = "sequential" if serial else "parallel"
         self.needed: set = set()
         self._derived: dict = {}
 
@@ -123,6 +137,10 @@ class Ctx:
     def canon(self, v):
         """The value object of ``v`` (an atan2's zero vector: its unit's second result)."""
         return self.derived("zero", v.atan2) if isinstance(v, Zero) else v
+
+    def chain(self, name) -> Datapath:
+        """A scratch chain with the core's multiplier schedule and adders."""
+        return Datapath(name, products=self.products, adders=self.adders)
 
     def get(self, s, v):
         """The value of ``v`` in state ``s`` (a constant as itself)."""
@@ -144,7 +162,8 @@ class Ctx:
         def step(s):
             values = fn(*(self.get(s, r) for r in reads))
             return dict(s, **{self.key(w): v for w, v in zip(writes, values) if id(w) in self.needed})
-        return Unit(name, reads, writes, [step], shapes={self.key(w): _shape(w) for w in writes})
+        return Unit(name, reads, writes, _registered(name, step),
+                    shapes={self.key(w): _shape(w) for w in writes})
 
     def selecting(self, name, reads, write, compares, fn):
         """Two stages: the compares of the operands registered, then ``fn(flags, *operands)``
@@ -163,7 +182,9 @@ class Ctx:
             out = drop(s, *inner, *flags)
             out[self.key(write)] = fn([s[f] for f in flags], *(s[i] for i in inner))
             return out
-        return Unit(name, reads, [write], [first, second], shapes={self.key(write): _shape(write)})
+        # One item at a time (the staged core) the compares and the select share a stage.
+        stages = _registered(name, compose(first, second)) if self.serial else _registered(name, first, second)
+        return Unit(name, reads, [write], stages, shapes={self.key(write): _shape(write)})
 
     def chain_unit(self, name, chain, inputs: dict, outputs: dict):
         """A block's chain under the namespace ``name__``: ``inputs`` {chain key: fn(state)},
@@ -180,7 +201,10 @@ class Ctx:
             out.update({self.key(v): s[prefix + ck] for ck, v in kept.items()})
             return out
         reads = [r for fn in inputs.values() for r in getattr(fn, "reads", ())]
-        return Unit(name, reads, list(outputs.values()), _edge(first, flatten(inner), last),
+        # ``last`` in the chain's last (registered) stage: an output not needed is not registered.
+        *body, end = inner.stages
+        return Unit(name, reads, list(outputs.values()),
+                    [_wiring(first), *body, end.with_fn(compose(end.fn, last), shared=end.shared)],
                     shapes=inner.shapes)
 
 
@@ -216,7 +240,7 @@ def _operand_shape(ctx, v):
 def sop_unit(ctx, name, s: Sop) -> Unit:
     """An exact sum of products: every product at once (:func:`add_products`), then the terms
     summed pairwise, one adder level per stage (the constant in the first level)."""
-    chain = Datapath(name, adders=ctx.adders)
+    chain = ctx.chain(name)
     specs, terms, plain, reads = [], [], {}, []
     for i, (a, b, neg, shift) in enumerate(s.terms):
         reads += [a, b]
@@ -256,7 +280,7 @@ def sop_unit(ctx, name, s: Sop) -> Unit:
             break
         items, keys, level = [(lambda st, k=k: st[k]) for k in out_keys], out_keys, level + 1
     reads = [r.args[0] if isinstance(r, Check) else r for r in reads]
-    return Unit(name, reads, [s], flatten(chain), shapes=chain.shapes)
+    return Unit(name, reads, [s], chain.stages, shapes=chain.shapes)
 
 
 def mulc_unit(ctx, name, n) -> Unit:
@@ -265,7 +289,7 @@ def mulc_unit(ctx, name, n) -> Unit:
     x, m = n.args[0], n.params[0]
     nearest = ctx.ki.cfg.round_nearest
     ends = [fixedpoint.rshift_round(v, m.pre, nearest) for v in (x.lo, x.hi)]
-    chain = Datapath(name, adders=ctx.adders)
+    chain = ctx.chain(name)
     add_products(chain, f"{name}_m", [(lambda s: rshift_round(ctx.get(s, x), m.pre, nearest),
                                        signed(bits_of(min(ends), max(ends))), abs(m.mant), f"{name}_p")])
 
@@ -273,7 +297,7 @@ def mulc_unit(ctx, name, n) -> Unit:
         p = -s[f"{name}_p"] if m.mant < 0 else s[f"{name}_p"]
         return dict(drop(s, f"{name}_p"), **{ctx.key(n): rshift_round(p, m.post, nearest)})
     chain.add(f"{name}_post", post)
-    return Unit(name, [x], [n], flatten(chain), shapes={**chain.shapes, ctx.key(n): shape_of(n)})
+    return Unit(name, [x], [n], chain.stages, shapes={**chain.shapes, ctx.key(n): shape_of(n)})
 
 
 def atan2_unit(ctx, name, n) -> Unit:
@@ -295,9 +319,9 @@ def rotate_unit(ctx, name, r) -> Unit:
     outputs = {"saturated": ctx.derived("flag", r), **outs}
     angle_of = _reading(lambda s: ctx.word_of(s, angle), angle)
     if isinstance(x, int) and isinstance(y, int):
-        chain = rotate_const_chain(ctx.ki, (x, y), adders=ctx.adders)
+        chain = rotate_const_chain(ctx.ki, (x, y), skewed=not ctx.serial, adders=ctx.adders)
         return ctx.chain_unit(name, chain, {"angle": angle_of}, outputs)
-    chain = Rotate.chain(ctx.ki, skewed=True, adders=ctx.adders)
+    chain = Rotate.chain(ctx.ki, skewed=not ctx.serial, adders=ctx.adders)
     return ctx.chain_unit(name, chain, {"x": _reading(lambda s: ctx.word_of(s, x), x),
                                         "y": _reading(lambda s: ctx.word_of(s, y), y),
                                         "angle": angle_of}, outputs)
@@ -315,13 +339,14 @@ def sqrt_unit(ctx, name, n) -> Unit:
     return unit
 
 
-def rotate_const_chain(k, vector: tuple[int, int], *, adders) -> Datapath:
+def rotate_const_chain(k, vector: tuple[int, int], *, skewed: bool, adders) -> Datapath:
     """``model.cordic_rotate(*vector, angle)`` of a constant vector -> x, y, saturated. The
     quadrant step and the 1/K gain of a constant vector are constants: two stages (the compares
     registered first) replace the Rotate block's quadrant, coarse and multiplier stages; the
-    micro-rotations, rounding and clipping are the Rotate block's own (skewed) stages."""
+    micro-rotations, rounding and clipping are the Rotate block's own stages (``skewed``: see
+    :meth:`Rotate.chain`; else on the shared CORDIC unit)."""
     c = k.cfg
-    tail = Rotate.chain(k, skewed=True, adders=adders).part("micro_rotations")
+    tail = Rotate.chain(k, skewed=skewed, adders=adders).part("micro_rotations")
     x0, y0 = vector
     shift = k.inv_gain_frac - c.guard_bits
 
