@@ -258,29 +258,52 @@ def sop_unit(ctx, name, s: Sop) -> Unit:
         add_products(chain, f"{name}_m", specs, parallel=lambda st: {k: f(st) for k, f in plain.items()})
     else:
         chain.add(f"{name}_op", lambda st: dict(st, **{k: f(st) for k, f in plain.items()}))
-    items = [(lambda st, k=k, neg=neg, sh=sh: (-st[k] if neg else st[k]).shift_left(sh))
-             for k, neg, sh in terms]
-    items = items + ([lambda st: Const(s.const, signed(bits_of(s.const, s.const)))] if s.const else [])
-    keys = [k for k, _, _ in terms]
+    items = [((lambda st, k=k, sh=sh: st[k].shift_left(sh)), neg) for k, neg, sh in terms]
+    if s.const:
+        items.append(((lambda st: Const(abs(s.const), signed(bits_of(s.const, s.const)))), s.const < 0))
+    _add_sum(chain, name, items, [k for k, _, _ in terms], ctx.key(s))
+    reads = [r.args[0] if isinstance(r, Check) else r for r in reads]
+    return Unit(name, reads, [s], chain.stages, shapes=chain.shapes)
+
+
+def _add_sum(chain, name, items, keys, out_key):
+    """The sum of ``items`` ((fn(state), negative)) into ``out_key``: pairwise, one adder (or
+    subtractor) level per stage; a lone positive term is wiring."""
     level = 0
-    while True:
+    while len(items) > 1 or items[0][1]:
         pairs = [items[i:i + 2] for i in range(0, len(items), 2)]
-        out_keys = [f"{name}_s{level}_{i}" for i in range(len(pairs))] if len(pairs) > 1 else [ctx.key(s)]
+        out_keys = [f"{name}_s{level}_{i}" for i in range(len(pairs))] if len(pairs) > 1 else [out_key]
 
         def step(st, pairs=pairs, out_keys=out_keys, keys=keys):
             out = drop(st, *keys)
             for key, pair in zip(out_keys, pairs):
-                total = pair[0](st)
-                for f in pair[1:]:
-                    total = total + f(st)
-                out[key] = total
+                out[key] = _signed_sum(st, pair)
+            if len(pairs) == 1 and _both_negative(pairs[0]):
+                out[out_key] = -out[out_key]      # the last level: no level left to negate it
             return out
         chain.add(f"{name}_sum{level}", step)
         if len(pairs) == 1:
-            break
-        items, keys, level = [(lambda st, k=k: st[k]) for k in out_keys], out_keys, level + 1
-    reads = [r.args[0] if isinstance(r, Check) else r for r in reads]
-    return Unit(name, reads, [s], chain.stages, shapes=chain.shapes)
+            return
+        items = [((lambda st, k=k: st[k]), _both_negative(pair)) for k, pair in zip(out_keys, pairs)]
+        keys, level = out_keys, level + 1
+    fn = items[0][0]
+    chain.add_wiring(lambda st: dict(drop(st, *keys), **{out_key: fn(st)}))
+
+
+def _both_negative(pair) -> bool:
+    return len(pair) == 2 and pair[0][1] and pair[1][1]
+
+
+def _signed_sum(st, pair):
+    """One adder: a + b, a - b or b - a (both negative: the sum, whose negation is the next
+    level's); a lone negative item negated."""
+    (fa, na), *rest = pair
+    if not rest:
+        return -fa(st) if na else fa(st)
+    fb, nb = rest[0]
+    if na == nb:
+        return fa(st) + fb(st)
+    return fa(st) - fb(st) if nb else fb(st) - fa(st)
 
 
 def mulc_unit(ctx, name, n) -> Unit:
