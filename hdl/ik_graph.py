@@ -22,7 +22,8 @@ from ik5r.core.fxconfig import Constants
 from .chains import retraced
 from .datapath import Datapath
 from .expr import drop
-from .ik_units import Ctx, Derived, unit_of
+from .ik_glue import unit_of
+from .ik_units import Ctx, Derived
 from .seq_isa import C_BACK, C_DOWN, C_ROLL
 from .seq_trace import AnyOf, Compare, Flag, Node, Not, Sop, Zero, trace
 from .stash import REGISTER_DELAY_MAX, Stash
