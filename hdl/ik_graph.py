@@ -166,8 +166,10 @@ def graph_datapath(words: Constants, stash: Stash, tag: bool, adders, *, serial:
     for j in joints:
         uses[keys(j)].append(end)
     if tag:
+        # The tag is registered in stage 0, then waits in the stash: the formal order proof
+        # follows it from a tag register into the stash (hdl/formal/stash.py).
         ready["tag"] = int(serial)
-        uses["tag"].append(end)
+        uses["tag"] += [int(serial), end]
     if serial:
         return _assemble_serial(sched, keys, (ready, uses, boundary), leaf_at, joints, starts, stash)
     return _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash)
