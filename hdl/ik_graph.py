@@ -202,6 +202,26 @@ def _stash_segments(ready, uses, wired, boundary=None):
     return segments
 
 
+#: A value waits in registers up to this many bit-cycles to be put in the stash later, with the
+#: values of a group (one RAM, its two pointers and output register) taken back at the same stage.
+SHARE_BITS = 64
+
+
+def _grouped(segments, width) -> list:
+    """``segments`` with puts moved later, to a group taken at the same stage, where that costs
+    few registers (:data:`SHARE_BITS`)."""
+    out, puts_of = [], defaultdict(list)
+    for put, take, key in sorted(segments, key=lambda seg: (seg[1], -seg[0])):
+        later = [p for p in puts_of[take]
+                 if p >= put and (p - put) * width(key) <= SHARE_BITS and take - p > REGISTER_DELAY_MAX]
+        if later:
+            put = min(later)
+        else:
+            puts_of[take].append(put)
+        out.append((put, take, key))
+    return out
+
+
 def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath:
     """The datapath: stage t runs the unit steps of clock t, ORs the status bits known at t and
     drops the values read for the last time; the stash's put and take wiring between stages."""
@@ -220,7 +240,12 @@ def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath
             last[max(times)].append(key)
     puts, takes = defaultdict(list), defaultdict(list)
     wired = {keys(w) for unit in sched.units if unit.wiring for w in unit.writes}
-    for put, take, key in _stash_segments(ready, uses, wired):
+    word = sched.ctx.ki.cfg.width + 1
+
+    def width(key):
+        """A value's width (an input word's, a flag's one bit; undeclared: about a word)."""
+        return 1 if key in FLAG_KEYS.values() else dp.shapes[key].width if key in dp.shapes else word
+    for put, take, key in _grouped(_stash_segments(ready, uses, wired), width):
         puts[put, take].append(key)
     handles = {}
     for t in range(end + 1):
