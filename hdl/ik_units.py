@@ -1,12 +1,13 @@
-"""The units of the pipelined IK core generated from the traced IK (:mod:`.ik_graph`): one unit per
-value of the graph of :func:`ik5r.hdl.seq_trace.trace`, a list of clock steps over named values.
+"""The units of the IK core generated from the traced IK (:mod:`.ik_graph`): one unit per value
+of the graph of :func:`ik5r.hdl.seq_trace.trace`, a list of stages over named values.
 
-A unit reads the values of its operands from the state in its first step and leaves its results
-in the state after its last one (``latency`` steps); a unit of latency 0 is wiring in the stage of
-its start. The heavy operations run the blocks' public chains (atan2 and the rotation of
-:mod:`.cordic`, the square root of :mod:`.sqrt`, the multipliers of :mod:`.products`), flattened
-to one function per clock; the glue is one stage of logic per step, widths from the node's
-interval bounds (:mod:`.seq_trace`: the sequenced core's memory words are sized by the same
+A unit reads the values of its operands from the state in its first stage and leaves its results
+in the state after its last one; pipelined, its stages are flattened to one function per clock
+(``latency`` steps; a unit of latency 0 is wiring in the stage of its start), one item at a time
+(the staged core) they are the datapath's own stages. The heavy operations run the blocks' public
+chains (atan2 and the rotation of :mod:`.cordic`, the square root of :mod:`.sqrt`, the
+multipliers of :mod:`.products`); the glue (:mod:`.ik_glue`) is one stage of logic per step,
+widths from the node's interval bounds (:mod:`.seq_trace`: the sequenced core's memory words are sized by the same
 bounds). The semantics of each op are those of :mod:`.seq_lower` (bit-exact on the compact core):
 ``fixedpoint``'s words on integers.
 """
@@ -27,6 +28,7 @@ from .sqrt import add_isqrt, fit
 
 __all__ = ["Unit", "Ctx", "Derived", "flatten", "shape_of", "sop_unit", "mulc_unit", "atan2_unit",
            "rotate_unit", "sqrt_unit", "rotate_const_chain"]
+
 
 class Unit:
     """Steps computing ``writes`` from ``reads`` (value objects; ints are constants)."""
@@ -86,8 +88,8 @@ def _last_iteration(fn):
         before = set(getattr(s, "reads", ()))
         out = fn(s)
         if _tracing(s):
-            carried.update(key for key in set(s.reads) - before
-                           if key in out and dict.__contains__(s, key) and out[key] is not dict.__getitem__(s, key))
+            carried.update(key for key in set(s.reads) - before if key in out
+                           and dict.__contains__(s, key) and out[key] is not dict.__getitem__(s, key))
         return out
     return run, carried
 
@@ -189,7 +191,7 @@ class Ctx:
             out[self.key(write)] = fn([s[f] for f in flags], *(s[i] for i in inner))
             return out
         # One item at a time (the staged core) the compares and the select share a stage.
-        stages = _registered(name, compose(first, second)) if self.serial else _registered(name, first, second)
+        stages = _registered(name, *([compose(first, second)] if self.serial else [first, second]))
         return Unit(name, reads, [write], stages, shapes={self.key(write): _shape(write)})
 
     def chain_unit(self, name, chain, inputs: dict, outputs: dict):
@@ -197,6 +199,7 @@ class Ctx:
         ``outputs`` {chain key: value object}; outputs the core does not need are dropped."""
         prefix = f"{name}__"
         inner = namespaced(chain, prefix)
+
         def first(s):
             return dict(s, **{prefix + ck: fn(s) for ck, fn in inputs.items()})
 
@@ -245,7 +248,8 @@ def _operand_shape(ctx, v):
 
 def sop_unit(ctx, name, s: Sop) -> Unit:
     """An exact sum of products: every product at once (:func:`add_products`), then the terms
-    summed pairwise, one adder level per stage (the constant in the first level)."""
+    (and the constant) summed pairwise, one adder or subtractor level per stage; a check word
+    shifted up (``b`` = 1) is a term without a product."""
     chain = ctx.chain(name)
     specs, terms, plain, reads = [], [], {}, []
     for i, (a, b, neg, shift) in enumerate(s.terms):
