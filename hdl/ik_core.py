@@ -1,11 +1,13 @@
 """The inverse kinematics of the 5R arm in hardware: :class:`IKCore`, bit-exact to ``model.ik_solve``.
 
-The whole solver is ONE :class:`~ik5r.hdl.datapath.Datapath` (:func:`~ik5r.hdl.ik_datapath.core_datapath`)
-composed from the blocks' chains (:func:`~ik5r.hdl.cordic.add_atan2`, the micro-rotations of
-:meth:`~ik5r.hdl.cordic.Rotate.chain`, the parts of :meth:`~ik5r.hdl.acos.Acos.chain`,
-:func:`~ik5r.hdl.sqrt.add_isqrt`, :func:`~ik5r.hdl.products.add_products`) and small glue stages.
-The machinery that makes the composition cheap: namespaces and parallel chains
-(:mod:`~ik5r.hdl.chains`), and the stash of values needed many stages later (:mod:`~ik5r.hdl.stash`).
+The whole solver is ONE :class:`~ik5r.hdl.datapath.Datapath`
+(:func:`~ik5r.hdl.ik_graph.graph_datapath`) generated from the dataflow graph of the IK's one
+description, :func:`ik5r.core.ik.solve`, traced on symbols (:func:`~ik5r.hdl.seq_trace.trace`,
+the graph the compact core's program is compiled from): a unit per value of the graph
+(:mod:`~ik5r.hdl.ik_units`: the blocks' chains, :func:`~ik5r.hdl.cordic.add_atan2`,
+:meth:`~ik5r.hdl.cordic.Rotate.chain`, :func:`~ik5r.hdl.sqrt.add_isqrt`,
+:func:`~ik5r.hdl.products.add_products`, and glue stages), scheduled as soon as their operands are
+ready; values needed many stages later wait in the stash (:mod:`~ik5r.hdl.stash`).
 """
 
 from __future__ import annotations
@@ -16,8 +18,7 @@ from ik5r.core.fxconfig import Constants
 from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
 from .datapath import adders_for
-from .ik_datapath import core_datapath
-from .ik_steps import STATUS_BITS
+from .ik_graph import STATUS_BITS, graph_datapath
 from .modes import CORE_ARCHS
 from .stash import Stash
 from .stream_block import StreamBlock
@@ -108,8 +109,8 @@ class IKCore(StreamBlock):
         self._stash = Stash()
         if isinstance(constants, Constants):
             in_fields, out_fields = core_fields(constants)
-            dp = core_datapath(constants, self._stash, bool(tag_width), arch == "compact",
-                               adders_for(dsp))
+            dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
+                                serial=arch == "compact")
         self.options = {}
         super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
                          tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,

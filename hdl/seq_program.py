@@ -6,8 +6,7 @@ graph; :mod:`.seq_lower` turns the graph into blocks of :mod:`.seq_isa` instruct
 each word of the vocabulary, from :mod:`.seq_asm`'s recipes); :mod:`.seq_schedule` places the
 blocks on the units side by side (products, checks and glue while the CORDIC or the square root
 runs) and shares the memory words. :meth:`.seq_asm.Asm.finish` resolves the addresses. (The
-pipelined core is still built from its own stage groups, :mod:`.ik_datapath`; only this program is
-compiled from ``ik.solve``.)
+pipelined core is generated from the same graph, :mod:`.ik_graph`.)
 """
 
 from __future__ import annotations

@@ -112,15 +112,18 @@ def test_the_adder_mapping_is_explicit():
 def test_the_chains_declare_what_they_read_and_leave():
     """Each chain, checked alone from its declared inputs to its declared outputs."""
     from ik5r.hdl.chains import namespaced
-    from ik5r.hdl.ik_steps import atan2_chain, rotate_const_chain
+    from ik5r.hdl.cordic import add_atan2
+    from ik5r.hdl.ik_units import rotate_const_chain
     k = constants(load_config("q18"))
     word = signed(k.cfg.width)
     for skewed in (True, False):
         Rotate.chain(k, skewed=skewed).check_chain(word)
-        rotate_const_chain(k, "C1__", (k.one_u, 0), skewed=skewed, adders=adders_for("generic")) \
-            .check_chain(word)
+        namespaced(rotate_const_chain(k, (k.one_u, 0), skewed=skewed, adders=adders_for("generic")),
+                   "C1__").check_chain(word)
     Acos.chain(k).check_chain(word)
-    atan2_chain(k, "T1__", zero=True, adders=adders_for("generic")).check_chain(word)
+    atan2 = Datapath("atan2", inputs=("y", "x"), outputs=("angle", "zero"))
+    add_atan2(atan2, k, y="y", x="x", magnitude=False, zero=True)
+    namespaced(atan2, "T1__").check_chain(word)
     chain = namespaced(Acos.chain(k), "EL__")
     assert chain.inputs == ("EL__x",) and chain.outputs == ("EL__angle", "EL__sine", "EL__saturated")
     chain.check_chain(word)

@@ -177,7 +177,10 @@ def test_staged_shares_its_units(cfg):
     steps = set(re.findall(r"^\s*reg [^;]*?(\w+_step)\b", compact, re.M))
     assert [s for s in steps if "cordic" in s or "_it" in s] == ["unit_cordic_step"]
     assert len([s for s in steps if s.endswith("_digit_step")]) == 2
-    assert len([s for s in steps if s.endswith("_acc_step")]) == 6      # 6 product groups
+    # One stepped multiplier per product unit of the traced IK: 12 exact sums of products (rho's
+    # radicand, the three dot products, the seven orientation checks, the elbow's sum of squares),
+    # the arc cosine's radicand, and the three constant multiplies (c3, a3 s3, a3 c3).
+    assert len([s for s in steps if s.endswith("_acc_step")]) == 16
     assert steps == {s for s in steps if s.endswith(("_acc_step", "_digit_step", "unit_cordic_step"))}
     assert len(re.findall(r"^\s*reg [^;]* unit_cordic_cx\b", compact, re.M)) == 1
     pipelined, _ = generate_cached("ik", "pipelined", k, DEFAULT_TAG_WIDTH)

@@ -62,7 +62,7 @@ def test_the_graph_is_read():
     mods = all_modules()
     assert {"ik5r.core.fxconfig", "ik5r.firmware.model", "ik5r.hdl.ik_core", "ik5r.tools.testbench.runner",
             "ik5r.tools.commands.solve", "ik5r.core.fixedpoint"} <= set(mods)
-    assert "ik5r.core.fixedpoint" in imports_of("ik5r.hdl.ik_steps", mods["ik5r.hdl.ik_steps"])
+    assert "ik5r.core.fixedpoint" in imports_of("ik5r.hdl.ik_units", mods["ik5r.hdl.ik_units"])
     assert "ik5r.hdl.datapath" in imports_of("ik5r.hdl.cordic", mods["ik5r.hdl.cordic"])
     assert layer_of("ik5r.tools.testbench.blocks") == "tools" and layer_of("ik5r.hdl.cordic") == "hdl"
     assert layer_of("ik5r.numeric.solver") == "numeric" and layer_of("ik5r.core.cbuild") == "core"
