@@ -18,6 +18,7 @@ from collections import defaultdict
 from amaranth.hdl import Const, Mux
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.status import FIXED_WIDTH
 
 from .chains import retraced
 from .datapath import Datapath
@@ -30,7 +31,7 @@ from .stash import REGISTER_DELAY_MAX, Stash
 
 __all__ = ["graph_datapath", "STATUS_BITS"]
 
-STATUS_BITS = 6
+STATUS_BITS = FIXED_WIDTH
 #: The input keys of the branch flags (the sources of :class:`~ik5r.hdl.seq_trace.Flag`).
 FLAG_KEYS = {C_ROLL: "roll", C_BACK: "back", C_DOWN: "down"}
 
@@ -238,7 +239,7 @@ def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath
     for key, times in uses.items():
         if max(times) < end:
             last[max(times)].append(key)
-    puts, takes = defaultdict(list), defaultdict(list)
+    puts = defaultdict(list)
     wired = {keys(w) for unit in sched.units if unit.wiring for w in unit.writes}
     word = sched.ctx.ki.cfg.width + 1
 

@@ -6,16 +6,13 @@ and :meth:`Asm.finish`, which resolves constants and variables to data-memory ad
 
 from __future__ import annotations
 
-from ik5r.core import status as S
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from .cordic import atan2_widths, rotate_z_bound
-from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_NOP, A_SATI, A_SATW,
-                      A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_IN, B_MEM, B_REM, B_ROOT,
-                      C_BACK, C_DOWN, C_F, C_ROLL, C_ZERO, INPUT_WORDS, IO_FLAGS,
-                      IO_IN, IO_OUT, IO_STATUS, K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA,
-                      K_NORM1, K_NORM8, K_QROT, K_ROT, K_VEC, LIMB, Q_LOAD, Q_STEP, READ_AHEAD,
-                      Program, Widths)
+from .seq_isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SHR1, A_SHR4,
+                      A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
+                      K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, K_NORM1, K_NORM8, K_QROT, K_ROT,
+                      K_VEC, LIMB, READ_AHEAD, Program, Widths)
 
 __all__ = ["Asm", "Const", "Check", "Bus"]
 

@@ -34,7 +34,7 @@ from .seq_program import ik_program
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
 
-STATUS_BITS = S.FIXED_BITS.bit_length()
+STATUS_BITS = S.FIXED_WIDTH
 #: Multiplier operand bits: a 16-bit signed limb or a check word.
 _FACTOR_BITS = max(16, CHECK_BITS)
 

@@ -33,6 +33,10 @@ def _check(r: dict, vectors: int) -> None:
     cycles = r["cycles_per_solve"]
     # Every solve runs the IK (thousands of instructions), each instruction at least one cycle.
     assert 1_000 < r["instructions_per_solve"]["mean"] <= cycles["mean"] <= cycles["max"]
+    # The whole run (start-up and the solves) retires at least the solves' instructions, one per
+    # cycle at most.
+    solved = r["instructions_per_solve"]["mean"] * r["vectors"]
+    assert solved < r["simulated_instructions"] <= r["simulated_cycles"]
     assert 0 < r["code_bytes"] < 16_384 and 0 < r["data_bytes"] < 4_096
 
 

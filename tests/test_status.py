@@ -10,7 +10,6 @@ paper's check pose is ``singular_elbow`` with joints within 1e-8 rad from every 
 from __future__ import annotations
 
 import csv
-import math
 
 import numpy as np
 import pytest

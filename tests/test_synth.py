@@ -57,6 +57,12 @@ def test_synth_q18_atan2_iterative_ecp5(tmp_path):
     again = json.loads(out.read_text())
     assert again["cached"] is True
     assert {k: again[k] for k in ("luts", "ffs", "fmax_mhz")} == {k: r[k] for k in ("luts", "ffs", "fmax_mhz")}
+    # The router is a flag of the run: router2 is a run of its own on the same netlist.
+    assert r["router"] == "router1"
+    assert main(argv + ["--router", "router2"]) == 0
+    routed2 = json.loads(out.read_text())
+    assert routed2["router"] == "router2" and routed2["cached"] is False and routed2["key"] != r["key"]
+    assert routed2["cells"] == r["cells"] and 20 < routed2["fmax_mhz"] < 1000
 
 
 def test_sweep_one_point(tmp_path, monkeypatch):

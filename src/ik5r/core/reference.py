@@ -61,7 +61,7 @@ import numpy as np
 
 from . import status as st
 from .arm import Arm
-from .reference_kernel import AXIS_TOLERANCE_CM, DIRECTION_TOLERANCE, Kernel, frame_error, input_limit, sincos
+from .reference_kernel import Kernel
 
 N_BRANCHES = 4
 #: Branch names by index (2 * shoulder_back + elbow_down).

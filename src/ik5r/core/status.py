@@ -22,6 +22,8 @@ OUT_OF_LIMITS = 1 << 6    # float reference only: the branch violates a joint li
 
 #: Bits the fixed-point solvers (model, C, HDL) produce: the hardware's status word.
 FIXED_BITS = UNREACHABLE | SINGULAR_ELBOW | SINGULAR_BASE | SATURATED | INVALID | BAD_ORIENTATION
+#: Width of that status word.
+FIXED_WIDTH = FIXED_BITS.bit_length()
 
 NAMES = {
     UNREACHABLE: "unreachable",

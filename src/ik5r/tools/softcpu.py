@@ -110,6 +110,7 @@ class RunStats:
     mark_cycles: int = 0       # cost of one MARK write (measured: two back to back)
     sim_seconds: float = 0.0
     total_cycles: int = 0
+    total_instructions: int = 0
 
 
 class SoftCpu:
@@ -186,6 +187,7 @@ class SoftCpu:
         self.stats.cycles.extend(np.diff(mark_cycles[2:]).tolist())
         self.stats.instructions.extend(np.diff(mark_instret[2:]).tolist())
         self.stats.total_cycles += cycles
+        self.stats.total_instructions += instret
         results = rest[first_result:].reshape(count, rv32.RESULT_WORDS)
         q = results[:, :5].astype(np.uint32).view(np.int32).astype(np.int64)
         return q, results[:, 5].copy()

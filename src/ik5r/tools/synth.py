@@ -72,7 +72,7 @@ TARGETS = {
 #: Keys every result carries (values may be None when a figure does not apply).
 RESULT_FIELDS = (
     "block", "arch", "module", "config", "width", "iterations", "target", "device", "package",
-    "speed_grade", "freq_target_mhz", "placer", "seed", "luts", "lut4", "carry", "ffs", "dsps",
+    "speed_grade", "freq_target_mhz", "placer", "router", "seed", "luts", "lut4", "carry", "ffs", "dsps",
     "brams", "lutram", "utilisation", "fits_device", "fmax_mhz", "timing_met", "latency_cycles", "cycles_per_result",
     "results_per_second", "latency_ns", "critical_path", "tools", "seconds", "key", "cache_dir",
     "cached",
@@ -90,6 +90,7 @@ class SynthOptions:
     freq_mhz: float = 150.0         # clock constraint handed to nextpnr (timing-driven placement)
     placer: str | None = None       # None: the target's default (heap on ECP5, sa on iCE40)
     seed: int = 1
+    router: str = "router1"         # nextpnr router; router2 routes congested designs in far less time
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
@@ -111,6 +112,8 @@ class SynthOptions:
         placer = self.placer or t["default_placer"]
         if placer not in ("heap", "sa", "static"):
             raise InputError("--placer", f"must be heap, sa or static, got {placer!r}")
+        if self.router not in ("router1", "router2"):
+            raise InputError("--router", f"must be router1 or router2, got {self.router!r}")
         dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
         if dsp not in ("generic", self.target):
             raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
@@ -198,7 +201,8 @@ def _nextpnr_args(opts: SynthOptions) -> list[str]:
     t = TARGETS[opts.target]
     args = [t["devices"][opts.device], "--package", opts.package, "--json", "netlist.json",
             "--report", "report.json", "--freq", f"{opts.freq_mhz:g}", "--timing-allow-fail",
-            "--placer", opts.placer, "--seed", str(opts.seed), "--threads", str(opts.threads),
+            "--placer", opts.placer, "--router", opts.router, "--seed", str(opts.seed),
+            "--threads", str(opts.threads),
             "--log", "nextpnr.log", "--quiet"]
     if opts.target == "ecp5":
         args += ["--speed", str(opts.speed), "--out-of-context"]
@@ -411,6 +415,8 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
+    if opts.router == "router1":
+        del flags["router"]  # the default: keys of runs made before the option stay valid
     # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.
     body = strip_header(text)
     key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
@@ -439,7 +445,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
         "speed_grade": opts.speed, "freq_target_mhz": opts.freq_mhz, "placer": opts.placer,
-        "seed": opts.seed, "out_of_context": opts.target == "ecp5",
+        "router": opts.router, "seed": opts.seed, "out_of_context": opts.target == "ecp5",
         **figures,
         "fmax_mhz": fmax,
         "timing_met": None if fmax is None else fmax >= opts.freq_mhz,

@@ -99,6 +99,7 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
         "code_bytes": fw.code_bytes, "data_bytes": fw.data_bytes, "stack_bytes": fw.stack_bytes,
         "ram_bytes": 4 * fw.ram_words,
         "simulated_cycles": soft.stats.total_cycles,
+        "simulated_instructions": soft.stats.total_instructions,
         "sim_seconds": round(soft.stats.sim_seconds, 2), "build_seconds": round(build_seconds, 2),
         "simulated_cycles_per_second": round(soft.stats.total_cycles / max(soft.stats.sim_seconds, 1e-9)),
         "toolchain": "riscv64-unknown-elf-gcc -march=" + isa + " -mabi=ilp32 -O2",

@@ -46,6 +46,8 @@ def register(subparsers) -> None:
                         help="clock constraint for timing-driven P&R (default: 150)")
     parser.add_argument("--placer", choices=("heap", "sa", "static"), default=None,
                         help="nextpnr placer (default: heap on ECP5, sa on iCE40)")
+    parser.add_argument("--router", choices=("router1", "router2"), default="router1",
+                        help="nextpnr router (default: router1; router2 is faster on congested designs)")
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
@@ -91,8 +93,8 @@ def run(args) -> int:
         cpus = (args.cpu,) if args.cpu else tuple(CPUS)
     cfg = load_config(args.config)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
-                        speed=args.speed, freq_mhz=args.freq, placer=args.placer, seed=args.seed,
-                        threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp).resolved()
+                        speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
+                        seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp).resolved()
 
     def log(message):
         if not args.quiet:
@@ -119,7 +121,7 @@ def run(args) -> int:
     if results:
         print(f"{opts.target} {opts.device}"
               f"{' speed ' + str(opts.speed) if opts.speed else ''} {opts.package}, "
-              f"clock constraint {opts.freq_mhz:g} MHz, placer {opts.placer}")
+              f"clock constraint {opts.freq_mhz:g} MHz, placer {opts.placer}, {opts.router}")
         print(format_table(results))
     if args.json:
         path = Path(args.json)
