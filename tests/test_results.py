@@ -61,3 +61,18 @@ def test_collect_and_render(tmp_path):
     assert results.main(["--build", str(tmp_path / "empty"), "--readme", str(readme), "--no-collect"]) == 0
     text = readme.read_text()
     assert "| sqrt | iterative | generic | q18 |" in text and "| rotate |" not in text
+
+
+def test_a_router2_run_is_its_own_design_point(tmp_path):
+    readme = tmp_path / "README.md"
+    readme.write_text(f"{results.BEGIN}\n{results.END}\n")
+    build = tmp_path / "build"
+    current = generate("sqrt", "iterative", constants(load_config("q18")))[0]
+    _write_run(build, "r2", dict(_synth_result(fmax=90.0), router="router2"), current, 1_000)
+    _write_run(build, "r1seed3", _synth_result(fmax=99.0, seed=3), current, 2_000)
+    assert results.main(["--build", str(build), "--sweep", str(tmp_path / "none"),
+                         "--readme", str(readme)]) == 0
+    record = json.loads(next((tmp_path / "docs" / "results" / "records" / "synth").glob("*.json")).read_text())
+    # The router1 run at seed 3 is not a seed of the router2 design point.
+    assert record["router"] == "router2" and "fmax_mhz_by_seed" not in record
+    assert "sqrt iterative q18 on the ecp5-85k: routed with nextpnr's router2" in readme.read_text()

@@ -71,6 +71,10 @@ class VerilogOfCheckout:
         return body_sha256(self.text(r))
 
 
+def _router(r: dict) -> str:
+    return r.get("router", "router1")  # the records made before the option used router1
+
+
 def _record_name(r: dict) -> str:
     return f"{r['module']}_{r['config']}_{r['target']}-{r['device']}.json"
 
@@ -126,7 +130,7 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
 
 def _other_seeds(build: Path, synth_dir: Path, verilog: VerilogOfCheckout) -> list[str]:
     """The Fmax of the runs at other nextpnr seeds (robustness checks) of a recorded design point
-    (same Verilog, clock constraint and placer), added to its record as ``fmax_mhz_by_seed``."""
+    (same Verilog, clock constraint, placer and router), added to its record as ``fmax_mhz_by_seed``."""
     from ik5r.hdl.provenance import body_sha256
 
     runs = {}
@@ -137,13 +141,14 @@ def _other_seeds(build: Path, synth_dir: Path, verilog: VerilogOfCheckout) -> li
             continue
         sha = body_sha256(design.read_text())
         if sha == verilog.sha256(r):
-            key = (_record_name(r), sha, r.get("freq_target_mhz"), r.get("placer"))
+            key = (_record_name(r), sha, r.get("freq_target_mhz"), r.get("placer"), _router(r))
             runs.setdefault(key, {})[str(r.get("seed", 1))] = round(r["fmax_mhz"], 1)
     written = []
-    for (name, sha, freq, placer), by_seed in runs.items():
+    for (name, *point), by_seed in runs.items():
         target = synth_dir / name
         record = json.loads(target.read_text()) if target.exists() else {}
-        if (record.get("verilog_sha256"), record.get("freq_target_mhz"), record.get("placer")) != (sha, freq, placer):
+        if (record.get("verilog_sha256"), record.get("freq_target_mhz"), record.get("placer"),
+                _router(record)) != tuple(point):
             continue
         by_seed = dict(sorted({**record.get("fmax_mhz_by_seed", {}), **by_seed,
                                "1": round(record["fmax_mhz"], 1)}.items(), key=lambda kv: int(kv[0])))
@@ -184,6 +189,10 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
             lines += ["", f"{r['block']} {r['arch']} {r['config']} on the {r['target']}-{r['device']}: Fmax "
                       f"{', '.join(f'{v:.1f}' for v in seeds.values())} MHz at nextpnr seeds "
                       f"{', '.join(seeds)} (same Verilog{constraint}; the table gives seed 1)."]
+    for r in rows:
+        if _router(r) != "router1":
+            lines += ["", f"{r['block']} {r['arch']} {r['config']} on the {r['target']}-{r['device']}: routed "
+                      f"with nextpnr's {_router(r)} (the other rows: router1)."]
     return lines, stale
 
 
