@@ -3,9 +3,9 @@
 The same poses, arithmetic and figures as the quantisation report (``ik5r.tools.report.quantisation``:
 q uniform in the joint limits, target FK(q) in float64, the float64 branch nearest q solved by the
 vectorised bit-accurate model on the quantised pose, FK of the result against the target), for
-the keys below; it skips the report's float32 and dequantised-reference solves, which a sweep does
-not show, and keeps the float64 side, the same for every config of a sweep, in the worker's memory
-from one point to the next.
+the keys below; it skips the report's dequantised-reference solves, which a sweep does not show,
+and keeps the float64 side and the float32 solver's position error (the plot's reference line),
+the same for every config of a sweep, in the worker's memory from one point to the next.
 """
 
 from __future__ import annotations
@@ -25,7 +25,10 @@ JOINTS = ("q1", "q2", "q3", "q4", "q5")
 
 @lru_cache(maxsize=2)
 def _float_side(poses: int, seed: int) -> dict:
-    """Target poses and their float64 branch (arm of record), as the report draws them."""
+    """Target poses, their float64 branch (arm of record), as the report draws them, and the
+    float32 solver's largest position error on that branch."""
+    from .report import quantisation as qz
+
     arm = load_arm()
     q = ref.random_joints(arm, poses, np.random.default_rng(seed))
     p, n, o, a = ref.fk(arm, q)
@@ -33,7 +36,10 @@ def _float_side(poses: int, seed: int) -> dict:
     diff = ref.wrap(r64.q - q[:, None, :])
     branch = np.argmin(np.sum(diff**2, axis=-1), axis=1)
     q64 = r64.q[np.arange(poses), branch].astype(np.float64)
+    r32 = ref.ik(arm, *(v.astype(np.float32) for v in (p, a, n, o)), dtype=np.float32, confirm_tolerance_cm=None)
+    position32, _ = qz._task_errors(arm, r32.q[np.arange(poses), branch].astype(np.float64), p, a)
     return {"p": p, "n": n, "o": o, "a": a, "branch": branch, "q64": q64,
+            "float32_position_err_max_cm": float(position32.max()),
             "sin_q3": np.abs(np.sin(q64[:, 2] + arm.theta_offset[2])), "radius": np.hypot(p[:, 0], p[:, 1])}
 
 
@@ -69,4 +75,5 @@ def error_figures(cfg: FixedConfig, poses: int, seed: int) -> dict:
         "joint_err_per_joint": {name: {"max_rad": v["max"], "rms_rad": v["rms"]}
                                 for name, v in per_joint.items()},
         "fixed_flagged": int(np.count_nonzero(flagged)),
+        "float32_position_err_max_cm": f["float32_position_err_max_cm"],
     }
