@@ -82,7 +82,9 @@ def saturate(value, width: int):
     of the sign. Exactly ``fixedpoint.saturate``.
     """
     value = Value.cast(value)
-    if len(value) <= width:
+    # A signed value of up to width bits fits; an unsigned one only below width bits (at width
+    # bits its top bit is a magnitude bit, beyond the signed range).
+    if len(value) < width or (len(value) == width and value.shape().signed):
         return value, Const(0, 1)
     if not value.shape().signed:
         value = Cat(value, Const(0, 1)).as_signed()

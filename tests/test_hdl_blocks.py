@@ -462,3 +462,33 @@ def test_documented_latencies():
     assert Sqrt(constants=_k("q32"), arch="pipelined", radicand_bits=64).latency == 37
     del dut
     gc.collect()   # these components are never elaborated: warn here, not in a later test
+
+
+@pytest.mark.parametrize("shape", [unsigned(3), unsigned(4), signed(4), unsigned(6), signed(6)])
+def test_expr_saturate_is_exact_for_every_value(shape):
+    """``expr.saturate`` to a signed 4-bit word, every value of narrower, equal and wider operands:
+    an unsigned operand as wide as the word is beyond the signed range from 8 up."""
+    from amaranth.sim import Simulator
+
+    from ik5r.hdl.expr import saturate
+
+    width = 4
+    m = Module()
+    a = Signal(shape)
+    word, flag = saturate(a, width)
+    y, sat = Signal(signed(width)), Signal()
+    m.d.comb += [y.eq(word), sat.eq(flag)]
+    low, high = -(1 << (width - 1)), (1 << (width - 1)) - 1
+    seen = []
+
+    async def bench(ctx):
+        first = -(1 << (shape.width - 1)) if shape.signed else 0
+        for value in range(first, first + (1 << shape.width)):
+            ctx.set(a, value)
+            want = min(high, max(low, value))
+            seen.append((ctx.get(y), ctx.get(sat)) == (want, int(want != value)))
+
+    sim = Simulator(m)
+    sim.add_testbench(bench)
+    sim.run()
+    assert len(seen) == 1 << shape.width and all(seen)
