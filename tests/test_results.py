@@ -76,3 +76,27 @@ def test_a_router2_run_is_its_own_design_point(tmp_path):
     # The router1 run at seed 3 is not a seed of the router2 design point.
     assert record["router"] == "router2" and "fmax_mhz_by_seed" not in record
     assert "sqrt iterative q18 on the ecp5-85k: routed with nextpnr's router2" in readme.read_text()
+
+
+def test_the_routes_verdict_names_a_record_of_other_verilog(tmp_path):
+    from ik5r.tools import routes
+
+    def synth(name, luts, fmax, cycles, module):
+        path = tmp_path / "synth" / f"{name}.json"
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(json.dumps({"target": "ecp5", "device": name.rsplit("-", 1)[1], "luts": luts,
+                                    "ffs": 1, "dsps": 1, "brams": 1, "fmax_mhz": fmax,
+                                    "cycles_per_result": cycles, "latency_cycles": cycles, "module": module}))
+    synth("ik5r_soc_vexriscv_q32w_ecp5-25k", 3000, 80.0, 1, "soc")
+    synth("ik5r_ik_compact_q32w_ecp5-25k", 4000, 80.0, 700, "compact")
+    synth("ik5r_ik_dspecp5_pipelined_q32w_ecp5-85k", 60000, 100.0, 1, "pipelined")
+    (tmp_path / "firmware").mkdir()
+    (tmp_path / "firmware" / "vexriscv_rv32im_q32w.json").write_text(json.dumps(
+        {"cycles_per_solve": {"mean": 28000.0}, "mismatches": 0, "vectors": 10}))
+    text = "\n".join(routes.routes_part(tmp_path, lambda r: r["module"] != "pipelined"))
+    compact = next(line for line in text.split("\n") if line.startswith("- **compact IK core**"))
+    pipelined = next(line for line in text.split("\n") if line.startswith("- **pipelined IK core"))
+    assert "it beats the soft CPU per LUT" in compact and "other Verilog" not in compact
+    assert "(record of other Verilog) on the ecp5-85k" in pipelined
+    assert pipelined.endswith("that record beats the soft CPU per LUT.")
+    assert "| pipelined IK core (ECP5 DSP + carry primitives) (record of other Verilog) |" in text

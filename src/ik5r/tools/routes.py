@@ -61,6 +61,10 @@ def _ratio(a: float, b: float) -> str:
     return f"{a / b:,.1f}x" if a >= b else f"1/{b / a:,.1f}"
 
 
+def _stale(row: dict) -> str:
+    return "" if row["current"] else " (record of other Verilog)"
+
+
 def _verdict(rows: list[dict]) -> list[str]:
     """One line per IK core against the rv32im soft CPU on the same device (else the 25k)."""
     cpus = {r["device"]: r for r in rows if r["cpu"] and "rv32im" in r["label"]}
@@ -70,15 +74,18 @@ def _verdict(rows: list[dict]) -> list[str]:
         if cpu is None:
             continue
         per_lut = "beats" if core["per_kilo_lut"] > cpu["per_kilo_lut"] else "does NOT beat"
+        # A record of other Verilog is no claim about this checkout's core: said where it is used.
+        who = "it" if core["current"] and cpu["current"] else "that record"
         lines.append(
-            f"- **{core['label']}** on the {core['device']} vs the rv32im soft CPU on the {cpu['device']}"
+            f"- **{core['label']}**{_stale(core)} on the {core['device']} vs the rv32im soft CPU{_stale(cpu)} "
+            f"on the {cpu['device']}"
             f"{' (no soft CPU record on the ' + core['device'] + ')' if cpu['device'] != core['device'] else ''}: "
             f"{_ratio(core['luts'], cpu['luts'])} the LUT4, {_fmt(core['dsps'])} vs {_fmt(cpu['dsps'])} DSPs, "
             f"{_fmt(core['brams'])} vs {_fmt(cpu['brams'])} block RAMs, {_ratio(core['fmax'], cpu['fmax'])} "
             f"the clock, {_ratio(core['cycles'], cpu['cycles'])} the cycles per pose, "
             f"{_ratio(core['latency_us'], cpu['latency_us'])} the latency, {_ratio(core['poses'], cpu['poses'])} "
             f"the poses/s and {_ratio(core['per_kilo_lut'], cpu['per_kilo_lut'])} the poses/s per 1,000 LUT4: "
-            f"it {per_lut} the soft CPU per LUT.")
+            f"{who} {per_lut} the soft CPU per LUT.")
     return lines
 
 
@@ -93,8 +100,7 @@ def routes_part(records: Path, is_current) -> list[str]:
         "| poses/s per 1,000 LUT4 |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
-        stale = "" if r["current"] else " (record of other Verilog)"
-        lines.append(f"| {r['label']}{stale} | {r['device']} | {_fmt(r['luts'])} | {_fmt(r['ffs'])} | "
+        lines.append(f"| {r['label']}{_stale(r)} | {r['device']} | {_fmt(r['luts'])} | {_fmt(r['ffs'])} | "
                      f"{_fmt(r['dsps'])} | {_fmt(r['brams'])} | {_fmt(r['fmax'], 1)} | {_fmt(r['cycles'])} | "
                      f"{_fmt(r['latency_us'], 2)} | {_fmt(r['poses'])} | {_fmt(r['per_kilo_lut'])} |")
     checked = []  # one entry per firmware record (the 85k row reuses the 25k's)
