@@ -90,7 +90,7 @@ class SynthOptions:
     freq_mhz: float = 150.0         # clock constraint handed to nextpnr (timing-driven placement)
     placer: str | None = None       # None: the target's default (heap on ECP5, sa on iCE40)
     seed: int = 1
-    router: str = "router1"         # nextpnr router; router2 routes congested designs in far less time
+    router: str = "router1"         # nextpnr --router (router2: another algorithm, its own design point)
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)

@@ -47,7 +47,7 @@ def register(subparsers) -> None:
     parser.add_argument("--placer", choices=("heap", "sa", "static"), default=None,
                         help="nextpnr placer (default: heap on ECP5, sa on iCE40)")
     parser.add_argument("--router", choices=("router1", "router2"), default="router1",
-                        help="nextpnr router (default: router1; router2 is faster on congested designs)")
+                        help="nextpnr router (default: router1; a router2 run is a design point of its own)")
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("--threads", type=int, default=2, help="nextpnr --threads (default: 2)")
     parser.add_argument("--no-pnr", action="store_true", help="Yosys only: cell counts, no Fmax")
