@@ -21,7 +21,7 @@ from amaranth.lib import wiring
 
 from ik5r.core.fxconfig import Constants
 
-from .ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+from .datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
 from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 from .provenance import verilog_header
 
@@ -64,26 +64,26 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
     """The Amaranth component of ``block`` (options: ``magnitude`` for atan2, ``frac`` or
     ``radicand_bits`` for sqrt; defaults: magnitude on, sqrt of a length word)."""
     if block == "atan2":
-        from .cordic import Atan2
+        from .blocks.cordic import Atan2
         return Atan2(constants=constants, arch=arch, tag_width=tag_width,
                      magnitude=options.pop("magnitude", True), **options)
     if block == "rotate":
-        from .cordic import Rotate
+        from .blocks.cordic import Rotate
         return Rotate(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == "sqrt":
-        from .sqrt import Sqrt
+        from .blocks.sqrt import Sqrt
         return Sqrt(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == "acos":
-        from .acos import Acos
+        from .blocks.acos import Acos
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == "ik":
         if arch == "compact":
-            from .seq_core import SequencedIKCore, SerialIK
+            from .sequenced.engine import SequencedIKCore, SerialIK
             serial = options.pop("serial", None)
             if serial:
                 return SerialIK(constants=constants, tag_width=tag_width, beat_bits=serial, **options)
             return SequencedIKCore(constants=constants, tag_width=tag_width, **options)
-        from .ik_core import IKCore
+        from .pipelined.core import IKCore
         # "staged": the one-register-set-per-stage elaboration of the pipelined core's stage list
         # (IKCore's own "compact" arch), before the sequenced engine.
         return IKCore(constants=constants, arch="compact" if arch == STAGED else arch,

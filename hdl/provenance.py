@@ -30,7 +30,7 @@ __all__ = ["HEADER_END", "verilog_header", "strip_header", "body_sha256", "confi
 
 #: The last line of the header; everything after it is the body Amaranth wrote.
 HEADER_END = "// ik5r-header-end\n"
-#: The model function each block is bit-exact against (``ik5r.firmware.model``).
+#: The model function each block is bit-exact against (``ik5r.firmware_model.model``).
 MODEL_OF = {"atan2": "cordic_atan2", "rotate": "cordic_rotate", "sqrt": "sqrt_word / isqrt",
             "acos": "cordic_acos", "ik": "ik_solve"}
 
@@ -112,7 +112,7 @@ def _error_lines(block: str, constants: Constants) -> list[str]:
     """The bound the design is built to: bit-exact against the model; the model's own analytic
     bounds from the config (no measured figure: those are in the report and records)."""
     c = constants.cfg
-    model = f"ik5r.firmware.model.{MODEL_OF[block]}"
+    model = f"ik5r.firmware_model.model.{MODEL_OF[block]}"
     lines = [f"error bound: 0 LSB against {model} (bit-exact on every output field)"]
     if block != "sqrt":
         residual = math.atan(2.0 ** -(c.iterations - 1))

@@ -1,4 +1,4 @@
-"""The C solver (firmware/ik5r.c) against the scalar bit-accurate model (the specification).
+"""The C solver (firmware_model/ik5r.c) against the scalar bit-accurate model (the specification).
 
 Every comparison is exact: every joint word, every status bit, every building-block output.
 Default run: ~3000 reachable poses x 4 branches x (with, without n/o) per config plus a directed
@@ -19,9 +19,9 @@ import pytest
 from ik5r.core import cbuild
 from ik5r.core import status as st
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.firmware import codegen, csolver, model
-from ik5r.firmware.poses import PoseBatch, concat
-from ik5r.firmware.vectors import edge_poses, random_poses
+from ik5r.firmware_model import codegen, csolver, model
+from ik5r.firmware_model.poses import PoseBatch, concat
+from ik5r.firmware_model.vectors import edge_poses, random_poses
 
 CONFIGS = ("q32", "q24", "q18", "q32w")
 N_POSES = 3000
@@ -296,7 +296,7 @@ def test_c_rejects_non_words():
 
 def _vector_model():
     try:
-        from ik5r.firmware import vector
+        from ik5r.firmware_model import vector
     except ImportError:
         return None
     return vector

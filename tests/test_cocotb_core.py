@@ -4,7 +4,7 @@ Each case: arch x config x simulator; a cocotb-driven stream run (random idles, 
 with long stalls, a reset in the middle of traffic, latency and cycles-per-result measured: the
 pipelined core must take one pose per clock with the output always ready) and a bulk run, each of N
 random reachable poses (one in ten random words) plus the directed set
-(``ik5r.firmware.vectors.directed_poses``: every branch of the paper's pose, base-axis, singular,
+(``ik5r.firmware_model.vectors.directed_poses``: every branch of the paper's pose, base-axis, singular,
 unreachable, invalid and full-scale cases); every output bit (q1..q5, status) and the tag for
 order and loss.
 
@@ -29,7 +29,7 @@ import os
 import pytest
 
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.firmware.vectors import directed_poses
+from ik5r.firmware_model.vectors import directed_poses
 from ik5r.hdl.modes import CORE_ARCHS
 
 pytestmark = pytest.mark.sim
@@ -39,7 +39,7 @@ CONFIGS = ("q18", "q32", "q32w")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
 CASE_KEYS = ("arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
-# "compact" = the sequenced engine (hdl/seq_core.py): q18 on Icarus, the default config q32w on
+# "compact" = the sequenced engine (hdl/sequenced/engine.py): q18 on Icarus, the default config q32w on
 # Verilator.
 DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("compact", "q18", "generic", "icarus"),
            ("compact", "q32w", "generic", "verilator"),

@@ -1,4 +1,4 @@
-"""cocotb runs of the compact IK core's word-serial wrapper (``SerialIK``, hdl/seq_core.py) as
+"""cocotb runs of the compact IK core's word-serial wrapper (``SerialIK``, hdl/sequenced/engine.py) as
 synthesised for the iCE40 UP5K (16-bit beats, ``ik5r.tools.synth.ICE40_BEAT_BITS``), against the
 bit-accurate model (``ik5r sim --block ik --arch compact --serial 16``; src/ik5r/tools/testbench/serial.py).
 
@@ -20,7 +20,7 @@ from __future__ import annotations
 import pytest
 
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.firmware.vectors import directed_poses
+from ik5r.firmware_model.vectors import directed_poses
 from ik5r.tools.synth import ICE40_BEAT_BITS
 
 CASE_KEYS = ("config", "size", "sim")     # sim_pool (conftest.py)

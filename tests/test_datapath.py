@@ -1,4 +1,4 @@
-"""The typed stages of ``ik5r.hdl.datapath`` and its construction-time check."""
+"""The typed stages of ``ik5r.hdl.datapath.stages`` and its construction-time check."""
 
 import gc
 
@@ -6,11 +6,11 @@ import pytest
 from amaranth.hdl import Signal, signed
 
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.hdl.acos import Acos
-from ik5r.hdl.cordic import Rotate
-from ik5r.hdl.datapath import Datapath, Ecp5Adders, Stage, StageKind, adders_for
-from ik5r.hdl.expr import drop
-from ik5r.hdl.stream_block import StreamBlock
+from ik5r.hdl.blocks.acos import Acos
+from ik5r.hdl.blocks.cordic import Rotate
+from ik5r.hdl.datapath.stages import Datapath, Ecp5Adders, Stage, StageKind, adders_for
+from ik5r.hdl.datapath.expr import drop
+from ik5r.hdl.blocks.stream_block import StreamBlock
 
 
 def _inputs():
@@ -111,9 +111,9 @@ def test_the_adder_mapping_is_explicit():
 
 def test_the_chains_declare_what_they_read_and_leave():
     """Each chain, checked alone from its declared inputs to its declared outputs."""
-    from ik5r.hdl.chains import namespaced
-    from ik5r.hdl.cordic import add_atan2
-    from ik5r.hdl.ik_units import rotate_const_chain
+    from ik5r.hdl.blocks.chains import namespaced
+    from ik5r.hdl.blocks.cordic import add_atan2
+    from ik5r.hdl.pipelined.units import rotate_const_chain
     k = constants(load_config("q18"))
     word = signed(k.cfg.width)
     for skewed in (True, False):

@@ -50,7 +50,7 @@ def test_bit_exact_on_vexriscv(config, isa):
 
 def test_rv32i_has_no_multiply_instruction():
     """The RV32I build calls libgcc's software multiply (and its cost shows in cycles)."""
-    from ik5r.firmware import rv32
+    from ik5r.firmware_model import rv32
 
     k = constants(load_config("q32w"))
     symbols = {}
@@ -67,7 +67,7 @@ def test_rv32i_has_no_multiply_instruction():
 
 def test_hung_cpu_is_caught_by_the_cycle_limit():
     k = constants(load_config("q32w"))
-    from ik5r.firmware import vectors
+    from ik5r.firmware_model import vectors
 
     soft = SoftCpu(k, isa="rv32im", cpu="vexriscv", cycles_per_solve_limit=100)
     poses = vectors.random_poses(k, 1, 3)[:2]
@@ -141,7 +141,7 @@ def test_soc_constructor_checks_and_deterministic_verilog():
 
     from amaranth.hdl import UnusedElaboratable
 
-    from ik5r.hdl.soc import SoC, generate_soc
+    from ik5r.hdl.soc.system import SoC, generate_soc
 
     with warnings.catch_warnings():  # the half-built components of the failed constructors
         warnings.simplefilter("ignore", UnusedElaboratable)
@@ -160,7 +160,7 @@ def test_soc_constructor_checks_and_deterministic_verilog():
 def test_missing_verilator_and_failed_build_are_one_line(monkeypatch, capsys):
     import shutil
 
-    from ik5r.firmware import rv32
+    from ik5r.firmware_model import rv32
 
     real_which = shutil.which
     with monkeypatch.context() as patch:
@@ -181,7 +181,7 @@ def test_soc_verilog_is_verilator_lint_clean(tmp_path):
     is a port-only stub made from the wheel's module header (its source is not ours to lint)."""
     from amaranth.back import verilog
 
-    from ik5r.hdl.soc import SoC, cpu_verilog
+    from ik5r.hdl.soc.system import SoC, cpu_verilog
     from ik5r.tools.softcpu import verilator
 
     (tmp_path / "ik5r_soc.v").write_text(

@@ -1,4 +1,4 @@
-"""Unit checks of the Amaranth blocks against the bit-accurate model (firmware/model.py).
+"""Unit checks of the Amaranth blocks against the bit-accurate model (firmware_model/model.py).
 
 Amaranth's own simulator; every output bit of a few hundred edge and random inputs per block,
 architecture and config (q18, q32), first at full rate (exact latency and throughput), then with
@@ -24,15 +24,15 @@ from amaranth.back import verilog
 from amaranth.hdl import Module, Signal, signed, unsigned
 
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.firmware import model
-from ik5r.hdl.acos import Acos
-from ik5r.hdl.cordic import Atan2, Rotate
-from ik5r.hdl.datapath import OUTPUT_FIFO_LATENCY, Ecp5Adders
-from ik5r.hdl.ecp5 import ecp5_add_sub_verilog
-from ik5r.hdl.expr import add_sub
+from ik5r.firmware_model import model
+from ik5r.hdl.blocks.acos import Acos
+from ik5r.hdl.blocks.cordic import Atan2, Rotate
+from ik5r.hdl.datapath.stages import OUTPUT_FIFO_LATENCY, Ecp5Adders
+from ik5r.hdl.datapath.ecp5 import ecp5_add_sub_verilog
+from ik5r.hdl.datapath.expr import add_sub
 from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
 from ik5r.hdl.modes import ARCHS
-from ik5r.hdl.sqrt import Sqrt
+from ik5r.hdl.blocks.sqrt import Sqrt
 from ik5r.tools.testbench.amaranth_stream import (
     check_output_held,
     compare,
@@ -470,7 +470,7 @@ def test_expr_saturate_is_exact_for_every_value(shape):
     an unsigned operand as wide as the word is beyond the signed range from 8 up."""
     from amaranth.sim import Simulator
 
-    from ik5r.hdl.expr import saturate
+    from ik5r.hdl.datapath.expr import saturate
 
     width = 4
     m = Module()

@@ -1,4 +1,4 @@
-"""The IK core (hdl/ik_core.py) against the bit-accurate model (``model.solve_batch``).
+"""The IK core (hdl/pipelined/core.py) against the bit-accurate model (``model.solve_batch``).
 
 Amaranth's simulator; every output bit (q1..q5, status, tag) of random reachable poses (all four
 branches, with and without n, o) and a directed set (the paper's pose, tool point on the base axis
@@ -20,10 +20,10 @@ import re
 import pytest
 
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.firmware import model
-from ik5r.firmware.poses import FIELDS, concat
-from ik5r.firmware.vectors import directed_poses, random_poses
-from ik5r.hdl.ik_core import IKCore
+from ik5r.firmware_model import model
+from ik5r.firmware_model.poses import FIELDS, concat
+from ik5r.firmware_model.vectors import directed_poses, random_poses
+from ik5r.hdl.pipelined.core import IKCore
 from ik5r.tools.testbench.amaranth_stream import (
     check_output_held,
     compare,

@@ -20,7 +20,7 @@ from ik5r.core import reference as ref
 from ik5r.core.arm import load_arm
 from ik5r.core.errors import InputError, read_toml
 from ik5r.core.fxconfig import Constants, constants, load_config, parse_config, quantize
-from ik5r.firmware import model, vector
+from ik5r.firmware_model import model, vector
 
 ARM = load_arm()
 FLOOR_RAD = 1e-6

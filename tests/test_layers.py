@@ -5,7 +5,7 @@ A layer is a folder whose name is its import name, so a module's layer is its pa
     tools     ik5r.tools (src/ik5r/tools/): cli, commands, synth, sweep, bench, results, report,
               demo, softcpu; the testbenches (ik5r.tools.testbench), which check the HDL against
               the firmware model
-    firmware  ik5r.firmware (firmware/)  |  hdl  ik5r.hdl (hdl/)  |  numeric  ik5r.numeric
+    firmware  ik5r.firmware_model (firmware_model/)  |  hdl  ik5r.hdl (hdl/)  |  numeric  ik5r.numeric
               (src/ik5r/numeric/)
     core      ik5r.core (src/ik5r/core/): fxconfig, arm, chain, reference, status, csvio, errors,
               fixedpoint (+ _np), pose_fields, cbuild, ik (the IK body, written once on the
@@ -24,7 +24,7 @@ from ik5r.tools.sources import all_modules, closure, imports_of
 
 #: Layer of each package (a module's layer is that of its longest matching package).
 LAYERS = {"ik5r": "core", "ik5r.core": "core", "ik5r.data": "core", "ik5r.configs": "core",
-          "ik5r.firmware": "firmware", "ik5r.hdl": "hdl", "ik5r.numeric": "numeric",
+          "ik5r.firmware_model": "firmware", "ik5r.hdl": "hdl", "ik5r.numeric": "numeric",
           "ik5r.tools": "tools", "ik5r.__main__": "tools"}
 #: What each layer may import (besides third-party packages).
 ALLOWED = {"core": {"core"}, "firmware": {"core", "firmware"}, "hdl": {"core", "hdl"},
@@ -60,11 +60,11 @@ def violations(mods: dict[str, Path] | None = None) -> list[str]:
 
 def test_the_graph_is_read():
     mods = all_modules()
-    assert {"ik5r.core.fxconfig", "ik5r.firmware.model", "ik5r.hdl.ik_core", "ik5r.tools.testbench.runner",
+    assert {"ik5r.core.fxconfig", "ik5r.firmware_model.model", "ik5r.hdl.pipelined.core", "ik5r.tools.testbench.runner",
             "ik5r.tools.commands.solve", "ik5r.core.fixedpoint"} <= set(mods)
-    assert "ik5r.core.fixedpoint" in imports_of("ik5r.hdl.ik_units", mods["ik5r.hdl.ik_units"])
-    assert "ik5r.hdl.datapath" in imports_of("ik5r.hdl.cordic", mods["ik5r.hdl.cordic"])
-    assert layer_of("ik5r.tools.testbench.blocks") == "tools" and layer_of("ik5r.hdl.cordic") == "hdl"
+    assert "ik5r.core.fixedpoint" in imports_of("ik5r.hdl.pipelined.units", mods["ik5r.hdl.pipelined.units"])
+    assert "ik5r.hdl.datapath.stages" in imports_of("ik5r.hdl.blocks.cordic", mods["ik5r.hdl.blocks.cordic"])
+    assert layer_of("ik5r.tools.testbench.blocks") == "tools" and layer_of("ik5r.hdl.blocks.cordic") == "hdl"
     assert layer_of("ik5r.numeric.solver") == "numeric" and layer_of("ik5r.core.cbuild") == "core"
 
 
@@ -72,13 +72,13 @@ def test_a_violation_is_found(tmp_path):
     core = tmp_path / "status.py"
     core.write_text("def f():\n    from ..tools.commands import solve\n")
     hdl = tmp_path / "ik_core.py"
-    hdl.write_text("from ik5r.firmware import model\n")
-    mods = {**all_modules(), "ik5r.core.status": core, "ik5r.hdl.ik_core": hdl}
+    hdl.write_text("from ik5r.firmware_model import model\n")
+    mods = {**all_modules(), "ik5r.core.status": core, "ik5r.hdl.pipelined.core": hdl}
     assert violations(mods) == [
         f"{core}: ik5r.core.status (core) imports ik5r.tools.commands (tools)",
         f"{core}: ik5r.core.status (core) imports ik5r.tools.commands.solve (tools)",
-        f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware (firmware)",
-        f"{hdl}: ik5r.hdl.ik_core (hdl) imports ik5r.firmware.model (firmware)"]
+        f"{hdl}: ik5r.hdl.pipelined.core (hdl) imports ik5r.firmware_model (firmware)",
+        f"{hdl}: ik5r.hdl.pipelined.core (hdl) imports ik5r.firmware_model.model (firmware)"]
 
 
 def test_lower_layers_never_import_higher_ones():
@@ -89,12 +89,12 @@ def test_cache_key_closures_follow_the_imports():
     """The sweep's cache keys hash these closures: what the Verilog and the error figures come from."""
     mods = all_modules()
     verilog = set(closure(["ik5r.hdl.generate", "ik5r.tools.synth"]))
-    assert {mods[m] for m in ("ik5r.hdl.ik_core", "ik5r.hdl.cordic", "ik5r.hdl.datapath", "ik5r.hdl.build",
-                              "ik5r.hdl.products", "ik5r.hdl.expr", "ik5r.core.status",
+    assert {mods[m] for m in ("ik5r.hdl.pipelined.core", "ik5r.hdl.blocks.cordic", "ik5r.hdl.datapath.stages", "ik5r.hdl.datapath.build",
+                              "ik5r.hdl.datapath.products", "ik5r.hdl.datapath.expr", "ik5r.core.status",
                               "ik5r.core.fixedpoint", "ik5r.core.fxconfig", "ik5r.core.arm", "ik5r.hdl")} <= verilog
-    assert mods["ik5r.firmware.model"] not in verilog and mods["ik5r.tools.testbench.runner"] not in verilog
+    assert mods["ik5r.firmware_model.model"] not in verilog and mods["ik5r.tools.testbench.runner"] not in verilog
     errors = set(closure(["ik5r.tools.report.quantisation"]))
-    assert {mods[m] for m in ("ik5r.firmware.vector", "ik5r.core.reference", "ik5r.core.status")} <= errors
+    assert {mods[m] for m in ("ik5r.firmware_model.vector", "ik5r.core.reference", "ik5r.core.status")} <= errors
 
 
 def test_hardware_choices_are_named_once():

@@ -13,7 +13,7 @@ from test_numeric import PRISMATIC_ARM
 
 from ik5r.core import cbuild
 from ik5r.core.chain import fk, jacobian, load_chain, parse_chain, random_joints, shipped_arm
-from ik5r.firmware import csolver
+from ik5r.firmware_model import csolver
 from ik5r.numeric import lmkernel, multistart
 from ik5r.numeric import solver as nm
 

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from ik5r.core import csvio
 from ik5r.core.errors import InputError
 from ik5r.core.fxconfig import config_dir, constants, load_config
-from ik5r.firmware import csolver, model, vector
+from ik5r.firmware_model import csolver, model, vector
 from ik5r.tools.cli import main
 
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,

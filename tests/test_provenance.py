@@ -40,7 +40,7 @@ def test_header_names_config_formats_latency_bound_tools_commit(sqrt_q32w):
     assert (f"formats: {c.width}-bit signed words; fraction bits: length {c.frac_length}, unit "
             f"{c.frac_unit}, angle {c.frac_angle}") in head
     assert f"latency: {pmap['latency_cycles']} cycles; cycles per result: {pmap['cycles_per_result']}" in head
-    assert "error bound: 0 LSB against ik5r.firmware.model.sqrt_word" in head
+    assert "error bound: 0 LSB against ik5r.firmware_model.model.sqrt_word" in head
     tools = tool_versions()
     assert f"tools: amaranth {tools['amaranth']}; yosys {tools['yosys']}" in head
     assert re.fullmatch(r"[0-9a-f]{40}(\+dirty)?|unknown", source_commit())
@@ -51,7 +51,7 @@ def test_header_names_config_formats_latency_bound_tools_commit(sqrt_q32w):
 
 def test_ik_core_header_names_the_internal_format():
     from ik5r.hdl.generate import portmap
-    from ik5r.hdl.ik_core import IKCore
+    from ik5r.hdl.pipelined.core import IKCore
 
     # The header of the core as generate() writes it, without converting the core (~30 s).
     k = constants(load_config("q32w"))
@@ -62,7 +62,7 @@ def test_ik_core_header_names_the_internal_format():
     assert (f"internal format (IK): {i.width}-bit words; fraction bits: length {i.frac_length}, "
             f"unit {i.frac_unit}, angle {i.frac_angle}; CORDIC {i.iterations} iterations") in text
     assert f"// latency: {core.latency} cycles; cycles per result: {core.cycles_per_result}" in text
-    assert "against ik5r.firmware.model.ik_solve" in text
+    assert "against ik5r.firmware_model.model.ik_solve" in text
 
 
 def test_config_hash_follows_the_numbers_not_the_name():

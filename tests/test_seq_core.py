@@ -1,4 +1,4 @@
-"""The sequenced IK engine (the IK core's ``compact`` arch: hdl/seq_isa.py, seq_program.py,
+"""The sequenced IK engine (the IK core's ``compact`` arch: hdl/sequenced/isa.py, seq_program.py,
 seq_core.py) against the bit-accurate model (``model.solve_batch``).
 
 Three levels: the program on the clock-exact reference interpreter (every directed pose and
@@ -21,13 +21,13 @@ from test_ik_core import expected_of, inputs_of, with_tags
 
 from ik5r.core import status as st
 from ik5r.core.fxconfig import constants, load_config
-from ik5r.firmware import model
-from ik5r.firmware.poses import PoseBatch, concat
-from ik5r.firmware.vectors import directed_poses, random_poses
+from ik5r.firmware_model import model
+from ik5r.firmware_model.poses import PoseBatch, concat
+from ik5r.firmware_model.vectors import directed_poses, random_poses
 from ik5r.hdl import seq_isa
 from ik5r.hdl.generate import generate
-from ik5r.hdl.seq_core import STATUS_BITS, SequencedIKCore, SerialIK
-from ik5r.hdl.seq_program import ik_program
+from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore, SerialIK
+from ik5r.hdl.sequenced.program import ik_program
 from ik5r.tools.testbench.amaranth_stream import compare, run_stream
 from ik5r.tools.testbench.blocks import ik_outputs
 

@@ -19,8 +19,8 @@ from ik5r.core import status as st
 from ik5r.core.arm import load_arm
 from ik5r.core.fxconfig import constants, load_config
 from ik5r.core.status_cases import SEED_CHECK_POSE, status_cases
-from ik5r.firmware import csolver, model, vector
-from ik5r.firmware.poses import pose_words
+from ik5r.firmware_model import csolver, model, vector
+from ik5r.firmware_model.poses import pose_words
 from ik5r.tools.cli import main
 
 ARM = load_arm()

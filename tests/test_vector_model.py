@@ -1,4 +1,4 @@
-"""The vectorised model (firmware/vector.py) against the scalar specification (model.py).
+"""The vectorised model (firmware_model/vector.py) against the scalar specification (model.py).
 
 Every comparison is exact: every bit of every output word and every status bit.
 The default run covers >= 5000 random reachable poses x 4 branches per config, a directed edge set,
@@ -19,9 +19,9 @@ import pytest
 from ik5r.core.arm import load_arm
 from ik5r.core.fxconfig import Constants, constants, load_config
 from ik5r.core.status import INVALID, SATURATED, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
-from ik5r.firmware import model, vector
-from ik5r.firmware.poses import PoseBatch
-from ik5r.firmware.vectors import edge_poses, random_poses
+from ik5r.firmware_model import model, vector
+from ik5r.firmware_model.poses import PoseBatch
+from ik5r.firmware_model.vectors import edge_poses, random_poses
 
 CONFIGS = ("q18", "q24", "q32", "q32w")
 ARM = load_arm()

@@ -1,12 +1,12 @@
 """The stream contract of an ik5r block or IK core as Amaranth ``Assert``/``Assume`` properties.
 
-:class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.stream_block.StreamBlock`: the four
+:class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.blocks.stream_block.StreamBlock`: the four
 blocks in both architectures and the IK core: pipelined, staged, and the compact arch's
-sequenced engine, :class:`~ik5r.hdl.seq_core.SequencedIKCore`, see :mod:`.sequenced`) for SymbiYosys.
+sequenced engine, :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`, see :mod:`.sequenced`) for SymbiYosys.
 
 **Data abstraction.** The contract is about control, and the datapaths (dozens of adders and
 multipliers a stage, up to 190 stages) would drown a solver. :func:`abstract_datapath` keeps the
-component's own :class:`~ik5r.hdl.datapath.Datapath`: the same stages, counts, iterated and shared
+component's own :class:`~ik5r.hdl.datapath.stages.Datapath`: the same stages, counts, iterated and shared
 stages, stashes and the same ``Datapath.build`` (valid chain, credits, output FIFO, step counters,
 shared-unit sequencing), but every value a stage computes, except the ``tag``, is a free value
 (``$anyseq``) of the register's shape. So the registers, their enables and the tag path are the
@@ -76,9 +76,9 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
 from amaranth.hdl._ast import AnySeq
 
-from ..datapath import Datapath, SharedStage
-from ..seq_core import SequencedIKCore
-from ..stream_block import StreamBlock
+from ..datapath.stages import Datapath, SharedStage
+from ..sequenced.engine import SequencedIKCore
+from ..blocks.stream_block import StreamBlock
 from .iterative import track_item
 from .pipelined import elaborate_fifo, track_marks
 from .sequenced import elaborate_engine, sequencer, tag_queue

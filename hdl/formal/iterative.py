@@ -1,7 +1,7 @@
 """The ``order`` group of an iterative build (the iterative blocks, the staged IK core) by
 k-induction.
 
-An iterative build (:func:`~ik5r.hdl.build.build_iterative`) holds one item: a stage's
+An iterative build (:func:`~ik5r.hdl.datapath.build.build_iterative`) holds one item: a stage's
 ``<stage>_valid`` bit says the item is in it, and with no output held it moves on as soon as
 the stage is done: a registered stage after one cycle, an iterated one after ``count`` (its
 ``<stage>_step``, or the ``unit_<unit>_step`` of the functional unit it shares, counts 1 ..
@@ -15,7 +15,7 @@ stage's registers are loaded only when the item enters it, and one item is insid
 hold until the next item. That register is ``s``'s own, or an earlier one where the tag is not
 in the stage's state: a shared unit's stage carries only the unit's values (the others stay in
 the stage before), and the stash of the staged IK core is the source register itself
-(:meth:`~ik5r.hdl.stash.Stash.elaborate`, ``arch != "pipelined"``).
+(:meth:`~ik5r.hdl.datapath.stash.Stash.elaborate`, ``arch != "pipelined"``).
 
 :func:`track_item` asserts that, for each mark: in an occupied stage the tag is the mark iff
 the mark is inside, the tag is never 3, a mark inside has an occupied stage, and while it is
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Module
 
-from ..datapath import Stage
+from ..datapath.stages import Stage
 
 __all__ = ["track_item"]
 

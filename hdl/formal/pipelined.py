@@ -1,6 +1,6 @@
 """The ``order`` group of a pipelined block by k-induction: where the two marked items are.
 
-A pipelined block (:func:`~ik5r.hdl.build.build_pipelined`) is a delay line that steps
+A pipelined block (:func:`~ik5r.hdl.datapath.build.build_pipelined`) is a delay line that steps
 every clock (stage ``s`` holds an item ``s + 1`` cycles after its input transfer: its
 ``<stage>_valid`` bit and ``<stage>_tag`` register), then the FIFO's write register
 (``<name>_fifo_write``, ``<name>_fifo_data``), then the output FIFO (``SyncFIFOBuffered``: a RAM of

@@ -43,7 +43,7 @@ __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION",
            "prove_fifo_lemma", "prove_stash_lemma", "stash_lemma_links", "main"]
 
 #: (block, arch) of every component the contract is proved for. The IK core's "compact" arch is
-#: the sequenced engine of hdl/seq_core.py (:mod:`.sequenced`); its "staged" build is the pipelined
+#: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`); its "staged" build is the pipelined
 #: core's stage list elaborated one item at a time (the compact arch before the engine).
 JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for arch in ARCHS) + (
     ("ik", "pipelined"), ("ik", "staged"), ("ik", "compact"))

@@ -1,6 +1,6 @@
-"""The sequenced IK core (:class:`~ik5r.hdl.seq_core.SequencedIKCore`) under the stream contract.
+"""The sequenced IK core (:class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`) under the stream contract.
 
-The engine has no :class:`~ik5r.hdl.datapath.Datapath`; its control is the program counter, the
+The engine has no :class:`~ik5r.hdl.datapath.stages.Datapath`; its control is the program counter, the
 instruction ROM's read register and the two instruction registers (``fetched``, ``exe``), the
 ``started``/``booted`` bits and the core's input register (``full``, ``full_q``, ``in_q``) and
 output register (``valid``, ``out``). The program has no branches: which instruction executes is
@@ -29,8 +29,8 @@ from dataclasses import dataclass
 from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, Value
 from amaranth.lib import data
 
-from .. import seq_isa as X
-from ..seq_core import _pack
+from ..sequenced import isa as X
+from ..sequenced.engine import _pack
 
 __all__ = ["DATA_REGISTERS", "Places", "elaborate_engine", "sequencer", "tag_queue"]
 

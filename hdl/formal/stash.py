@@ -1,7 +1,7 @@
 """The stash RAM that carries the IK core's tag is a delay line: the lemma, and its use.
 
 The pipelined IK core's tag leaves the state after stage ``origin - 1`` (``select``) and comes
-back ``distance`` stages later through a :class:`~ik5r.hdl.stash.Stash` RAM ring buffer (q18:
+back ``distance`` stages later through a :class:`~ik5r.hdl.datapath.stash.Stash` RAM ring buffer (q18:
 from stage 0 to stage 185, 184 cycles, a 256-entry RAM), written every clock at a write
 pointer, read every clock ``distance - 2`` entries behind it, the read data registered twice.
 The order induction of :mod:`.pipelined` cannot see inside a RAM, and a shadow of all its
@@ -9,7 +9,7 @@ entries (as the output FIFO once had) relates nothing to the stages' valid bits.
 compositional:
 
 1. **The lemma** (:class:`StashLemma`, its own k-induction on the real
-   :meth:`~ik5r.hdl.stash.Stash.elaborate` code with the core's ``origin``, ``where`` and word
+   :meth:`~ik5r.hdl.datapath.stash.Stash.elaborate` code with the core's ``origin``, ``where`` and word
    width): for every cycle ``t0``, if no reset occurs in the cycles ``t0 .. t0 + distance - 1``,
    the stash's output at ``t0 + distance`` is the word written at ``t0``. The word is a free
    input (any value every cycle), the RAM is the real one (mapped to flip-flops, nothing cut),
@@ -25,7 +25,7 @@ compositional:
    ``g[distance - 1]`` whenever stage ``where - 1`` (the one reading it) holds an item. That is
    the lemma's conclusion: an item in stage ``where - 1`` at ``t`` entered stage 0 at
    ``t - (where - 1)``, and every stage valid bit is cleared by a reset
-   (:func:`~ik5r.hdl.build.build_pipelined`: ``<stage>_valid`` is the previous stage's of the
+   (:func:`~ik5r.hdl.datapath.build.build_pipelined`: ``<stage>_valid`` is the previous stage's of the
    cycle before, reset by ``rst``), so no reset occurred in ``t - where .. t - 1``, which
    contains the lemma's premise window ``t - distance .. t - 1`` (``origin`` >= 1). This step
    (the valid chain implies no reset in the window) is argued, not machine-checked.
@@ -40,7 +40,7 @@ import os
 
 from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal
 
-from ..stash import REGISTER_DELAY_MAX, Stash
+from ..datapath.stash import REGISTER_DELAY_MAX, Stash
 
 __all__ = ["StashLemma", "tag_links", "stash_tags"]
 

@@ -2,6 +2,6 @@
 
 import sys
 
-from .tools.cli import main
+from ik5r.tools.cli import main
 
 sys.exit(main())

@@ -1,5 +1,5 @@
 """Cached C builds (bottom layer): a build directory keyed by a hash of its sources, the compiler
-and the flags, and an atomic compile into it. The firmware's C solver (``ik5r.firmware.csolver``)
+and the flags, and an atomic compile into it. The firmware's C solver (``ik5r.firmware_model.csolver``)
 and the numeric kernel (``ik5r.numeric.lmkernel``) both build through it, so neither needs the other.
 
 The cache is ``$IK5R_CACHE_DIR``, else ``$XDG_CACHE_HOME/ik5r``, else ``~/.cache/ik5r``; a change of

@@ -1,7 +1,7 @@
 """The fixed-point vocabulary of ik5r (bottom layer): rounding shifts, saturation, constant
 multiplies and angle wraps on Python integers.
 
-The firmware model (``ik5r.firmware.model``, the specification the C and the HDL are checked
+The firmware model (``ik5r.firmware_model.model``, the specification the C and the HDL are checked
 against) is written in these words, and the HDL uses them to size its datapath at construction
 time, so neither layer imports the other. ``>>`` on a negative Python int floors, exactly like the
 C's arithmetic right shift (docs/algorithm.md, "C semantics").

@@ -6,7 +6,7 @@ two's complement like Python's infinite one, so bit extraction agrees for any in
 
 Python integers are unbounded; int64 is not. For a format ``k`` of at most ``MAX_WIDTH`` bits (the
 word configs) every product of two values and every sum the IK forms fits int64 (the bounds are
-noted where the vectorised model uses them, ``ik5r.firmware.vector``), and the *exact* words
+noted where the vectorised model uses them, ``ik5r.firmware_model.vector``), and the *exact* words
 (``exact_mul``, ``sum_of_squares``, ``mul_round``, ``dot_round``, ...) are the plain int64
 operations; one sum reaches 2**63 and is formed in uint64 (:func:`sum_of_squares`). A wider format
 (an internal one, ``ik.internal_guard_bits`` > 0: values of up to 40 bits) forms its products

@@ -1,7 +1,7 @@
 """The fixed-point configuration: one TOML, the single source of truth.
 
-The C header (``ik5r.firmware.codegen``), the bit-accurate models (``ik5r.firmware.model``,
-``ik5r.firmware.vector``) and the Amaranth HDL (``ik5r.hdl``) all take their widths, fraction bits,
+The C header (``ik5r.firmware_model.codegen``), the bit-accurate models (``ik5r.firmware_model.model``,
+``ik5r.firmware_model.vector``) and the Amaranth HDL (``ik5r.hdl``) all take their widths, fraction bits,
 iteration counts, rounding and every derived integer constant from :class:`Constants`, so they
 cannot drift apart.
 

@@ -1,11 +1,11 @@
 """The fixed-point IK of ``ik5r.c``, written once (bottom layer): the scalar and the vectorised
 firmware models run it on numbers, the compact HDL core traces it into its program
-(``ik5r.hdl.seq_trace``).
+(``ik5r.hdl.graph.trace``).
 
 Every function takes ``fx``, the fixed-point vocabulary (:mod:`ik5r.core.fixedpoint` on Python
 integers, :mod:`ik5r.core.fixedpoint_np` on numpy arrays: the same names), and ``fw``, the model's
-CORDIC and square-root kernels (:mod:`ik5r.firmware.model` or :mod:`ik5r.firmware.vector`, or the
-symbolic ones of ``ik5r.hdl.seq_trace``:
+CORDIC and square-root kernels (:mod:`ik5r.firmware_model.model` or :mod:`ik5r.firmware_model.vector`, or the
+symbolic ones of ``ik5r.hdl.graph.trace``:
 ``atan2_angle``, ``cordic_rotate``, ``isqrt``, ``cordic_acos``, ``acos_of_complements``). A value
 is one integer (the scalar model, one pose) or one array element per pose (the vectorised model);
 where the scalar C branches per pose, the body selects (``fx.select``, ``fx.flag``), which is the

@@ -1,6 +1,6 @@
 """The field schema of a pose and of a solution, shared by every fixed-point layer.
 
-The firmware layer's :class:`ik5r.firmware.poses.PoseBatch` holds these fields as word arrays, the
+The firmware layer's :class:`ik5r.firmware_model.poses.PoseBatch` holds these fields as word arrays, the
 IK cores carry them as payload fields, the testbenches drive and check them by these names. Each
 field says which fixed-point format it is in (:class:`Format`): the configuration gives each
 format its fraction bits.

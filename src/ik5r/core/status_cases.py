@@ -2,7 +2,7 @@
 
 Every layer (float reference, fixed-point model, C solver, HDL core) must give each case the same
 status class (:func:`ik5r.core.status.status_class`) on every branch; ``tests/test_status.py`` prints
-and checks the table, ``ik5r.firmware.vectors.directed_poses`` feeds the cases to the C and HDL
+and checks the table, ``ik5r.firmware_model.vectors.directed_poses`` feeds the cases to the C and HDL
 bit-exact tests.
 """
 

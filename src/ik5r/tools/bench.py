@@ -30,7 +30,7 @@ import numpy as np
 from ik5r.core import reference
 from ik5r.core.arm import Arm, load_arm
 from ik5r.core.fxconfig import Constants, constants, load_config
-from ik5r.firmware.poses import PoseBatch
+from ik5r.firmware_model.poses import PoseBatch
 
 
 def _timed(fn, repeat: int) -> tuple[float, float]:
@@ -102,7 +102,7 @@ def numerical_baselines(arm: Arm, p, n, o, a, lm_count: int, ikpy_count: int) ->
 
 def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
     """Instructions per ik5r_solve call (callgrind, -O2 host build), or None without valgrind."""
-    from ik5r.firmware.csolver import build_test_driver
+    from ik5r.firmware_model.csolver import build_test_driver
 
     if shutil.which("valgrind") is None:
         return None
@@ -183,7 +183,7 @@ def cli_streaming(poses: int, config: str | None, solvers=("float", "fixed"), se
 
 def run(poses: int = 1_000_000, config: str | None = None, repeat: int = 3, lm_count: int = 100,
         ikpy_count: int = 20, callgrind_count: int = 2000, seed: int = 0) -> dict:
-    from ik5r.firmware import csolver, vector
+    from ik5r.firmware_model import csolver, vector
 
     arm = load_arm()
     k = constants(load_config(config), arm)

@@ -1,11 +1,11 @@
 """The C solver on a simulated soft CPU: cross-compiled firmware, a Verilator model of the SoC.
 
 :class:`SoftCpu` builds (or reuses) the firmware of a config for an ISA
-(:mod:`ik5r.firmware.rv32`) and a Verilator model of :class:`ik5r.hdl.soc.SoC` driven by
+(:mod:`ik5r.firmware_model.rv32`) and a Verilator model of :class:`ik5r.hdl.soc.system.SoC` driven by
 ``hdl/sim/soc_harness.cpp``, then solves batches of poses on it: the poses go into the SoC's RAM,
 the CPU runs the firmware cycle by cycle, and the raw joint words and status words come back out,
 with the clock cycles and retired instructions of every solve (from the MARK writes between
-solves). ``solve_batch`` has the signature of :func:`ik5r.firmware.vector.solve_batch` (minus
+solves). ``solve_batch`` has the signature of :func:`ik5r.firmware_model.vector.solve_batch` (minus
 ``k``).
 
 A CPU that traps, stops early (fewer solves done than asked) or hangs (no STOP write within the
@@ -28,7 +28,7 @@ import numpy as np
 
 from ik5r.core.cbuild import cache_root, path_lock
 from ik5r.core.fxconfig import Constants
-from ik5r.firmware import rv32
+from ik5r.firmware_model import rv32
 
 #: Default SoC RAM for simulation: 64 KiB (code + data + stack, the rest a job area).
 SIM_RAM_WORDS = 16384
@@ -70,7 +70,7 @@ def verilator() -> str:
 
 def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS) -> Path:
     """The Verilator executable of the SoC with ``cpu`` (cached by a hash of its inputs)."""
-    from ik5r.hdl.soc import generate_soc
+    from ik5r.hdl.soc.system import generate_soc
 
     try:
         text = generate_soc(cpu=cpu, ram_words=ram_words, host_port=True)
@@ -119,7 +119,7 @@ class SoftCpu:
     def __init__(self, k: Constants, *, isa: str = "rv32im", cpu: str | None = None,
                  ram_words: int = SIM_RAM_WORDS,
                  cycles_per_solve_limit: int = CYCLES_PER_SOLVE_LIMIT):
-        from ik5r.hdl.soc import CPUS
+        from ik5r.hdl.soc.system import CPUS
 
         cpu = cpu or default_cpu(isa)
         if cpu not in CPUS:
@@ -226,7 +226,7 @@ def soc_design(k: Constants, cpu: str) -> tuple[str, dict]:
     """Verilog of the SoC with ``cpu`` and the firmware of ``k`` in its RAM (no host port), and a
     port-map-like dict for :func:`ik5r.tools.synth.synthesize` (cycles per solve: measured by
     simulation, not known here)."""
-    from ik5r.hdl.soc import CPUS, generate_soc
+    from ik5r.hdl.soc.system import CPUS, generate_soc
 
     if cpu not in CPUS:
         raise SoftCpuError(f"cpu must be one of {', '.join(CPUS)}, got {cpu!r}")

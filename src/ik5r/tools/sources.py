@@ -18,7 +18,7 @@ from pathlib import Path
 __all__ = ["package_dirs", "all_modules", "imports_of", "closure", "closure_hash"]
 
 #: The installed packages whose folder is not ``ik5r``'s subfolder (pyproject.toml's package-dir).
-TOP_PACKAGES = ("ik5r", "ik5r.firmware", "ik5r.hdl")
+TOP_PACKAGES = ("ik5r", "ik5r.firmware_model", "ik5r.hdl")
 
 
 @cache

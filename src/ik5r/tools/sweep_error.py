@@ -45,7 +45,7 @@ def _float_side(poses: int, seed: int) -> dict:
 
 def error_figures(cfg: FixedConfig, poses: int, seed: int) -> dict:
     """Position, approach and joint error of the fixed-point IK at ``cfg`` against float64."""
-    from ik5r.firmware.vector import solve_batch
+    from ik5r.firmware_model.vector import solve_batch
 
     from .report import quantisation as qz
 

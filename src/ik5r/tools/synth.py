@@ -296,7 +296,7 @@ def _design(block: str, arch: str, k, opts: SynthOptions):
     """The Verilog of a block (or the soft CPU SoC): (arch, dsp, options, text, port map)."""
     from ik5r.hdl.generate import generate, resolve_arch
 
-    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.CPUS)
+    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.system.CPUS)
         from .softcpu import soc_design
         text, pmap = soc_design(k, arch)
         return arch, "generic", {}, text, pmap

@@ -1,8 +1,8 @@
 """``ik5r firmware``: the C solver cross-compiled for RISC-V and run on a simulated soft CPU.
 
-Builds ``firmware/ik5r.c`` with the config's generated header and a bare-metal harness for
+Builds ``firmware_model/ik5r.c`` with the config's generated header and a bare-metal harness for
 ``--isa`` (riscv64-unknown-elf-gcc, ``-march=<isa> -mabi=ilp32 -O2``), simulates the SoC of
-``ik5r.hdl.soc`` (a VexRiscv CPU from the pythondata-cpu-vexriscv wheel, on-chip RAM, MARK/STOP
+``ik5r.hdl.soc.system`` (a VexRiscv CPU from the pythondata-cpu-vexriscv wheel, on-chip RAM, MARK/STOP
 registers) cycle by cycle with Verilator, and solves N random reachable poses plus the directed
 edge set on it. Every raw joint word and status word is compared with the vectorised bit-accurate
 model and with the C solver compiled for this host. Prints the mismatches and the clock cycles
@@ -53,8 +53,8 @@ def register(subparsers) -> None:
 def poses_for(k, vectors: int, seed: int, directed: bool):
     """``vectors`` random reachable pose rows (every branch and roll of random joints, cut to
     ``vectors``) followed by the directed set."""
-    from ik5r.firmware import vectors as vec
-    from ik5r.firmware.poses import concat
+    from ik5r.firmware_model import vectors as vec
+    from ik5r.firmware_model.poses import concat
 
     rows = vec.random_poses(k, max(1, math.ceil(vectors / 8)), seed)[:vectors]
     return concat(rows, vec.directed_poses(k)) if directed else rows
@@ -64,9 +64,9 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
     """Run the poses on the soft CPU, compare with the model and the host C; the figures."""
     import numpy as np
 
-    from ik5r.firmware import vector
-    from ik5r.firmware.csolver import solve_batch as c_solve
-    from ik5r.hdl.soc import CPUS
+    from ik5r.firmware_model import vector
+    from ik5r.firmware_model.csolver import solve_batch as c_solve
+    from ik5r.hdl.soc.system import CPUS
     from ik5r.tools.softcpu import CYCLES_PER_SOLVE_LIMIT, SoftCpu
 
     poses = poses_for(k, vectors, seed, directed)

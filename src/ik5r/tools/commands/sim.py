@@ -10,12 +10,12 @@ Generates the block's Verilog (``ik5r.hdl.generate``), builds it with Icarus or 
   scale, most negative word, +-1 for acos, ...) streamed by a generated Verilog wrapper, with a
   progress bar.
 
-Every output field is compared bit for bit with ``ik5r.firmware.model`` and the tag for order and
+Every output field is compared bit for bit with ``ik5r.firmware_model.model`` and the tag for order and
 loss; errors against float64 numpy (atan2: np.arctan2, sqrt: np.sqrt, acos: np.arccos, rotate: a
 float rotation, ik: the float reference ``ik5r.core.reference.ik``'s same branch, worst joint, over
 poses both solve with no status bit) are reported in output LSB. Exit status 1 on any mismatch.
 
-``--block ik`` is the IK core (``hdl/ik_core.py``): random reachable poses (one in ten rows random
+``--block ik`` is the IK core (``hdl/pipelined/core.py``): random reachable poses (one in ten rows random
 words) plus the directed set, checked against the vectorised model ``vector.solve_batch``
 (itself checked against ``model.ik_solve`` on the edge set and a sample).
 

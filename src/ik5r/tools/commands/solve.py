@@ -4,8 +4,8 @@ Input columns px,py,pz,ax,ay,az and optionally nx,ny,nz,ox,oy,oz (all six or non
 writes them. Without n and o, q5 is --near's q5 (0 by default).
 
 Solvers: ``float`` the float64 reference (:mod:`ik5r.core.reference`); ``fixed`` the bit-accurate
-fixed-point model (``ik5r.firmware.vector``, the vectorised twin of ``model.py``); ``c`` the integer
-C solver through ctypes (``ik5r.firmware.csolver``); ``rv32`` the same C cross-compiled for RV32IM
+fixed-point model (``ik5r.firmware_model.vector``, the vectorised twin of ``model.py``); ``c`` the integer
+C solver through ctypes (``ik5r.firmware_model.csolver``); ``rv32`` the same C cross-compiled for RV32IM
 and run on a simulated VexRiscv soft CPU (``ik5r.tools.softcpu``; see ``ik5r firmware``), same CSV as c;
 ``numeric`` any serial arm, Levenberg-Marquardt from many starts (its columns and options:
 :mod:`ik5r.tools.commands.solve_numeric`, docs/arms.md).
@@ -109,9 +109,9 @@ def _fixed_solver(kind: str, k):
     """solve_batch(p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a)."""
     if kind == "fixed":
         try:
-            from ik5r.firmware import vector
+            from ik5r.firmware_model import vector
         except ImportError as exc:
-            raise RuntimeError(f"--solver fixed needs ik5r.firmware.vector: {exc}") from exc
+            raise RuntimeError(f"--solver fixed needs ik5r.firmware_model.vector: {exc}") from exc
         return lambda *args: vector.solve_batch(k, *args)
     if kind == "rv32":
         from ik5r.core.errors import InputError
@@ -124,7 +124,7 @@ def _fixed_solver(kind: str, k):
                 raise InputError("--solver rv32", str(exc)) from None
         return on_cpu
     try:
-        from ik5r.firmware.csolver import CSolver
+        from ik5r.firmware_model.csolver import CSolver
         return CSolver(k).solve_batch
     except (ImportError, OSError, RuntimeError) as exc:
         raise RuntimeError(f"--solver c: cannot load the C solver: {exc}") from exc
@@ -212,7 +212,7 @@ def _fixed_chunk(solve, cfg, res, p, a, n, o, near, all_branches):
     """(rows, branch, q, q_raw, status) of the fixed-point solver on one chunk."""
     from ik5r.core import status as st
     from ik5r.core.fxconfig import quantize
-    from ik5r.firmware.poses import PoseBatch
+    from ik5r.firmware_model.poses import PoseBatch
 
     count = len(p)
     harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE

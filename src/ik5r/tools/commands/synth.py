@@ -87,7 +87,7 @@ def run(args) -> int:
     else:
         blocks = (args.block,)
     if args.block == "cpu":
-        from ik5r.hdl.soc import CPUS
+        from ik5r.hdl.soc.system import CPUS
         if args.cpu is not None and args.cpu not in CPUS:
             raise InputError("--cpu", f"must be one of {', '.join(CPUS)}, got {args.cpu!r}")
         cpus = (args.cpu,) if args.cpu else tuple(CPUS)

@@ -1,7 +1,7 @@
 """The bit-accuracy section: C vs scalar model vs vectorised model vs HDL, per output field.
 
 The three software solvers are run on the same words (random reachable poses and the directed edge
-set of ``ik5r.firmware.vectors``); the hardware results come from cocotb runs (``src/ik5r/tools/testbench``), which
+set of ``ik5r.firmware_model.vectors``); the hardware results come from cocotb runs (``src/ik5r/tools/testbench``), which
 compare every output field of every item with the vectorised model.
 """
 
@@ -27,7 +27,7 @@ def _field_mismatches(a, b) -> dict:
 
 def software_agreement(k: Constants, poses) -> dict:
     """Per-field mismatch counts between the C solver, the vectorised and the scalar model."""
-    from ik5r.firmware import csolver, model, vector
+    from ik5r.firmware_model import csolver, model, vector
 
     args = poses.args()
     c_out = csolver.solver(k).solve_batch(*args)

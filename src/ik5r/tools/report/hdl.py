@@ -99,8 +99,8 @@ def build_full_report(out_dir, vectors: int = 1_000_000, config=None, arm=None, 
                       hdl: bool = True, hdl_poses: int = 10_000, block_vectors: int = 5_000,
                       simulator: str = "verilator", worst: int = 20, progress: bool = False, log=print):
     """The report, with the HDL simulated when ``hdl``: (JSON doc, summary text, bit-accuracy data)."""
-    from ik5r.firmware.poses import concat
-    from ik5r.firmware.vectors import edge_poses, random_poses
+    from ik5r.firmware_model.poses import concat
+    from ik5r.firmware_model.vectors import edge_poses, random_poses
 
     out_dir = Path(out_dir)
     cfg = config if isinstance(config, FixedConfig) else load_config(config)

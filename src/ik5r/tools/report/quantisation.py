@@ -4,7 +4,7 @@ Method (one pose = one random joint vector q, uniform in the joint limits, so re
 
 * the target pose (p, n, o, a) is FK(q) in float64; the float64 IK of it gives four branches and
   the one nearest q (wrapped) is *the* branch of the pose;
-* the fixed-point solver (the vectorised bit-accurate model ``ik5r.firmware.vector``) solves that
+* the fixed-point solver (the vectorised bit-accurate model ``ik5r.firmware_model.vector``) solves that
   branch of the quantised pose; float32 (``reference.ik(dtype=float32)``, what a Nios II FPU
   computes) solves the float32-rounded pose, all four branches, and the same branch is taken;
 * joint errors are wrapped differences against float64 on the same branch, (a) on the exact pose
@@ -29,7 +29,7 @@ from ik5r.core import reference as ref
 from ik5r.core import status as st
 from ik5r.core.arm import Arm
 from ik5r.core.fxconfig import FixedConfig, constants
-from ik5r.firmware.poses import PoseBatch
+from ik5r.firmware_model.poses import PoseBatch
 
 JOINTS = ("q1", "q2", "q3", "q4", "q5")
 #: Subsets of poses by |sin q3| (q2, q3 errors scale with 1 / |sin q3|): key -> lower bound.
@@ -88,7 +88,7 @@ def _task_errors(arm, q, p, a):
 
 def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
     """Everything of one chunk of joint vectors."""
-    from ik5r.firmware.vector import solve_batch
+    from ik5r.firmware_model.vector import solve_batch
 
     cfg = k.cfg
     count = len(q)

@@ -40,7 +40,7 @@ COLUMNS = ("rank", *POSE, "q1", "q2", "q3", "q4", "q5", "branch",
 
 def _fixed(samples: Samples, pose: np.ndarray, branch: np.ndarray):
     """The fixed-point joints (rad) and status of ``branch`` on ``pose`` (as the report solved them)."""
-    from ik5r.firmware.vector import solve_batch
+    from ik5r.firmware_model.vector import solve_batch
 
     cfg = samples.cfg
     k = constants(cfg, samples.arm)

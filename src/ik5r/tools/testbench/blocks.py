@@ -5,7 +5,7 @@ a payload field of the port map by name (with aliases), so the generator may cal
 ``x_u``. Everything else (widths, signedness, tag) comes from the port map.
 
 To add a block (e.g. the IK core of issue 4): write a BlockSpec with ``model_vec`` (numpy, for the
-bulk runs), ``model_scalar`` (``ik5r.firmware.model``, the specification), ``random_inputs``,
+bulk runs), ``model_scalar`` (``ik5r.firmware_model.model``, the specification), ``random_inputs``,
 ``edge_inputs`` and ``float_error``, and put it in :data:`BLOCKS`. The testbench, ``ik5r sim`` and
 the tests pick it up by name.
 """
@@ -21,10 +21,10 @@ import numpy as np
 from ik5r.core import status as st
 from ik5r.core.fxconfig import Constants
 from ik5r.core.pose_fields import SOLUTION_NAMES
-from ik5r.firmware import model as M
-from ik5r.firmware import vector as V
-from ik5r.firmware import vectors
-from ik5r.firmware.poses import FIELDS, PoseBatch
+from ik5r.firmware_model import model as M
+from ik5r.firmware_model import vector as V
+from ik5r.firmware_model import vectors
+from ik5r.firmware_model.poses import FIELDS, PoseBatch
 
 from .portmap import PortMap
 
@@ -228,7 +228,7 @@ def _acos_err(x, got, pm, k):
     return np.abs(got["angle"] - np.arccos(c) * 2.0**k.cfg.frac_angle)
 
 
-# ---- ik (the IK core, hdl/ik_core.py) ----------------------------------------------------------
+# ---- ik (the IK core, hdl/pipelined/core.py) ----------------------------------------------------------
 
 IK_OUTPUTS = SOLUTION_NAMES
 
@@ -363,7 +363,7 @@ BLOCKS: dict[str, BlockSpec] = {
                       {"angle": ("angle", "angle_a"), "sine": ("sine", "sine_u", "sin", "s"),
                        "saturated": ("saturated", "sat", "flags")},
                       _acos_vec, _acos_scalar, _acos_random, _acos_edges, _acos_err),
-    # The IK core: fields are the roles (ik5r.firmware.FIELDS, IK_OUTPUTS).
+    # The IK core: fields are the roles (ik5r.firmware_model.FIELDS, IK_OUTPUTS).
     "ik": BlockSpec("ik", {name: (name,) for name in FIELDS},
                     {name: (name,) for name in IK_OUTPUTS},
                     _ik_vec, _ik_scalar, _ik_random, _ik_edges, _ik_err),

@@ -1,0 +1,224 @@
+"""The two elaborations of a :class:`~ik5r.hdl.datapath.stages.Datapath`: pipelined (one register set
+per stage and step, an output FIFO and credits) and iterative (one item in flight, iterated
+stages fed back, optionally one shared register set per functional unit). See
+:mod:`.datapath` for what each architecture is; both evaluate the same expressions."""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Mux, Signal, Value
+from amaranth.lib.fifo import SyncFIFOBuffered
+
+from .stages import SharedStage, Stage
+from .products import Product
+
+__all__ = ["build_pipelined", "build_iterative"]
+
+
+def _registers(dp, prefix, values):
+    regs = {}
+    for key, value in values.items():
+        shape = dp.shapes.get(key, Value.cast(value).shape())
+        regs[key] = Signal(shape, name=f"{prefix}_{key}", reset_less=True)
+    return regs
+
+
+# --- pipelined ----------------------------------------------------------------------------------
+
+def _credits(dp, m, i, o, depth):
+    """The output FIFO and its credits (free slots not yet promised to an item in flight);
+    returns (fifo, the input transfer)."""
+    credits = Signal(range(depth + 1), init=depth, name=f"{dp.name}_credits")
+    # ``credits != 0``, kept in a register of its own: ``i.ready`` is a flip-flop output.
+    has_credit = Signal(init=1, name=f"{dp.name}_has_credit")
+    fifo = m.submodules[f"{dp.name}_output_fifo"] = SyncFIFOBuffered(
+        width=o.payload.shape().size, depth=depth)
+    taken_in = Signal(name=f"{dp.name}_taken_in")
+    taken_out = Signal(name=f"{dp.name}_taken_out")
+    m.d.comb += [
+        i.ready.eq(has_credit),
+        taken_in.eq(i.valid & has_credit),
+        taken_out.eq(fifo.r_rdy & o.ready),
+    ]
+    with m.If(taken_in & ~taken_out):
+        m.d.sync += [credits.eq(credits - 1), has_credit.eq(credits != 1)]
+    with m.Elif(taken_out & ~taken_in):
+        m.d.sync += [credits.eq(credits + 1), has_credit.eq(1)]
+    return fifo, taken_in
+
+
+def _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp):
+    """One register set of ``stage`` (its ``step``-th for an iterated one); returns (registers,
+    valid, what each register is loaded with)."""
+    prefix = f"{stage.name}{step}" if stage.iterated else stage.name
+    out = stage.fn(state, step) if stage.iterated else stage.fn(state)
+    for index, cell in enumerate(dp.adders.take()):
+        m.submodules[f"{prefix}_add_sub{index}"] = cell
+    regs = _registers(dp, prefix, out)
+    stage_valid = Signal(name=f"{prefix}_valid")
+    plain = list(regs)
+    if dsp == "ecp5":
+        for key in regs:
+            if isinstance(out[key], Product) and out[key].map_ecp5(
+                    m, f"{prefix}_{key}", regs[key], loaded):
+                plain.remove(key)
+    m.d.sync += [regs[key].eq(out[key]) for key in plain]
+    m.d.sync += stage_valid.eq(valid)
+    return regs, stage_valid, {id(regs[key]): (regs[key], out[key]) for key in regs}
+
+
+def build_pipelined(dp, m, inputs, payload_of, i, o, dsp):
+    fifo, taken_in = _credits(dp, m, i, o, dp.capacity("pipelined"))
+    state, valid = dict(inputs), taken_in
+    # What each register of the previous stage is loaded with (for the ECP5 DSP mapping).
+    loaded = {}
+    for stage in map(Stage.of, dp.stages):
+        if stage.count == 0:
+            state = stage.fn(state)
+            continue
+        for step in range(stage.count):
+            state, valid, loaded = _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp)
+
+    payload = Signal(o.payload.shape(), name=f"{dp.name}_result")
+    for field, value in payload_of(state).items():
+        m.d.comb += getattr(payload, field).eq(value)
+    # A register in front of the FIFO, placed next to it: the FIFO's RAMs sit in block RAM
+    # rows far from the end of a large pipeline, and the FIFO's level counter, which reads
+    # the write enable, got a long route there and back (the IK core's slowest path).
+    fifo_data = Signal.like(payload, name=f"{dp.name}_fifo_data", reset_less=True)
+    fifo_write = Signal(name=f"{dp.name}_fifo_write")
+    m.d.sync += [fifo_data.eq(payload), fifo_write.eq(valid)]
+    m.d.comb += [
+        fifo.w_data.eq(fifo_data),
+        fifo.w_en.eq(fifo_write),
+        o.valid.eq(fifo.r_rdy),
+        o.payload.eq(fifo.r_data),
+        fifo.r_en.eq(o.ready),
+    ]
+
+
+# --- iterative ----------------------------------------------------------------------------------
+
+def _shared_stage(m, stage, shared, units, state, load, stage_valid, leave):
+    unit = units.get(shared.unit)
+    if unit is None:
+        unit = units[shared.unit] = _SharedUnit(shared, stage.count)
+    if unit.count != stage.count or unit.shapes != shared.shapes:
+        raise ValueError(f"stage {stage.name!r}: unit {shared.unit!r} used with other counts/shapes")
+    inputs = {u: state[k] if isinstance(k, str) else Const(k, shared.shapes[u])
+              for u, k in shared.binding.items()}
+    unit.users.append((load, inputs, stage_valid, leave))
+    done = stage_valid & (unit.step == stage.count)
+    with m.If(leave):
+        m.d.sync += stage_valid.eq(0)
+    with m.If(load):
+        m.d.sync += stage_valid.eq(1)
+    regs = dict(state)
+    regs.update({k: unit.regs[u] for u, k in shared.binding.items() if isinstance(k, str)})
+    return regs, done
+
+
+def _registered_stage(dp, m, stage, state, load, stage_valid, leave):
+    out = stage.fn(state)
+    regs = _registers(dp, stage.name, out)
+    with m.If(leave):
+        m.d.sync += stage_valid.eq(0)
+    with m.If(load):
+        m.d.sync += [regs[key].eq(out[key]) for key in regs]
+        m.d.sync += stage_valid.eq(1)
+    return regs, stage_valid
+
+
+def _iterated_stage(dp, m, stage, state, load, stage_valid, leave):
+    name, fn, count = stage.name, stage.fn, stage.count
+    # The key set and shapes come from a probe call (pure: builds no hardware).
+    regs = _registers(dp, name, fn(state, 0))
+    step = Signal(range(count + 1), name=f"{name}_step")
+    extra = set(state) - set(regs)
+    if extra:
+        raise ValueError(f"iterated stage {name!r} drops {sorted(extra)}")
+    source = {key: Mux(load, state[key] if key in state else 0, regs[key]) for key in regs}
+    out = fn(source, step)
+    done = stage_valid & (step == count)
+    with m.If(leave):
+        m.d.sync += [stage_valid.eq(0), step.eq(0)]
+    with m.If(load):
+        m.d.sync += [regs[key].eq(out[key]) for key in regs]
+        m.d.sync += [stage_valid.eq(1), step.eq(1)]
+    with m.Elif(stage_valid & (step != count)):
+        m.d.sync += [regs[key].eq(out[key]) for key in regs]
+        m.d.sync += step.eq(step + 1)
+    return regs, done
+
+
+def build_iterative(dp, m, inputs, payload_of, i, o):
+    # One item in flight: the stage holding it moves it on as soon as it is done, except the
+    # last, which waits for o.ready.
+    state = dict(inputs)
+    load = Signal(name=f"{dp.name}_accept")
+    m.d.comb += load.eq(i.valid & i.ready)
+    occupied, leaves, units = [], [], {}
+    previous_shared = False
+    for stage in map(Stage.of, dp.stages):
+        if stage.count == 0:
+            state = stage.fn(state)
+            continue
+        stage_valid = Signal(name=f"{stage.name}_valid")
+        leave = Signal(name=f"{stage.name}_leave")
+        shared = stage.shared if stage.iterated and dp.share_units else None
+        if previous_shared and (stage.iterated or stage.count != 1):
+            raise ValueError(f"stage {stage.name!r} follows a shared stage: must be a registered one")
+        previous_shared = shared is not None
+        if shared is not None:
+            state, done = _shared_stage(m, stage, shared, units, state, load, stage_valid, leave)
+        elif not stage.iterated:
+            state, done = _registered_stage(dp, m, stage, state, load, stage_valid, leave)
+        else:
+            state, done = _iterated_stage(dp, m, stage, state, load, stage_valid, leave)
+        occupied.append(stage_valid)
+        leaves.append((leave, done))
+        load = Signal(name=f"{stage.name}_next")
+        m.d.comb += load.eq(done)
+    for unit in units.values():
+        unit.elaborate(m)
+    # The last stage leaves on an output transfer; the others as soon as they are done.
+    for leave, done in leaves[:-1]:
+        m.d.comb += leave.eq(done)
+    last_leave, last_done = leaves[-1]
+    busy = Signal(name=f"{dp.name}_busy")
+    m.d.comb += [
+        o.valid.eq(last_done),
+        last_leave.eq(last_done & o.ready),
+        busy.eq(Cat(*occupied).any()),
+        i.ready.eq(~busy | (last_done & o.ready)),
+    ]
+    for field, value in payload_of(state).items():
+        m.d.comb += getattr(o.payload, field).eq(value)
+
+
+class _SharedUnit:
+    """The registers, step counter and logic of one shared functional unit (iterative build)."""
+
+    def __init__(self, shared: SharedStage, count: int):
+        self.fn, self.count, self.shapes = shared.fn, count, shared.shapes
+        self.regs = {u: Signal(shape, name=f"unit_{shared.unit}_{u}", reset_less=True)
+                     for u, shape in shared.shapes.items()}
+        self.step = Signal(range(count + 1), name=f"unit_{shared.unit}_step")
+        self.users = []       # (load, inputs, stage_valid, leave)
+
+    def elaborate(self, m):
+        source = dict(self.regs)
+        for load, inputs, _, _ in reversed(self.users):
+            source = {u: Mux(load, inputs[u], value) if u in inputs else value
+                      for u, value in source.items()}
+        out = self.fn(source, self.step)
+        loading = Cat(*(load for load, _, _, _ in self.users)).any()
+        active = Cat(*(valid for _, _, valid, _ in self.users)).any()
+        leaving = Cat(*(leave for _, _, _, leave in self.users)).any()
+        with m.If(leaving):
+            m.d.sync += self.step.eq(0)
+        with m.If(loading):
+            m.d.sync += [self.regs[u].eq(out[u]) for u in self.regs]
+            m.d.sync += self.step.eq(1)
+        with m.Elif(active & (self.step != self.count)):
+            m.d.sync += [self.regs[u].eq(out[u]) for u in self.regs]
+            m.d.sync += self.step.eq(self.step + 1)

@@ -1,0 +1,292 @@
+"""Multipliers of the ik5r datapaths, built from 17 x 17 partial products (one 18 x 18 DSP each):
+:func:`add_products` appends the stages of one or more parallel multipliers to a
+:class:`~ik5r.hdl.datapath.stages.Datapath`, either all partial products at once and an adder tree
+(``products="parallel"``) or one partial product per clock step into an accumulator
+(``products="sequential"``). A partial product of registered operands is a :class:`Product`,
+which the pipelined build with ``dsp="ecp5"`` maps to a ``MULT18X18D``."""
+
+from __future__ import annotations
+
+from amaranth.hdl import Const, Shape, Signal, Value, ValueCastable, signed, unsigned
+
+from .ecp5 import MULT_BITS, mult18x18d
+from .expr import drop, extend, select
+
+__all__ = ["LIMB_BITS", "Product", "add_products"]
+
+#: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
+#: fits one ECP5 MULT18X18D.
+LIMB_BITS = 17
+assert LIMB_BITS + 1 == MULT_BITS
+
+
+def _limbs(shape: Shape):
+    """Bit ranges (lo, hi, signed) of LIMB_BITS-wide slices of an operand; top one keeps sign."""
+    width = shape.width
+    ranges = []
+    for lo in range(0, width, LIMB_BITS):
+        hi = min(lo + LIMB_BITS, width)
+        ranges.append((lo, hi, shape.signed and hi == width))
+    return ranges
+
+
+def _slice(value, lo, hi, is_signed):
+    part = Value.cast(value)[lo:hi]
+    return part.as_signed() if is_signed else part
+
+
+def _limb18(value, lo, hi, is_signed):
+    """Bits [lo, hi) of ``value`` as a ``signed(LIMB_BITS + 1)`` multiplier operand."""
+    part = _slice(value, lo, hi, is_signed)
+    return extend(part, LIMB_BITS + 1).as_signed()
+
+
+class Product(ValueCastable):
+    """One partial product ``(a[a_lo:a_hi] * b_part) << shift`` of registered operands; ``b_part``
+    is a non-negative constant below 2**LIMB_BITS or a ``(b, lo, hi, signed)`` slice. As a value it
+    is that expression; :meth:`map_ecp5` builds it as a ``MULT18X18D`` instead."""
+
+    def __init__(self, a, a_range, b_part, shift):
+        self.a, self.a_range, self.b_part, self.shift = a, a_range, b_part, shift
+        a_part = _slice(a, *a_range)
+        if isinstance(b_part, int):
+            b_value = Const(b_part, unsigned(max(b_part.bit_length(), 1)))
+        else:
+            b_value = _slice(b_part[0], *b_part[1:])
+        self._value = (a_part * b_value).shift_left(shift)
+
+    def as_value(self):
+        return self._value
+
+    def shape(self):
+        return self._value.shape()
+
+    def map_ecp5(self, m, name, target, loaded) -> bool:
+        """Drive ``target`` from a ``MULT18X18D`` with input and output registers (always
+        enabled, as the pipeline), fed by what the previous stage's registers ``a`` (and ``b``)
+        were loaded with; False (nothing built) when an operand is not such a register."""
+        if id(self.a) not in loaded:
+            return False
+        a_reg, a_next = loaded[id(self.a)]
+        a_src = Signal(a_reg.shape(), name=f"{name}_a")
+        m.d.comb += a_src.eq(a_next)
+        if isinstance(self.b_part, int):
+            b18 = Const(self.b_part, signed(LIMB_BITS + 1))
+        else:
+            b, lo, hi, is_signed = self.b_part
+            if id(b) not in loaded:
+                return False
+            b_reg, b_next = loaded[id(b)]
+            b_src = Signal(b_reg.shape(), name=f"{name}_b")
+            m.d.comb += b_src.eq(b_next)
+            b18 = _limb18(b_src, lo, hi, is_signed)
+        a18 = _limb18(a_src, *self.a_range)
+        product = mult18x18d(m, name, a18, b18)
+        m.d.comb += target.eq(product.shift_left(self.shift))
+        return True
+
+
+def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
+    """Append the stages of one or more parallel multipliers ``a * b`` to ``dp``.
+
+    ``specs``: list of ``(a_of, a_shape, b, out_key)``; ``a_of(state)`` gives operand a (which
+    must fit ``a_shape``); ``b`` is a non-negative int constant or ``(b_of, b_shape)``.
+
+    Stage 1 registers the operands (in their shapes), stage 2 forms the LIMB_BITS x LIMB_BITS
+    partial products (one DSP each, nothing else in the stage); each further stage adds pairs of
+    partial sums (one adder level), until one sum per multiplier is left under ``out_key``.
+    ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and ``drop_keys``
+    are removed from the state at stage 1. Returns the number of stages.
+
+    In a ``products="sequential"`` datapath, stage 1 also clears one accumulator per multiplier,
+    and one iterated stage adds one 18 x 18 signed partial product per step (the limb pair and
+    its weight chosen by the step index): one DSP per multiplier instead of one per partial
+    product, for as many steps as the largest multiplier has partial products. The sum is the
+    same exact integer, so the two forms agree bit for bit.
+    """
+    if dp.products == "sequential":
+        return _add_products_sequential(dp, prefix, specs, parallel, drop_keys)
+    trees = [(a_of, out_key, _partial_products(prefix, index, a_shape, b))
+             for index, (a_of, a_shape, b, out_key) in enumerate(specs)]
+    # Stage 1 registers the operands: a register next to the DSPs, so that the stage holding a
+    # DSP has only the DSP's own delay (the DSP registers themselves are not inferred).
+    for index, (_, a_shape, b, _) in enumerate(specs):
+        dp.declare(**{f"{prefix}{index}_a": a_shape})
+        if not isinstance(b, int):
+            dp.declare(**{f"{prefix}{index}_b": b[1]})
+    dp.add(f"{prefix}_op", _operands_stage(prefix, [(a_of, b) for a_of, _, b, _ in specs],
+                                           parallel, drop_keys))
+    dp.add(f"{prefix}_mul", _products_stage(prefix, trees))
+    return 2 + _add_adder_tree(dp, prefix, trees)
+
+
+def _partial_products(prefix, index, a_shape, b) -> list:
+    """The terms ``(key, shift, a_range, b_part)`` of one multiplier."""
+    a_shape, terms = Shape.cast(a_shape), []
+    if isinstance(b, int):
+        if b < 0:
+            raise ValueError("constant multiplier must be non-negative")
+        for a_lo, a_hi, a_signed in _limbs(a_shape):
+            for b_lo in range(0, max(b.bit_length(), 1), LIMB_BITS):
+                b_part = (b >> b_lo) & ((1 << LIMB_BITS) - 1)
+                if b_part:
+                    terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo,
+                                  (a_lo, a_hi, a_signed), b_part))
+    else:
+        b_of, b_shape = b
+        for a_lo, a_hi, a_signed in _limbs(a_shape):
+            for b_lo, b_hi, b_signed in _limbs(Shape.cast(b_shape)):
+                terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo,
+                              (a_lo, a_hi, a_signed), (b_of, b_lo, b_hi, b_signed)))
+    return terms
+
+
+def _operands_stage(prefix, operands, parallel, drop_keys, clear=None):
+    """Stage 1: the operands ``{prefix}{index}_a`` (and ``_b``) of ``operands`` ``[(a_of, b)]``
+    (each followed by its accumulator ``clear[index]`` set to 0), then ``parallel``'s work;
+    ``drop_keys`` dropped."""
+    def run(state):
+        out = drop(state, *drop_keys)
+        for index, (a_of, b) in enumerate(operands):
+            out[f"{prefix}{index}_a"] = a_of(state)
+            if not isinstance(b, int):
+                out[f"{prefix}{index}_b"] = b[0](state)
+            if clear is not None:
+                out[clear[index]] = Const(0, 1)
+        if parallel is not None:
+            out.update(parallel(state))
+        return out
+    return run
+
+
+def _products_stage(prefix, trees):
+    def run(state):
+        out = dict(state)
+        for index, (_, out_key, terms) in enumerate(trees):
+            a = state[f"{prefix}{index}_a"]
+            b = state.get(f"{prefix}{index}_b")
+            out = drop(out, f"{prefix}{index}_a", f"{prefix}{index}_b")
+            if not terms:
+                out[out_key] = Const(0, 1)
+            for key, shift, a_range, b_part in terms:
+                if not isinstance(b_part, int):
+                    b_part = (b,) + b_part[1:]
+                # A single product is the result: it keeps its weight; terms of a sum get theirs
+                # in the adder tree.
+                out[key] = Product(a, a_range, b_part, shift if len(terms) == 1 else 0)
+            if len(terms) == 1:
+                out[out_key] = out.pop(terms[0][0])
+        return out
+    return run
+
+
+def _adder_level(plan):
+    """One adder level: each group of (key, shift) terms of ``plan`` summed at its lowest weight."""
+    def run(state):
+        out = dict(state)
+        for out_key, groups in plan.items():
+            sums = []
+            for group in groups:
+                base = min(shift for _, shift in group)
+                total = None
+                for key, shift in group:
+                    term = Value.cast(state[key]).shift_left(shift - base)
+                    del out[key]
+                    total = term if total is None else total + term
+                sums.append((f"{group[0][0]}s", base, total))
+            if len(sums) == 1:
+                _, base, total = sums[0]
+                out[out_key] = total.shift_left(base)
+            else:
+                out.update({key: total for key, _, total in sums})
+        return out
+    return run
+
+
+def _add_adder_tree(dp, prefix, trees) -> int:
+    """Adder tree: each level adds adjacent (by weight) pairs of terms; an odd one passes
+    through. Returns the number of levels."""
+    pending = {out_key: [(key, shift) for key, shift, _, _ in terms]
+               for _, out_key, terms in trees if len(terms) > 1}
+    depth = 0
+    while pending:
+        plan = {}
+        for out_key, terms in pending.items():
+            terms = sorted(terms, key=lambda term: term[1])
+            plan[out_key] = [terms[pair:pair + 2] for pair in range(0, len(terms), 2)]
+        dp.add(f"{prefix}_sum{depth}", _adder_level(plan))
+        depth += 1
+        pending = {out_key: [(f"{group[0][0]}s", min(shift for _, shift in group))
+                             for group in groups]
+                   for out_key, groups in plan.items() if len(groups) > 1}
+    return depth
+
+
+def _sequential_steps(a_shape, b):
+    """The steps ``(a_range, b_part, shift)`` of one sequential multiplier and b's width."""
+    steps = []
+    if isinstance(b, int):
+        if b < 0:
+            raise ValueError("constant multiplier must be non-negative")
+        b_width = max(b.bit_length(), 1) + 1
+        for a_range in _limbs(a_shape):
+            for b_lo in range(0, max(b.bit_length(), 1), LIMB_BITS):
+                b_part = (b >> b_lo) & ((1 << LIMB_BITS) - 1)
+                if b_part:
+                    steps.append((a_range, b_part, a_range[0] + b_lo))
+    else:
+        b_width = Shape.cast(b[1]).width + 1
+        for a_range in _limbs(a_shape):
+            for b_range in _limbs(Shape.cast(b[1])):
+                steps.append((a_range, b_range, a_range[0] + b_range[0]))
+    return steps, b_width
+
+
+def _accumulate_stage(prefix, plans):
+    def run(state, step):
+        out = dict(state)
+        for index, (_, b, out_key, steps) in enumerate(plans):
+            a = state[f"{prefix}{index}_a"]
+            b_value = None if isinstance(b, int) else state[f"{prefix}{index}_b"]
+
+            def b_limb(b_part):
+                if isinstance(b_part, int):
+                    return Const(b_part, signed(LIMB_BITS + 1))
+                return _limb18(b_value, *b_part)
+
+            if isinstance(step, int):
+                if step >= len(steps):
+                    continue
+                a_range, b_part, shift = steps[step]
+                term = (_limb18(a, *a_range) * b_limb(b_part)).shift_left(shift)
+            else:
+                # Past the last step the b operand is 0, so the term is 0.
+                product = (select([_limb18(a, *a_range) for a_range, _, _ in steps], step)
+                           * select([b_limb(b_part) for _, b_part, _ in steps], step))
+                term = select([product.shift_left(shift) for _, _, shift in steps], step)
+            out[out_key] = state[out_key] + term
+        return out
+    return run
+
+
+def _add_products_sequential(dp, prefix, specs, parallel, drop_keys):
+    """The ``products="sequential"`` form of :func:`add_products`."""
+    plans = []
+    for index, (a_of, a_shape, b, out_key) in enumerate(specs):
+        a_shape = Shape.cast(a_shape)
+        steps, b_width = _sequential_steps(a_shape, b)
+        # Any partial sum of the terms is below 2**(a_width + b_width) in magnitude.
+        dp.declare(**{out_key: signed(a_shape.width + 1 + b_width + 1),
+                      f"{prefix}{index}_a": a_shape})
+        if not isinstance(b, int):
+            dp.declare(**{f"{prefix}{index}_b": b[1]})
+        plans.append((a_of, b, out_key, steps))
+    count = max(len(steps) for *_, steps in plans)
+    dp.add(f"{prefix}_op", _operands_stage(prefix, [(a_of, b) for a_of, b, _, _ in plans],
+                                           parallel, drop_keys,
+                                           clear=[out_key for _, _, out_key, _ in plans]))
+    dp.add_iter(f"{prefix}_acc", _accumulate_stage(prefix, plans), count)
+    dp.add_wiring(lambda state: drop(state, *(f"{prefix}{index}_{side}" for index in range(len(plans))
+                                              for side in "ab")))
+    return 1 + count
+

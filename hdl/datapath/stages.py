@@ -1,0 +1,436 @@
+"""The staged datapath of the ik5r arithmetic blocks: typed stages over named values.
+
+Every block (:class:`~ik5r.hdl.blocks.cordic.Atan2`, :class:`~ik5r.hdl.blocks.cordic.Rotate`,
+:class:`~ik5r.hdl.blocks.sqrt.Sqrt`, :class:`~ik5r.hdl.blocks.acos.Acos`, the IK core) describes its arithmetic
+once, as a :class:`Datapath`: an ordered list of :class:`Stage` s, each a pure function from a
+dictionary of named values (the state carried by one item) to the next such dictionary. The
+same description is elaborated in one of two architectures (:mod:`.build`):
+
+``"pipelined"``
+    Every stage (and every repetition of an iterated stage) gets its own register set: one item
+    enters per clock, results leave in order. The pipeline never stalls (no clock enable: one
+    enable net to every flip-flop was the slowest path of the IK core); its results go into an
+    output FIFO (block RAM), and ``o`` is the FIFO's read side. Flow control by credits: a counter
+    of the FIFO's free slots, taken by an input transfer and given back by an output transfer,
+    keeps items in flight plus items in the FIFO within its depth, so the FIFO never overflows
+    while ``o`` is held, and the depth covers the latency, so at full rate no bubble appears.
+
+``"iterative"``
+    One item in flight. An iterated stage (CORDIC micro-rotation, square-root digit) is one
+    register set fed back ``count`` times with a run-time step index; the other stages keep their
+    own registers. A new item is accepted when the block is idle, or in the cycle its previous
+    result leaves, so a result is produced every :attr:`Datapath.latency` cycles.
+
+Both architectures evaluate literally the same expressions on the same widths, so they agree
+bit for bit; the widths are derived from :class:`~ik5r.core.fxconfig.Constants` with proofs of no
+overflow in the comments of each block.
+
+Three options make a datapath smaller or faster without changing a bit of its results:
+
+* ``Datapath(products="sequential")``: each multiplier of
+  :func:`~ik5r.hdl.datapath.products.add_products` is one 18 x 18 DSP stepped over its partial products
+  into an accumulator, instead of one DSP per partial product and an adder tree.
+* ``Datapath(share_units=True)``: in the iterative architecture, every stage of one functional
+  unit (:meth:`Datapath.add_shared_iter`, e.g. the CORDIC micro-rotation) runs on one set of
+  registers and one copy of the logic (the compact IK core: eight CORDICs, one unit).
+* ``Datapath(adders=adders_for("ecp5"))`` built with ``dsp="ecp5"`` (pipelined): each partial
+  product is an ECP5 ``MULT18X18D`` whose input and output registers are the two pipeline
+  registers around it, and each ``dp.adders.add_sub`` (the CORDIC micro-rotations) is a
+  ``CCU2C`` carry chain whose own LUTs take the direction. The mapping is the datapath's
+  :attr:`Datapath.adders`, passed explicitly to whatever builds its stage functions.
+
+Chains. A datapath doubles as a *chain* that another one composes (the IK core runs the
+blocks' chains side by side): it declares its ``inputs`` and ``outputs`` and names split points
+(:meth:`Datapath.mark`, :meth:`Datapath.part`), so a composer takes a named part of a block's
+chain, never a slice of its stage list by name. :meth:`Datapath.check` traces the stages once
+at construction: every value read was produced earlier, and every value produced is read or
+is an output; a failure names the key and the stage.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, replace
+from typing import Callable
+
+from amaranth.hdl import Shape, Signal, Value
+
+from .expr import add_sub
+from ..modes import ARCHS, DSPS, PRODUCTS
+
+__all__ = ["StageKind", "Stage", "SharedStage", "GenericAdders", "Ecp5Adders", "adders_for",
+           "Datapath", "OUTPUT_FIFO_LATENCY", "traced_view", "retraced"]
+
+#: Cycles from the last stage of the pipelined architecture to the item on ``o``: the register
+#: in front of the output FIFO, then the FIFO's (``SyncFIFOBuffered``) RAM write and its RAM
+#: read into the output register.
+OUTPUT_FIFO_LATENCY = 3
+
+
+class StageKind(enum.Enum):
+    """What a stage is: registered (``fn(state)``, one register set), iterated (``fn(state, i)``,
+    ``count`` repetitions), or wiring (``fn(state)``, no register, zero latency)."""
+    REGISTERED = "registered"
+    ITERATED = "iterated"
+    WIRING = "wiring"
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One stage of a :class:`Datapath`. ``count``: its register stages (1 registered, n
+    iterated, 0 wiring); ``shared``: the functional unit of a shared iterated stage."""
+    name: str
+    kind: StageKind
+    fn: Callable
+    count: int = 1
+    shared: SharedStage | None = None
+
+    def __post_init__(self):
+        expected = {StageKind.REGISTERED: 1, StageKind.WIRING: 0}.get(self.kind)
+        if expected is not None and self.count != expected:
+            raise ValueError(f"stage {self.name!r}: a {self.kind.value} stage has count {expected}")
+        if self.kind is StageKind.ITERATED and self.count < 1:
+            raise ValueError(f"stage {self.name!r}: count must be at least 1, got {self.count}")
+
+    @property
+    def iterated(self) -> bool:
+        return self.kind is StageKind.ITERATED
+
+    def with_fn(self, fn, *, name: str | None = None, shared=None) -> "Stage":
+        """The same kind and count with another function (and name, unit)."""
+        return replace(self, fn=fn, name=self.name if name is None else name, shared=shared)
+
+    def __iter__(self):
+        """``(name, fn, count, iterated)``: the tuple form ``hdl/formal`` reads."""
+        return iter((self.name, self.fn, self.count, self.iterated))
+
+    @staticmethod
+    def of(item) -> "Stage":
+        """A :class:`Stage`, or one from the tuple form ``(name, fn, count, iterated)``."""
+        if isinstance(item, Stage):
+            return item
+        name, fn, count, iterated = item
+        kind = (StageKind.ITERATED if iterated else
+                StageKind.WIRING if count == 0 else StageKind.REGISTERED)
+        return Stage(name, kind, fn, count, getattr(fn, "shared", None) if iterated else None)
+
+
+class SharedStage:
+    """What an iterated stage made by :meth:`Datapath.add_shared_iter` is: ``fn(unit_state, i)``
+    of the functional unit ``unit`` (with register shapes ``shapes``) on the state keys (or
+    constants) of ``binding`` (unit key -> state key | int)."""
+
+    def __init__(self, unit, fn, binding, shapes):
+        self.unit, self.fn, self.binding, self.shapes = unit, fn, dict(binding), dict(shapes)
+
+    def prefixed(self, prefix: str) -> "SharedStage":
+        return SharedStage(self.unit, self.fn, {u: prefix + k if isinstance(k, str) else k
+                                                for u, k in self.binding.items()}, self.shapes)
+
+    def stage_fn(self):
+        """The stage as a plain ``fn(state, i) -> state`` (the unit's keys bound to the state's)."""
+        def run(state, i):
+            inner = {u: state[k] if isinstance(k, str) else k for u, k in self.binding.items()}
+            result = self.fn(inner, i)
+            out = dict(state)
+            for u, k in self.binding.items():
+                if isinstance(k, str):
+                    out[k] = result[u]
+            return out
+        run.shared = self
+        return run
+
+
+# --- the add/subtract mapping -------------------------------------------------------------------
+
+class GenericAdders:
+    """``add_sub`` as portable operators (any FPGA, any architecture)."""
+    dsp = "generic"
+
+    def add_sub(self, a, b, subtract):
+        return add_sub(a, b, subtract)
+
+    def take(self) -> list:
+        return []
+
+
+class Ecp5Adders:
+    """``add_sub`` as ECP5 ``CCU2C`` chains, collected until the pipelined build takes them for
+    the stage being built (:meth:`take`). While :attr:`tracing` (the construction check) it
+    builds the generic adder of the same shape and collects nothing."""
+    dsp = "ecp5"
+
+    def __init__(self):
+        self.pending = []
+        self.tracing = False
+
+    def add_sub(self, a, b, subtract):
+        return add_sub(a, b, subtract, chains=None if self.tracing else self.pending)
+
+    def take(self) -> list:
+        chains, self.pending = self.pending, []
+        return chains
+
+
+def adders_for(dsp: str):
+    """The add/subtract mapping of a datapath built with ``dsp`` (one of :data:`DSPS`)."""
+    if dsp not in DSPS:
+        raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
+    return Ecp5Adders() if dsp == "ecp5" else GenericAdders()
+
+
+# --- the construction check's traced state ------------------------------------------------------
+
+class MissingValue(LookupError):
+    """A stage read a key the state does not hold."""
+
+    def __init__(self, key):
+        super().__init__(key)
+        self.key = key
+
+
+class _Traced(dict):
+    """A state seen by :meth:`Datapath.check`: records the (outer) names of the keys read."""
+
+    def __init__(self, values, reads: set, names: dict | None = None):
+        super().__init__(values)
+        self.reads = reads
+        self.names = names or {}
+
+    def __getitem__(self, key):
+        name = self.names.get(key, key)
+        if not dict.__contains__(self, key):
+            raise MissingValue(name)
+        self.reads.add(name)
+        return dict.__getitem__(self, key)
+
+    def get(self, key, default=None):
+        return self[key] if key in self else default
+
+    def derive(self, values: dict) -> "_Traced":
+        """A new state (e.g. :func:`~ik5r.hdl.datapath.expr.drop` of this one) recording into the same log."""
+        return _Traced(values, self.reads, self.names)
+
+
+def traced_view(state, names: dict):
+    """``{inner: state[outer]}`` for ``names`` (inner -> outer) without reading the values; a
+    traced state's view records reads under the outer names (for stage wrappers)."""
+    values = {inner: dict.__getitem__(state, outer) for inner, outer in names.items()}
+    if isinstance(state, _Traced):
+        return _Traced(values, state.reads, {inner: state.names.get(outer, outer)
+                                             for inner, outer in names.items()})
+    return values
+
+
+def retraced(new: dict, old: dict) -> dict:
+    """``new`` (a stage's result) traced like ``old`` (its input), for the next composed function."""
+    if isinstance(old, _Traced) and not isinstance(new, _Traced):
+        return old.derive(new)
+    return new
+
+
+# --- the datapath ------------------------------------------------------------------------------
+
+class Datapath:
+    """An ordered list of :class:`Stage` s over named values; see the module docstring.
+
+    ``add(name, fn)``: a registered stage, ``fn(state) -> state``.
+    ``add_iter(name, fn, count)``: ``count`` repetitions of ``fn(state, i) -> state`` with ``i`` an
+    int (pipelined, unrolled) or an unsigned Value (iterative, one step per clock).
+    ``add_wiring(fn)``: a renaming with no register (zero latency; ``fn`` must be wiring only).
+
+    A stage's functions must be pure: they build expressions and never add statements. Values
+    named by :meth:`declare` are stored in their declared shape (the blocks prove the values fit),
+    others in the shape of their expression (never lossy). As a chain, ``inputs`` and
+    ``outputs`` name the keys it reads from and leaves to its composer.
+    """
+
+    def __init__(self, name: str, *, products: str = "parallel", share_units: bool = False,
+                 adders=None, inputs=(), outputs=()):
+        if products not in PRODUCTS:
+            raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
+        self.name = name
+        #: How :func:`~ik5r.hdl.datapath.products.add_products` builds a multiplier in this datapath.
+        self.products = products
+        #: Whether the iterative build gives all stages of one functional unit
+        #: (:meth:`add_shared_iter`) one register set and one copy of its logic.
+        self.share_units = share_units
+        #: What ``add_sub`` of this datapath's stages builds (:func:`adders_for`).
+        self.adders = adders if adders is not None else GenericAdders()
+        self.inputs, self.outputs = tuple(inputs), tuple(outputs)
+        self.stages: list[Stage] = []
+        self.shapes = {}
+        #: Named split points: name -> index of the first stage after the mark.
+        self.marks = {}
+
+    def declare(self, **shapes):
+        for key, shape in shapes.items():
+            self.shapes[key] = Shape.cast(shape)
+
+    def append(self, stage: Stage):
+        self.stages.append(stage)
+
+    def add(self, name, fn):
+        self.append(Stage(name, StageKind.REGISTERED, fn))
+
+    def add_iter(self, name, fn, count: int):
+        self.append(Stage(name, StageKind.ITERATED, fn, count))
+
+    def add_shared_iter(self, name, unit: SharedStage, count: int):
+        """``add_iter`` of a functional unit's step (see :class:`SharedStage`). Pipelined, and
+        iterative without ``share_units``: the same as ``add_iter``. Iterative with
+        ``share_units``: every stage of the same ``unit.unit`` uses one set of the unit's
+        registers and one copy of ``unit.fn`` (one item in flight, so one user at a time); the
+        other keys are not copied (their registers hold until the item leaves). A shared stage
+        must be followed by a registered, non-iterated stage, which takes its results."""
+        self.append(Stage(name, StageKind.ITERATED, unit.stage_fn(), count, unit))
+
+    def add_wiring(self, fn):
+        self.append(Stage("wiring", StageKind.WIRING, fn, 0))
+
+    def mark(self, name: str):
+        """Name the split point after the stages added so far (see :meth:`part`)."""
+        self.marks[name] = len(self.stages)
+
+    def part(self, start: str | None = None, stop: str | None = None) -> "Datapath":
+        """The stages from mark ``start`` (None: the first) up to mark ``stop`` (None: the last)
+        as a chain of their own, with this datapath's shapes and adders."""
+        def index(mark, default):
+            if mark is None:
+                return default
+            if mark not in self.marks:
+                raise KeyError(f"chain {self.name!r} has no split point {mark!r} "
+                               f"(it has {sorted(self.marks)})")
+            return self.marks[mark]
+        lo, hi = index(start, 0), index(stop, len(self.stages))
+        out = Datapath(f"{self.name}[{start}:{stop}]", products=self.products,
+                       share_units=self.share_units, adders=self.adders)
+        out.shapes = dict(self.shapes)
+        out.stages = list(self.stages[lo:hi])
+        out.marks = {name: at - lo for name, at in self.marks.items() if lo <= at <= hi}
+        return out
+
+    @property
+    def latency(self) -> int:
+        """Register stages of the datapath: cycles from an input transfer to the result in the
+        last stage's registers."""
+        return sum(Stage.of(stage).count for stage in self.stages)
+
+    def stream_latency(self, arch: str) -> int:
+        """Cycles from an input transfer to its result on ``o`` when ``o`` is not held: the
+        stages, and in the pipelined architecture the output FIFO."""
+        return self.latency + (OUTPUT_FIFO_LATENCY if arch == "pipelined" else 0)
+
+    def capacity(self, arch: str) -> int:
+        """Items the built block holds at most (accepted, not yet taken from ``o``); while ``o``
+        is held it accepts this many, then ``i.ready`` stays low. Pipelined: the depth of the
+        output FIFO, one more than a power of two at least the stream latency (the credit that
+        lets an item in is registered, so one slot more than the items a full-rate stream keeps
+        in flight; ``SyncFIFOBuffered`` holds one item in its output register and the rest in a
+        RAM, whose pointers then wrap for free). Iterative: one."""
+        if arch != "pipelined":
+            return 1
+        return (1 << (self.stream_latency(arch) - 1).bit_length()) + 1
+
+    def build(self, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = "generic") -> None:
+        """Elaborate into ``m`` between the streams ``i`` (its payload already turned into the
+        state ``inputs``) and ``o``, whose payload fields ``payload_of(final_state) -> {field:
+        value}`` gives. ``dsp`` (one of :data:`DSPS`, the datapath's :attr:`adders`' own)
+        applies to the pipelined architecture."""
+        from .build import build_iterative, build_pipelined
+        if dsp not in DSPS:
+            raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
+        if dsp == "ecp5" and self.adders.dsp != dsp:
+            raise ValueError(f"datapath {self.name!r}: built with dsp={dsp!r}, made with "
+                             f"adders for {self.adders.dsp!r} (Datapath(adders=adders_for(dsp)))")
+        if arch == "pipelined":
+            build_pipelined(self, m, inputs, payload_of, i, o, dsp)
+        elif arch == "iterative":
+            build_iterative(self, m, inputs, payload_of, i, o)
+        else:
+            raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
+
+    def check_chain(self, shape) -> None:
+        """:meth:`check` as a chain: from its declared ``inputs`` (signals of ``shape``) to its
+        declared ``outputs``."""
+        inputs = {key: Signal(shape, name=f"check_{key}") for key in self.inputs}
+        self.check(inputs, lambda s: {key: s[key] for key in self.outputs})
+
+    def check(self, inputs: dict, outputs_of) -> None:
+        """Trace the stages once on ``inputs`` (each iterated stage step by step, as pipelined):
+        raise ValueError naming the key and the stage when a stage reads a value no earlier stage
+        produced, or a value produced (or an input) is dropped, replaced or left at the end
+        without being read; ``outputs_of(final_state)`` reads the outputs. An iterated stage's
+        values count as read by its own next step."""
+        tracing = getattr(self.adders, "tracing", None)
+        if tracing is not None:
+            self.adders.tracing = True
+        try:
+            state = _trace_stages(self, dict(inputs))
+            reads = set()
+            try:
+                outputs_of(_Traced(state.values, reads))
+            except MissingValue as error:
+                raise ValueError(f"{self.name}: the outputs read {error.key!r}, which no stage "
+                                 f"produces") from None
+            state.read(reads)
+            state.consume_all("the outputs")
+        finally:
+            if tracing is not None:
+                self.adders.tracing = tracing
+
+
+class _TraceState:
+    """The values of a trace, who produced each and whether it has been read."""
+
+    def __init__(self, name, values):
+        self.name, self.values = name, values
+        self.producer = {key: "the inputs" for key in values}
+        self.used = {key: False for key in values}
+
+    def read(self, reads):
+        for key in reads:
+            self.used[key] = True
+
+    def _unread(self, key, by):
+        raise ValueError(f"{self.name}: {key!r} produced by stage {self.producer[key]!r} is never "
+                         f"read ({by} drops or replaces it)")
+
+    def advance(self, out: dict, stage_name: str):
+        """Take a stage's result; each value it produced becomes a fresh signal of its shape
+        (as a register does: a trace through hundreds of stages must not build one expression)."""
+        for key, value in self.values.items():
+            if (key not in out or out[key] is not value) and not self.used[key]:
+                self._unread(key, f"stage {stage_name!r}")
+        for key, value in out.items():
+            if key not in self.values or self.values[key] is not value:
+                self.producer[key], self.used[key] = stage_name, False
+                out[key] = Signal(Value.cast(value).shape(), name=f"trace_{key}")
+        self.values = out
+
+    def consume_all(self, by):
+        for key in self.values:
+            if not self.used[key]:
+                raise ValueError(f"{self.name}: {key!r} produced by stage {self.producer[key]!r} "
+                                 f"is never read (not an output)")
+
+
+def _trace_stages(dp: Datapath, values: dict) -> _TraceState:
+    state = _TraceState(dp.name, values)
+    for stage in map(Stage.of, dp.stages):
+        for step in range(max(stage.count, 1) if stage.iterated else 1):
+            reads = set()
+            traced = _Traced(state.values, reads)
+            try:
+                out = stage.fn(traced, step) if stage.iterated else stage.fn(traced)
+            except MissingValue as error:
+                raise ValueError(f"{dp.name}: stage {stage.name!r} reads {error.key!r}, which no "
+                                 f"earlier stage produces") from None
+            state.read(reads)
+            state.advance(dict(out), stage.name)
+            if stage.iterated:
+                # An iterated stage's values feed its next step (the iterative build's feedback):
+                # the last step's values of the keys it reads count as read (e.g. the y of a
+                # vectoring CORDIC, driven to 0 and not used after).
+                state.read(reads & set(out))
+    return state

@@ -1,0 +1,1 @@
+"""The pipelined IK core (and its staged elaboration), generated from the traced graph."""

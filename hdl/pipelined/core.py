@@ -1,0 +1,141 @@
+"""The inverse kinematics of the 5R arm in hardware: :class:`IKCore`, bit-exact to ``model.ik_solve``.
+
+The whole solver is ONE :class:`~ik5r.hdl.datapath.stages.Datapath`
+(:func:`~ik5r.hdl.pipelined.graph.graph_datapath`) generated from the dataflow graph of the IK's one
+description, :func:`ik5r.core.ik.solve`, traced on symbols (:func:`~ik5r.hdl.graph.trace.trace`,
+the graph the compact core's program is compiled from): a unit per value of the graph
+(:mod:`~ik5r.hdl.pipelined.units`: the blocks' chains, :func:`~ik5r.hdl.blocks.cordic.add_atan2`,
+:meth:`~ik5r.hdl.blocks.cordic.Rotate.chain`, :func:`~ik5r.hdl.blocks.sqrt.add_isqrt`,
+:func:`~ik5r.hdl.datapath.products.add_products`, and glue stages), scheduled as soon as their operands are
+ready; values needed many stages later wait in the stash (:mod:`~ik5r.hdl.datapath.stash`).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import signed, unsigned
+
+from ik5r.core.fxconfig import Constants
+from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
+
+from ..datapath.stages import adders_for
+from .graph import STATUS_BITS, graph_datapath
+from ..modes import CORE_ARCHS
+from ..datapath.stash import Stash
+from ..blocks.stream_block import StreamBlock
+
+__all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
+
+
+#: The order of the pose fields in the input payload (bit layout of the Verilog port).
+PAYLOAD_ORDER = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
+                 "has_roll", "q5_default", "shoulder_back", "elbow_down")
+
+
+def core_fields(constants: Constants) -> tuple[dict, dict]:
+    """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out:
+    the pose and solution schema of :mod:`ik5r.core.pose_fields`, in the formats of the config."""
+    c = constants.cfg
+    formats = {Format.LENGTH: (signed(c.width), c.frac_length), Format.UNIT: (signed(c.width), c.frac_unit),
+               Format.ANGLE: (signed(c.width), c.frac_angle), Format.BIT: (unsigned(1), 0),
+               Format.STATUS: (unsigned(STATUS_BITS), 0)}
+    pose = {f.name: f for f in POSE_FIELDS}
+    in_fields = {name: (*formats[pose[name].format], pose[name].doc) for name in PAYLOAD_ORDER}
+    out_fields = {f.name: (*formats[f.format], f.doc) for f in SOLUTION_FIELDS}
+    return in_fields, out_fields
+
+
+class IKCore(StreamBlock):
+    """The fixed-point inverse kinematics of the 5R arm, bit-exact to ``model.ik_solve``.
+
+    One pose in, one branch's joint angles and status out. The branch is chosen per pose, as in
+    the C solver's API (``ik5r_solve(..., has_roll, shoulder_back, elbow_down, q5_default_a, q)``):
+    ``shoulder_back`` puts the tool point behind joint 1 (q1 + pi, r = -rho), ``elbow_down`` takes
+    q3 = -acos(c3) (q2 = gamma + beta) instead of +acos(c3) (q2 = gamma - beta). Without roll
+    (``has_roll`` low) n and o are ignored and q5 = ``q5_default`` (wrapped).
+
+    Dataflow (docs/algorithm.md; every step is the model's, in the model's integer arithmetic):
+    select (point, or approach on the base axis) -> [atan2 theta1 || px^2 + py^2, isqrt, sat rho]
+    -> q1, r - a1 -> rotate (1, 0) by q1 -> six products: a_radial, s5, c5 -> [atan2 pitch ||
+    atan2 roll] -> phi -> rotate (a4, d5) by phi -> wrist centre (xw, yw) -> [atan2 gamma ||
+    xw^2 + yw^2 - links, clip, c3 = mul_const, clip, (1 - c3)(1 + c3), isqrt = sin q3] ->
+    [atan2(sin q3, c3) = acos || a3 sin q3, a2 + a3 c3, atan2 beta] -> q2, q3, q4 -> offsets, wrap.
+    Parallel CORDICs share stages; values needed much later are stashed in delay lines.
+
+    With ``ik.internal_guard_bits`` = G > 0 (q32w: G = 6) every step runs on the internal format
+    (W + G-bit words, every fraction + G, iterations + G; 1 -+ c3 as two constant multiplies of
+    the law of cosines' terms instead of c3 and 1 -+ c3); the input words are shifted up on entry and
+    the joints rounded back to words (flagging ``saturated`` if one overflows).
+
+    Payloads (W = ``constants.cfg.width``; Q m.n: n fraction bits, m + n = W):
+
+    * ``i.payload``: ``px``, ``py``, ``pz`` ``signed(W)`` Q.frac_length cm; ``ax``, ``ay``, ``az``,
+      ``nx``, ``ny``, ``nz``, ``ox``, ``oy``, ``oz`` ``signed(W)`` Q.frac_unit (nz, oz only in the
+      orientation check); ``has_roll``, ``shoulder_back``, ``elbow_down`` 1 bit; ``q5_default``
+      ``signed(W)`` Q.frac_angle rad; ``tag`` ``unsigned(tag_width)`` (only if ``tag_width``).
+      Every word is accepted (full-scale and most negative inputs give the model's result).
+    * ``o.payload``: ``q1`` .. ``q5`` ``signed(W)`` Q.frac_angle rad in [-pi, pi] (q5: the wrapped
+      default without roll); ``status`` ``unsigned(6)``, the bits of :mod:`ik5r.core.status`
+      (unreachable, singular_elbow, singular_base, saturated, invalid, bad_orientation); ``tag``,
+      the input's.
+
+    Timing: ``latency`` cycles from the input transfer to the output valid (no back-pressure;
+    pipelined: the stages, the register in front of the output FIFO and the FIFO; the figures of
+    each config are in the port map JSON and the records, not here).
+
+    * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
+      pipeline never stalls (no clock enable): results queue in an output FIFO (block RAM) while
+      ``o`` is held, and ``i.ready`` drops only when ``capacity`` poses are
+      inside, in flight or queued (see :class:`~ik5r.hdl.blocks.stream_block.StreamBlock`). One add/sub level
+      (or one 17 x 17 partial product) per stage; a compare that selects a value is registered
+      a stage ahead of its select. ``dsp="ecp5"`` builds the partial products as
+      ``MULT18X18D`` instances with their input and output registers and the CORDIC
+      add/subtracts as ``CCU2C`` chains (same latency, same bits).
+    * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
+      (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
+      previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
+      other on ONE shared micro-rotation unit (:func:`~ik5r.hdl.blocks.cordic.cordic_unit`, one step per
+      clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
+      (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
+      rounding, saturation) keep their own registers, each used for one clock per pose.
+      ``hdl.generate`` names this elaboration ``staged``: its ``compact`` IK core is the much
+      smaller sequenced engine, :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
+    """
+
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
+                 dsp: str = "generic"):
+        if arch not in CORE_ARCHS:
+            raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
+        dp = in_fields = out_fields = None
+        self._stash = Stash()
+        if isinstance(constants, Constants):
+            in_fields, out_fields = core_fields(constants)
+            dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
+                                serial=arch == "compact")
+        self.options = {}
+        super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
+                         tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,
+                         dsp=dsp)
+        self.arch = arch
+        self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
+
+    def _inputs(self, p):
+        # Words to the internal format: exact, ``internal_guard_bits`` more fraction bits.
+        guard = self.constants.cfg.internal_guard_bits
+        def word(value):
+            return value.shift_left(guard)
+
+        return {"px": word(p.px), "py": word(p.py), "pz": word(p.pz), "ax": word(p.ax),
+                "ay": word(p.ay), "az": word(p.az), "nx": word(p.nx), "ny": word(p.ny),
+                "nz": word(p.nz), "ox": word(p.ox), "oy": word(p.oy), "oz": word(p.oz), "roll": p.has_roll, "q5d": word(p.q5_default),
+                "back": p.shoulder_back, "down": p.elbow_down}
+
+    def _outputs(self, state):
+        out = {f"q{j}": state[f"j{j}"] for j in range(1, 6)}
+        out["status"] = state["st"]
+        return out
+
+    def elaborate(self, platform):
+        self._stash.reset()
+        m = super().elaborate(platform)
+        self._stash.elaborate(m, self._datapath_arch)
+        return m

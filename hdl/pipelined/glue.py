@@ -1,0 +1,120 @@
+"""The glue units of the pipelined IK core generated from the traced IK (:mod:`.ik_graph`): adds,
+selects, saturations, clips, wraps, the conditions as bits; and :func:`unit_of`, the unit of any
+value of the graph (the heavy ones in :mod:`.ik_units`). Semantics of each op: :mod:`.seq_lower`."""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Mux
+
+from ..datapath.expr import rshift_round, saturate
+from .units import Unit, atan2_unit, mulc_unit, rotate_unit, sop_unit, sqrt_unit
+from ..graph.trace import AnyOf, Compare, Not, Sop
+from ..blocks.sqrt import fit
+
+__all__ = ["unit_of"]
+
+
+def _in_range(v, lo, hi) -> bool:
+    vlo, vhi = v.bounds() if isinstance(v, Sop) else (v.lo, v.hi)
+    return (lo is None or lo <= vlo) and (hi is None or vhi <= hi)
+
+
+def glue_unit(ctx, name, n) -> Unit:
+    """The glue of the graph (:mod:`.seq_lower`'s ALU code): one adder level or one select per
+    stage; a compare that selects a value is registered a stage ahead of its select."""
+    op, args, ki = n.op, n.args, ctx.ki
+    nearest = ki.cfg.round_nearest
+    if op == "add":
+        return ctx.glue(name, args, [n], lambda a, b: (a + b,))
+    if op == "sub":
+        return ctx.glue(name, args, [n], lambda a, b: (a - b,))
+    if op == "neg":
+        return ctx.glue(name, args, [n], lambda a: (-a,))
+    if op == "rsr":
+        return ctx.glue(name, args, [n], lambda a: (rshift_round(a, n.params[0], nearest),))
+    if op == "sel":
+        cond = ctx.canon(n.params[0])
+        return ctx.glue(name, [cond, *args], [n], lambda c, a, b: (Mux(c, a, b),))
+    if op == "sat":
+        return sat_unit(ctx, name, n)
+    pi = ki.pi_a
+    if op == "wrap":
+        return ctx.selecting(name, args, n, [lambda a: a > pi, lambda a: a < -pi],
+                             lambda f, a: Mux(f[0], a - 2 * pi, Mux(f[1], a + 2 * pi, a)))
+    if op == "opp":
+        return ctx.selecting(name, args, n, [lambda a: a > 0],
+                             lambda f, a: Mux(f[0], a - pi, a + pi))
+    if op == "clip":
+        return clip_unit(ctx, name, n)
+    raise NotImplementedError(f"no pipelined unit for {n}")
+
+
+def sat_unit(ctx, name, n) -> Unit:
+    """``fixedpoint.saturate`` to ``bits``; wiring where the bounds show it never clips."""
+    x, bits = n.args[0], n.params[0]
+    flag = ctx.derived("flag", n)
+    if _in_range(x, -(1 << (bits - 1)), (1 << (bits - 1)) - 1):
+        unit = ctx.glue(name, [x], [n, flag], lambda a: (fit(a, bits).as_signed(), Const(0, 1)))
+        unit.wiring = True
+        return unit
+    # expr.saturate reads a value as wide as the word as a word: an unsigned one gets its sign bit.
+    return ctx.glue(name, [x], [n, flag], lambda a: saturate(
+        a if a.shape().signed else Cat(a, Const(0, 1)).as_signed(), bits))
+
+
+def clip_unit(ctx, name, n) -> Unit:
+    """A clip to [lo, hi] (either end None: unbounded), only at the ends the value may pass."""
+    x, (lo, hi) = n.args[0], n.params
+    ends = [(c, end) for c, end in ((lambda a: a > hi, hi), (lambda a: a < lo, lo))
+            if end is not None and not _in_range(x, *((None, end) if end is hi else (end, None)))]
+
+    def select(f, a):
+        for flag, (_, end) in reversed(list(zip(f, ends))):
+            a = Mux(flag, end, a)
+        return a
+    return ctx.selecting(name, [x], n, [c for c, _ in ends], select)
+
+
+def cond_unit(ctx, name, c) -> Unit:
+    """A condition as a bit: a compare against a constant (one stage), Not and AnyOf (wiring).
+    A sum of squares compared with 0 is the OR of its operands being non-zero."""
+    if isinstance(c, Compare):
+        v = c.value
+        if (isinstance(v, Sop) and c.op == ">" and c.const == 0 and not v.const
+                and all(a is b and not neg for a, b, neg, _ in v.terms)):
+            operands = [a for a, _, _, _ in v.terms]
+            return ctx.glue(name, operands, [c], lambda *xs: ((Const(0, 1) if not xs else
+                                                              _any_nonzero(xs)),))
+        if c.op == ">":
+            return ctx.glue(name, [v], [c], lambda a: (a > c.const,))
+        return ctx.glue(name, [v], [c], lambda a: (a < c.const,))
+    if isinstance(c, Not):
+        unit = ctx.glue(name, [ctx.canon(c.cond)], [c], lambda a: (~a,))
+    elif isinstance(c, AnyOf):
+        conds = [ctx.canon(x) for x in c.conds]
+        unit = ctx.glue(name, conds, [c], lambda *xs: (_any(xs),))
+    else:
+        raise NotImplementedError(f"no pipelined unit for {c!r}")
+    unit.wiring = True
+    return unit
+
+
+def _any(xs):
+    out = xs[0]
+    for x in xs[1:]:
+        out = out | x
+    return out
+
+
+def _any_nonzero(xs):
+    return _any([x != 0 for x in xs])
+
+
+def unit_of(ctx, name, v) -> Unit:
+    """The unit computing value ``v``."""
+    if isinstance(v, Sop):
+        return sop_unit(ctx, name, v)
+    if isinstance(v, (Compare, Not, AnyOf)):
+        return cond_unit(ctx, name, v)
+    builders = {"mulc": mulc_unit, "atan2": atan2_unit, "rot": rotate_unit, "sqrt": sqrt_unit}
+    return builders.get(v.op, glue_unit)(ctx, name, v)

@@ -1,0 +1,306 @@
+"""The assembler of the sequenced engine's programs: operands, instruction helpers and the unit
+recipes the lowering (:mod:`.seq_lower`) builds blocks from (rounding shifts, angle wraps, limb
+products, constant multiplies, the CORDIC's vectoring and rotation, the square root's rounding),
+and :meth:`Asm.finish`, which resolves constants and variables to data-memory addresses.
+"""
+
+from __future__ import annotations
+
+from ik5r.core.fxconfig import CHECK_BITS, Constants
+
+from ..blocks.cordic import atan2_widths, rotate_z_bound
+from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SHR1, A_SHR4,
+                      A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
+                      K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, K_NORM1, K_NORM8, K_QROT, K_ROT,
+                      K_VEC, LIMB, READ_AHEAD, Program, Widths)
+
+__all__ = ["Asm", "Const", "Check", "Bus"]
+
+
+class Const:
+    """A constant operand (a word of the data memory's constant pool)."""
+
+    def __init__(self, value: int):
+        self.value = int(value)
+
+
+class Check:
+    """The check word of a variable (its top CHECK_BITS bits: ``model.check_word`` of the internal
+    format) as a multiplier operand: the variable is loaded, the pick takes the check word."""
+
+    def __init__(self, name: str):
+        self.name = name
+
+
+class Bus:
+    """A B-bus source other than the memory."""
+
+    def __init__(self, sel: int):
+        self.sel = sel
+
+
+CX, CY, CZ, ROOT, REM, ACC = (Bus(B_CX), Bus(B_CY), Bus(B_CZ), Bus(B_ROOT), Bus(B_REM),
+                              Bus(B_ACC))
+F, NOT_F = (C_F, 0), (C_F, 1)
+
+
+def limbs_of(bits: int) -> int:
+    """Limbs of a signed operand of ``bits`` bits (15-bit limbs, a 16-bit signed top limb)."""
+    return 1 if bits <= 16 else 1 + -(-(bits - 16) // LIMB)
+
+
+def operand(src) -> dict:
+    if isinstance(src, Bus):
+        return {"bsel": src.sel}
+    if isinstance(src, Const):
+        return {"rd": ("c", src.value)}
+    if isinstance(src, Check):
+        return {"rd": ("v", src.name)}
+    return {"rd": ("v", src)}
+
+
+def _pick(src, index: int, limbs: int, side: str = "a") -> dict:
+    """Pick fields of one operand: limb ``index`` (signed if the top one), or its check word."""
+    if isinstance(src, Check):
+        return {f"pw{side}": 1}
+    return {f"p{side}": index, f"ps{side}": int(index == limbs - 1)}
+
+
+def I(*conds, **fields) -> dict:
+    """One instruction; ``conds``: up to two (source, invert) pairs."""
+    if len(conds) > 2:
+        raise ValueError(f"an instruction has two condition slots, not {len(conds)}: {conds}")
+    for (src, inv), (a, b) in zip(conds, (("ca", "cai"), ("cb", "cbi"))):
+        fields[a], fields[b] = src, inv
+    return fields
+
+
+def alu(op, src=None, *conds, **fields) -> dict:
+    return I(*conds, alu=op, **(operand(src) if src is not None else {}), **fields)
+
+
+def st(name: str) -> dict:
+    return {"wr": 1, "wa": ("v", name)}
+
+
+def shr(n: int) -> list:
+    ops = []
+    for size, op in ((16, A_SHR16), (4, A_SHR4), (1, A_SHR1)):
+        while n >= size:
+            ops.append(alu(op))
+            n -= size
+    return ops
+
+
+class Asm:
+    """Builds the instruction list; resolves constants and variables to memory addresses."""
+
+    def __init__(self, k: Constants):
+        self.k, self.ki = k, k.internal
+        self.nearest = k.cfg.round_nearest
+        self.shifts: list[int] = []
+        self.operand_bits = 16
+        self.product_bits = 0
+
+    # -- arithmetic helpers (instruction lists) --
+    def round_shift(self, n: int) -> list:
+        """acc = rshift_round(acc, n)."""
+        if n <= 0:
+            return []
+        return ([alu(A_ADD, Const(1 << (n - 1)))] if self.nearest else []) + shr(n)
+
+    def wrap(self) -> list:
+        """acc = wrap_angle(acc)."""
+        pi = self.ki.pi_a
+        return [alu(A_CMPGT, Const(pi)), alu(A_SUB, Const(2 * pi), F),
+                alu(A_CMPLT, Const(-pi)), alu(A_ADD, Const(2 * pi), F)]
+
+    def opposite(self, *conds) -> list:
+        """acc = opposite(acc) (when ``conds`` hold)."""
+        pi = self.ki.pi_a
+        return [alu(A_CMPGT, Const(0)), alu(A_SUB, Const(pi), F, *conds),
+                alu(A_ADD, Const(pi), NOT_F, *conds)]
+
+    def shift_index(self, amount: int) -> int:
+        if amount not in self.shifts:
+            self.shifts.append(amount)
+        return self.shifts.index(amount)
+
+    def products(self, terms, *, first=True) -> list:
+        """acc (+)= sum of +-a*b; ``terms``: (a, a_bits, b, b_bits, negative, extra_shift).
+
+        Per term: the operands are loaded (MB only when it changes), one limb pair is picked per
+        clock, and its product is added two clocks later (the multiplier's two registers). A
+        :class:`Check` operand is one limb, its check word."""
+        slots: list[dict] = []
+
+        def put(t, **fields):
+            while len(slots) <= t:
+                slots.append({})
+            if set(fields) & set(slots[t]):
+                raise ValueError(f"slot {t}: {fields} clashes with {slots[t]}")
+            slots[t].update(fields)
+
+        t, last_b, first_macc = 0, None, first
+        for index, (a, a_bits, b, b_bits, negative, extra) in enumerate(terms):
+            self.operand_bits = max(self.operand_bits, a_bits, b_bits)
+            self.product_bits = max(self.product_bits, a_bits + b_bits + extra)
+            la, lb = (1 if isinstance(x, Check) else limbs_of(bits) for x, bits in ((a, a_bits), (b, b_bits)))
+            if isinstance(a, Check) or isinstance(b, Check):
+                self.operand_bits = max(self.operand_bits, CHECK_BITS)
+            put(t, mld=1, **operand(a))
+            key = (b.value if isinstance(b, Const) else b.name if isinstance(b, Check) else b, b_bits)
+            if key != last_b:
+                put(t + 1, mld=2, **operand(b))
+                t += 1
+            last_b = key
+            t += 1
+            if negative and not first_macc:
+                raise ValueError("only the first term of a sum may be negative")
+            for i in range(la):
+                for j in range(lb):
+                    put(t, pick=1, **_pick(a, i, la), **_pick(b, j, lb, "b"))
+                    put(t + 2, alu=A_MLD if first_macc else A_MACC,
+                        sh=self.shift_index(LIMB * (i + j) + extra))
+                    first_macc = False
+                    t += 1
+            if negative:
+                put(t + 2, alu=A_NEG)
+            t -= 1      # the next term's MA load may share the last pick's clock
+        return slots
+
+    def mul_const(self, m, bits: int) -> list:
+        """acc = mul_const(acc, m) for |acc| < 2**(bits - 1)."""
+        if m.mant < 0:
+            raise ValueError("negative constant multiplier")
+        code = self.round_shift(m.pre)
+        op_bits = max(2, bits - m.pre + 1)
+        code += self.products([(ACC, op_bits, Const(m.mant), m.mant.bit_length() + 1, False, 0)])
+        return code + self.round_shift(m.post)
+
+    # -- CORDIC --
+    def atan2_body(self) -> list:
+        w = self.ki.cfg.width
+        return ([I(cop=K_COARSE, ci=self.ki.cfg.iterations)] + [I(cop=K_NORM8)] * ((w - 1) // 8)
+                + [I(cop=K_NORM1)] * 7
+                + [I(cop=K_VEC, ci=i) for i in range(self.ki.cfg.iterations)])
+
+    def atan2_angle(self, zero_status=0) -> list:
+        """acc = the angle of the vectoring just run (0 for the zero vector)."""
+        return ([alu(A_LD, CZ)] + self.round_shift(self.ki.cfg.angle_guard_bits)
+                + [alu(A_LD, Const(0), (C_ZERO, 0), stat=zero_status)])
+
+    def rotate(self, x, y, angle, dest_x: str, dest_y: str, temp: str, stat: int, gates=()) -> list:
+        """(dest_x, dest_y) = cordic_rotate(x, y, angle): the quadrant steps, the gain on the
+        inputs, the micro-rotations, the outputs rounded and saturated (``stat`` where ``gates``)."""
+        ki = self.ki
+        c = ki.cfg
+        code = [I(cop=K_LDZA, **operand(angle)), I(cop=K_LDX, **operand(x)), I(cop=K_LDY, **operand(y)),
+                alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations),
+                alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations)]
+        gain = Const(ki.inv_gain)
+        for src, load in ((CX, K_LDX), (CY, K_LDY)):
+            code += self.products([(src, c.width + 1, gain, ki.inv_gain.bit_length() + 1, False, 0)])
+            code += self.round_shift(ki.inv_gain_frac - c.guard_bits)
+            if load == K_LDX:
+                code += [st(temp)]
+        code += [I(cop=K_LDY, bsel=B_ACC), I(cop=K_LDX, **operand(temp))]
+        code += [I(cop=K_ROT, ci=i) for i in range(c.iterations)]
+        for src, dest in ((CX, dest_x), (CY, dest_y)):
+            code += [alu(A_LD, src)] + self.round_shift(c.guard_bits)
+            code += [alu(A_SATI, None, *gates, stat=stat), st(dest)]
+        return code
+
+    # -- assembly --
+    def finish(self, code: list, widths: Widths) -> Program:
+        """The program of a scheduled instruction list (no store/read hazard left: checked)."""
+        if len(hazards(code)) != len(code):
+            raise ValueError("a scheduled program reads a word within READ_AHEAD clocks of its store")
+        consts, names = {}, {}
+        for ins in code:
+            for key in ("rd", "wa"):
+                ref = ins.get(key)
+                if isinstance(ref, tuple) and ref[0] == "c":
+                    consts.setdefault(ref[1], len(consts))
+        base = len(consts)
+        for ins in code:
+            for key in ("rd", "wa"):
+                ref = ins.get(key)
+                if isinstance(ref, tuple) and ref[0] == "v":
+                    names.setdefault(ref[1], base + len(names))
+        for ins in code:
+            for key in ("rd", "wa"):
+                ref = ins.get(key)
+                if isinstance(ref, tuple):
+                    ins[key] = consts[ref[1]] if ref[0] == "c" else names[ref[1]]
+        depth = 1 << max(1, (base + len(names) - 1).bit_length())
+        mem_init = [0] * depth
+        for value, addr in consts.items():
+            mem_init[addr] = value
+        const_bits = max(abs(v).bit_length() + 1 for v in consts)
+        widths.mem = max(widths.mem, const_bits)
+        widths.acc = max(widths.acc, widths.mem + 2)
+        atan = list(self.ki.atan_table) + [self.ki.half_pi_z]
+        return Program(code=code, mem_init=mem_init, atan=atan, shifts=list(self.shifts),
+                       widths=widths, names=names)
+
+
+def reads_mem(ins) -> bool:
+    uses_b = (ins.get("alu", 0) in (A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT) or ins.get("mld", 0)
+              or ins.get("cop", 0) in (K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA))
+    return bool(uses_b) and ins.get("bsel", 0) == B_MEM
+
+
+def fold(code: list) -> list:
+    """A store-only instruction is merged into the next one (a store writes the accumulator as it
+    was before its instruction, so the result is the same, one clock earlier)."""
+    out = []
+    pending = None
+    for ins in code:
+        if pending is not None and "wr" not in ins and not (
+                reads_mem(ins) and ins.get("rd") == pending["wa"]):
+            ins = {**ins, **pending}
+            pending = None
+        elif pending is not None:
+            out.append(pending)
+            pending = None
+        if set(ins) <= {"wr", "wa"} and ins:
+            pending = ins
+            continue
+        out.append(ins)
+    if pending is not None:
+        out.append(pending)
+    return out
+
+
+def hazards(code: list) -> list:
+    """No-ops between a store and a read of the same word less than READ_AHEAD + 1 clocks later
+    (the read happens READ_AHEAD clocks ahead of its instruction)."""
+    out = []
+    for ins in code:
+        while reads_mem(ins) and any(prev.get("wr") and prev.get("wa") == ins.get("rd")
+                                      for prev in out[-READ_AHEAD:]):
+            if any(o.get("pick") for o in out[-2:]):
+                raise ValueError(f"store/read hazard inside a product at {ins}")
+            out.append({})
+        out.append(ins)
+    return out
+
+
+def widths_of(k: Constants) -> Widths:
+    ki = k.internal
+    c = ki.cfg
+    z = max(atan2_widths(ki)["cz"].width, rotate_z_bound(ki).bit_length() + 1)
+    return Widths(word=k.cfg.width, guard=k.cfg.internal_guard_bits, internal=c.width,
+                  acc=2 * c.width + 6, mem=c.width + 4, limbs=1, xy=c.width + c.guard_bits + 3,
+                  z=z, radicand=2 * c.width, cordic_guard=c.guard_bits,
+                  angle_guard=c.angle_guard_bits, check_lsb=ki.check_shift)
+
+
+def sqrt_round(a: Asm) -> list:
+    """acc = the square root just run, rounded (``rem > root``: root + 1)."""
+    if not a.nearest:
+        return [alu(A_LD, ROOT)]
+    return [alu(A_LD, REM), alu(A_CMPGT, ROOT), alu(A_LD, ROOT), alu(A_ADD, Const(1), F)]
+
+

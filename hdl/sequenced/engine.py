@@ -1,0 +1,492 @@
+"""The sequenced IK engine: a small machine stepping :func:`~ik5r.hdl.sequenced.program.ik_program`.
+
+:class:`SeqEngine` has word ports (one input word or one output word per instruction);
+:class:`SequencedIKCore` puts the IK core's struct streams around it (the ``compact`` arch of
+``IKCore``'s payloads), :class:`SerialIK` a narrow word-serial stream on each side (for small
+FPGAs with few pins). The instruction set and its clock-exact reference are :mod:`.seq_isa`.
+
+Pipeline: the program counter addresses the instruction ROM (block RAM, registered), whose output
+addresses the data memory and the CORDIC step-angle ROM; their outputs are registered again, and
+the instruction executes from its own register two clocks after the read (``READ_AHEAD``), so
+every unit reads registers only (a block RAM's clock-to-output is ~6 ns on an ECP5). A wait on a word
+port (no input word, output not taken) holds every register, including the RAM outputs.
+
+The slowest paths are the two one-clock loops of arithmetic: the accumulator's adder (its right
+operand a one-hot select of its own few sources, :data:`~.seq_isa.ADDER_SOURCES`, not the B bus
+with its input word and CORDIC registers; the sum and the compare enter the accumulator, F and
+status muxes last) and a CORDIC micro-rotation (a barrel shifter of 4-way stages, each with its
+own shift register, into the x or y adder).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Module, Mux, Signal, Value, signed, unsigned
+from amaranth.lib import data, stream, wiring
+from amaranth.lib.memory import Memory
+from amaranth.lib.wiring import In, Out
+
+from ik5r.core import status as S
+from ik5r.core.fxconfig import CHECK_BITS, Constants
+
+from . import isa as X
+from ..datapath.expr import add_sub, asr_radix4, saturate, select
+from .program import ik_program
+
+__all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
+
+STATUS_BITS = S.FIXED_WIDTH
+#: Multiplier operand bits: a 16-bit signed limb or a check word.
+_FACTOR_BITS = max(16, CHECK_BITS)
+
+
+def _pack(prog: X.Program):
+    """(instruction words, {field: (lsb, bits)}, word width)."""
+    bits = prog.field_bits()
+    layout, lsb = {}, 0
+    for name in X.FIELDS:
+        layout[name] = (lsb, bits[name])
+        lsb += bits[name]
+    words = []
+    for ins in prog.code:
+        word = 0
+        for name, (lo, _) in layout.items():
+            word |= ins.get(name, 0) << lo
+        words.append(word)
+    return words, layout, lsb
+
+
+class SeqEngine(wiring.Component):
+    """The sequenced IK engine (see the module docstring), with word ports.
+
+    Input: the program asks for word ``in_index`` (of the instruction executing next; 0..12:
+    :data:`~.seq_isa.INPUT_WORDS`, 13: the flags word has_roll | shoulder_back << 1 |
+    elbow_down << 2 | tag << 3) and takes it in a clock with ``in_valid`` high (``in_take``).
+    Output: ``out_valid`` with word ``out_index`` (0..4: q1..q5, 5: status | tag << 6, status
+    the :data:`STATUS_BITS` bits of :mod:`ik5r.core.status`) in ``out_data``, held until
+    ``out_ready``. One pose takes
+    ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
+    first instruction is about to execute.
+    """
+
+    def __init__(self, *, constants: Constants, tag_width: int = 0):
+        if not isinstance(constants, Constants):
+            raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
+        self.prog = ik_program(constants)
+        if any(i.get("alu", 0) in X.ADDING and i.get("bsel", 0) not in X.ADDER_SOURCES for i in self.prog.code):
+            raise ValueError(f"the program adds a B-bus source outside {X.ADDER_SOURCES} (seq_isa.ADDER_SOURCES)")
+        self.widths = w = self.prog.widths
+        w.tag = tag_width
+        self.cycles = len(self.prog.code)
+        self.in_bits = max(w.word, 3 + tag_width)
+        self.out_bits = max(w.word, STATUS_BITS + tag_width)
+        super().__init__({
+            "in_index": Out(unsigned(4)), "in_valid": In(1), "in_data": In(unsigned(self.in_bits)),
+            "in_take": Out(1), "in_ready": Out(1), "booted": Out(1),
+            "out_valid": Out(1), "out_ready": In(1), "out_index": Out(unsigned(3)),
+            "out_data": Out(unsigned(self.out_bits)),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        prog, w = self.prog, self.widths
+        words, layout, iw_bits = _pack(prog)
+        stall = Signal()
+        # ``started`` is low in the first clock after power-up or reset, when the ROM's output
+        # is not yet instruction 0: the program counter stays at 0 and a no-op executes.
+        started = Signal()
+        m.d.sync += [started.eq(1), self.booted.eq(started)]
+        pc = Signal(range(len(words)))
+        pc_next = Mux(stall | ~started, pc, Mux(pc == len(words) - 1, 0, pc + 1))
+        m.d.sync += pc.eq(pc_next)
+        m.submodules.rom = rom = Memory(shape=unsigned(iw_bits), depth=len(words), init=words)
+        rom_rd = rom.read_port()
+        m.d.comb += [rom_rd.addr.eq(pc_next), rom_rd.en.eq(~stall)]
+        # Two instruction registers: ``fetched`` (the memory and step-angle ROM are read for
+        # it), then ``exe`` (it executes, with the read data registered).
+        fetched = Signal(iw_bits)
+        exe = Signal(iw_bits)
+        with m.If(~stall):
+            m.d.sync += [fetched.eq(Mux(started, rom_rd.data, 0)), exe.eq(fetched)]
+
+        def fetch(name):
+            lo, n = layout[name]
+            return rom_rd.data[lo:lo + n]
+
+        def f(name):
+            lo, n = layout[name]
+            return exe[lo:lo + n]
+
+        def pre(name):
+            lo, n = layout[name]
+            return fetched[lo:lo + n]
+
+        dec, shift = self._decode(m, pre, stall)
+
+        mem_shape = signed(w.mem)
+        m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init)
+        mem_rd = mem.read_port(transparent_for=())
+        mem_wr = mem.write_port()
+        m.submodules.atan = atan = Memory(shape=signed(w.z), depth=len(prog.atan), init=prog.atan)
+        atan_rd = atan.read_port()
+        mem_q = Signal(mem_shape, name="mem_q")
+        step = Signal(signed(w.z), name="step")
+        m.d.comb += [mem_rd.addr.eq(fetch("rd")), mem_rd.en.eq(~stall),
+                     atan_rd.addr.eq(fetch("ci")), atan_rd.en.eq(~stall)]
+        with m.If(~stall):
+            m.d.sync += [mem_q.eq(mem_rd.data), step.eq(atan_rd.data)]
+
+        io = f("io")
+        reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
+        writing = (io == X.IO_OUT) | (io == X.IO_STATUS)
+        m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
+        run = ~stall
+
+        acc = Signal(signed(w.acc))
+        regs = self._registers(w)
+        in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
+        bus = Signal(signed(w.acc), name="bus")
+        options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
+        # One-hot AND-OR (the select is decoded ahead): one LUT level per few sources.
+        terms = [Mux(dec[f"bus{index}"], value, 0) for index, value in enumerate(options)]
+        total_bus = terms[0]
+        for term in terms[1:]:
+            total_bus = total_bus | term
+        m.d.comb += bus.eq(total_bus)
+        sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
+        cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
+        #: The registers by name, for test benches that trace the engine.
+        self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
+        self._alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
+        self._cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
+        self._multiplier(m, f, pre("sh"), bus, regs, run, w)
+        self._sqrt(m, f, acc, regs, run, w)
+        m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
+
+        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
+        return m
+
+    def _decode(self, m, pre, stall):
+        """Decoded controls registered beside ``exe`` (from ``pre``: the fetched instruction)."""
+        # Controls of the wide datapaths decoded a clock early, from registers (their fan-out
+        # to 80-bit muxes and adders was the slowest path).
+        alu_op, bsel = pre("alu"), pre("bsel")
+
+        def alu_is(*ops):
+            return Cat(*(alu_op == op for op in ops)).any()
+
+        adding = alu_is(*X.ADDING)
+        decoded = {
+            "sub": alu_is(X.A_SUB, X.A_NEG, X.A_CMPGT, X.A_CMPLT),
+            "carry": alu_is(X.A_SUB, X.A_NEG, X.A_CMPLT),
+            "left_zero": alu_is(X.A_NEG, X.A_MLD),
+            # The adder's right operand (one-hot): the product, or one of ADDER_SOURCES.
+            "right_product": alu_is(X.A_MLD, X.A_MACC),
+            "right_acc": alu_is(X.A_NEG) | (adding & (bsel == X.B_ACC)),
+            "right_mem": adding & (bsel == X.B_MEM),
+            "right_root": adding & (bsel == X.B_ROOT),
+            "cmp": alu_is(X.A_CMPGT, X.A_CMPLT), "gt": alu_is(X.A_CMPGT),
+            "acc_total": alu_is(X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC),
+            "acc_cond": alu_is(X.A_LD, X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC, X.A_SHR1,
+                               X.A_SHR4, X.A_SHR16),
+            "sat": alu_is(X.A_SATI, X.A_SATW),
+            **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
+        }
+        cop = pre("cop")
+        quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
+        decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
+        # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters:
+        # a register for each (the y shifter's holds the complement: not merged with x's).
+        shift_x = Signal(range(len(self.prog.atan)), name="cordic_shift_x")
+        shift_y_n = Signal(range(len(self.prog.atan)), name="cordic_shift_y_n")
+        with m.If(~stall):
+            m.d.sync += [shift_x.eq(Mux(quarter, 0, pre("ci"))), shift_y_n.eq(~Mux(quarter, 0, pre("ci")))]
+        shift = (shift_x, ~shift_y_n)
+        dec = {name: Signal(name=f"dec_{name}") for name in decoded}
+        with m.If(~stall):
+            m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
+        return dec, shift
+
+    def _ports(self, m, f, pre, stall, reading, writing, acc, regs, run, w):
+        """The word ports and the flags word."""
+        io = f("io")
+        m.d.comb += [self.in_index.eq(Mux(stall, f("iw"), pre("iw"))), self.in_take.eq(reading & run),
+                     self.in_ready.eq(reading),
+                     self.out_valid.eq(writing), self.out_index.eq(Mux(io == X.IO_STATUS, 5, f("iw"))),
+                     self.out_data.eq(Mux(io == X.IO_STATUS, Cat(regs["status"], regs["tag"]),
+                                          acc[:w.word]))]
+        with m.If(run & (io == X.IO_FLAGS)):
+            m.d.sync += [regs["roll"].eq(self.in_data[0]), regs["back"].eq(self.in_data[1]),
+                         regs["down"].eq(self.in_data[2])]
+            if w.tag:
+                m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
+
+    @staticmethod
+    def _registers(w):
+        return {
+            "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
+            "down": Signal(name="down"), "roll": Signal(name="roll"),
+            "status": Signal(STATUS_BITS, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
+            "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
+            "cz": Signal(signed(w.z), name="cz"),
+            "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
+            "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(_FACTOR_BITS), name="lb"),
+            "prod": Signal(signed(w.acc), name="prod"),
+            "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
+            "rem": Signal(w.radicand // 2 + 2, name="rem"),
+        }
+
+    def _alu(self, m, f, dec, acc, bus, mem_q, cond, regs, run, w):
+        op = f("alu")
+        # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
+        # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
+        right = Signal(signed(w.acc), name="alu_right")
+        m.d.comb += right.eq(Mux(dec["right_product"], regs["prod"], 0) | Mux(dec["right_acc"], acc, 0)
+                             | Mux(dec["right_mem"], mem_q, 0) | Mux(dec["right_root"], regs["root"], 0))
+        left = Mux(dec["left_zero"], 0, acc)
+        wide = Signal(w.acc + 1, name="alu_wide")
+        m.d.comb += wide.eq(Cat(dec["carry"], left)
+                            + Cat(dec["carry"], (right ^ dec["sub"].replicate(w.acc))[:w.acc]))
+        total = Signal(signed(w.acc), name="alu_sum")
+        m.d.comb += total.eq(wide[1:])
+        # A compare's result: the sign of acc - b (CMPLT) or of acc - b - 1, inverted (CMPGT).
+        result = Signal(name="alu_compare")
+        m.d.comb += result.eq(total[-1] ^ dec["gt"])
+        sat_i, clip_i = saturate(acc, w.internal)
+        sat_w, clip_w = saturate(acc, w.word)
+        # Everything but the sum is ready early: the sum (and the compare) enter at the last
+        # mux of the accumulator, the F flag and the status bits.
+        early = Signal(signed(w.acc), name="alu_early")
+        m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
+                                 Mux(op == X.A_SHR4, acc.shift_right(4),
+                                     Mux(op == X.A_SHR16, acc.shift_right(16),
+                                         Mux(op == X.A_SATI, sat_i, sat_w))))))
+        # A compare's event is its result (under the condition); other ops' events are early.
+        other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
+        on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
+        on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
+        with m.If(run):
+            with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
+                m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
+            with m.If(dec["cmp"] & cond):
+                m.d.sync += regs["flag"].eq(result)
+            with m.Elif(op == X.A_SETF):
+                m.d.sync += regs["flag"].eq(cond)
+            # Status bits reach the register a clock after their event.
+            pending = Signal(STATUS_BITS, name="status_pending")
+            m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
+                         regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
+
+    def _cordic(self, m, f, dec, shift, bus, cond, step, regs, run, w):
+        op = f("cop")
+        x, y, z = regs["cx"], regs["cy"], regs["cz"]
+        quarter = dec["quarter"]
+        ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
+        x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
+        y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
+        z_next = add_sub(z, step, ccw)
+        ones_abs = Mux(y[-1], ~y, y)
+        v = (x | ones_abs).as_unsigned()
+        top = w.internal - 1 + w.cordic_guard
+        fits8 = v[top - 8:] == 0
+        fits1 = v[top - 1:] == 0
+        go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
+        with m.If(run):
+            with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
+                with m.If(cond):
+                    m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
+                    with m.If(op == X.K_LDXG):
+                        m.d.sync += z.eq(0)
+            with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
+                with m.If(cond):
+                    m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
+            with m.Elif(op == X.K_LDZA):
+                with m.If(cond):
+                    m.d.sync += z.eq(bus.shift_left(w.angle_guard))
+            with m.Elif(op == X.K_NORM8):
+                with m.If(fits8):
+                    m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
+            with m.Elif(op == X.K_NORM1):
+                with m.If(fits1):
+                    m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
+            with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
+                        | (op == X.K_ROT)):
+                with m.If(go):
+                    m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
+            with m.If(op == X.K_COARSE):
+                m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
+
+    def _multiplier(self, m, f, next_shift, bus, regs, run, w):
+        def limb(reg, index, top, check):
+            options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
+                       for i in range(w.limbs)]
+            return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
+                       select(options, index).as_signed())
+
+        product = Signal(signed(2 * _FACTOR_BITS), name="limb_product")     # the one multiplier
+        m.d.comb += product.eq(regs["la"] * regs["lb"])
+        with m.If(run):
+            # The product register holds the limb product already shifted to its weight, by
+            # the shift of the instruction that adds it (the next one to execute).
+            shifts = self.prog.shifts
+            m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
+                                        if len(shifts) > 1 else product.shift_left(shifts[0]))
+            with m.If(f("pick")):
+                m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
+                             regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb")))]
+            with m.If(f("mld") == 1):
+                m.d.sync += regs["ma"].eq(bus)
+            with m.If(f("mld") == 2):
+                m.d.sync += regs["mb"].eq(bus)
+
+    def _sqrt(self, m, f, acc, regs, run, w):
+        rad, root, rem = regs["rad"], regs["root"], regs["rem"]
+        shifted = Cat(rad[w.radicand - 2:], rem)
+        trial = Cat(Const(1, 2), root)
+        diff = Signal(signed(len(shifted) + 1), name="sqrt_diff")
+        m.d.comb += diff.eq(shifted - trial)
+        with m.If(run):
+            with m.If(f("sq") == X.Q_LOAD):
+                m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
+            with m.If(f("sq") == X.Q_STEP):
+                m.d.sync += [rad.eq(rad.shift_left(2)), root.eq(Cat(~diff[-1], root)),
+                             rem.eq(Mux(diff[-1], shifted, diff))]
+
+
+def _check_tag(tag_width, limit):
+    if isinstance(tag_width, bool) or not isinstance(tag_width, int) or not 0 <= tag_width <= limit:
+        raise ValueError(f"tag_width must be an integer in [0, {limit}], got {tag_width!r}")
+
+
+class SequencedIKCore(wiring.Component):
+    """The IK core (payloads of :class:`~ik5r.hdl.pipelined.core.IKCore`) on the sequenced engine.
+
+    Function: ``model.ik_solve`` bit for bit (q1..q5, status, tag), formats as ``IKCore``.
+    Latency: ``latency`` = the program's length + 2 clocks from an input transfer into an idle
+    core to its result on ``o``. Throughput: one pose per ``cycles_per_result`` (the program's
+    length) clocks: the next pose is taken into the input register while one is computed, and a
+    result waits in the output register (the engine waits at its first output word while a
+    result is held). Nothing is lost, duplicated or reordered under back-pressure.
+    """
+
+    def __init__(self, *, constants: Constants, tag_width: int = 0):
+        from ..pipelined.core import core_fields
+
+        _check_tag(tag_width, 26)
+        self._engine = SeqEngine(constants=constants, tag_width=tag_width)
+        self.constants, self.arch, self.tag_width = constants, "sequenced", tag_width
+        in_fields, out_fields = core_fields(constants)
+        if tag_width:
+            in_fields["tag"] = (unsigned(tag_width), 0, "carried unchanged to o.tag")
+            out_fields["tag"] = (unsigned(tag_width), 0, "i.tag of the same item")
+        self.in_fields, self.out_fields = in_fields, out_fields
+        self.cycles_per_result = self._engine.cycles
+        self.latency = self._engine.cycles + 2
+        self.capacity = 3
+        self.options = {}
+        super().__init__({
+            "i": In(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in in_fields.items()}))),
+            "o": Out(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in out_fields.items()}))),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.engine = e = self._engine
+        w = e.widths
+        held = Signal(self.i.payload.shape())
+        full = Signal()
+        # Taken once the engine has booted, so the latency from any input transfer is `latency`.
+        m.d.comb += self.i.ready.eq(~full & e.booted)
+        with m.If(self.i.valid & self.i.ready):
+            m.d.sync += [held.eq(self.i.payload), full.eq(1)]
+        with m.If(e.in_take & (e.in_index == len(X.INPUT_WORDS))):
+            m.d.sync += full.eq(0)
+        names = [("q5_default" if name == "q5d" else name) for name in X.INPUT_WORDS]
+        flags = Cat(held.has_roll, held.shoulder_back, held.elbow_down,
+                    held.tag if self.tag_width else Const(0, 0))
+        words = [Value.cast(getattr(held, name)).as_unsigned() for name in names] + [flags]
+        # The word the engine executes next, registered (off the engine's critical paths); valid
+        # a clock after the input register is.
+        in_q = Signal(e.in_bits)
+        full_q = Signal()
+        m.d.sync += [in_q.eq(select(words, e.in_index)), full_q.eq(full)]
+        m.d.comb += [e.in_valid.eq(full_q), e.in_data.eq(in_q)]
+
+        out = Signal(self.o.payload.shape())
+        valid = Signal()
+        m.d.comb += [self.o.payload.eq(out), self.o.valid.eq(valid), e.out_ready.eq(~valid)]
+        with m.If(e.out_valid & ~valid):
+            for j in range(5):
+                with m.If(e.out_index == j):
+                    m.d.sync += getattr(out, f"q{j + 1}").eq(e.out_data[:w.word])
+            with m.If(e.out_index == 5):
+                m.d.sync += [out.status.eq(e.out_data[:STATUS_BITS]), valid.eq(1)]
+                if self.tag_width:
+                    m.d.sync += out.tag.eq(e.out_data[STATUS_BITS:STATUS_BITS + self.tag_width])
+        with m.If(valid & self.o.ready):
+            m.d.sync += valid.eq(0)
+        return m
+
+
+class SerialIK(wiring.Component):
+    """The sequenced IK engine with a narrow word-serial stream on each side, for small FPGAs.
+
+    ``i``: per pose 14 words, each sent as ``ceil(max(W, 3 + tag_width) / beat_bits)`` beats of
+    ``beat_bits`` bits, least significant beat first: px, py, pz, ax, ay, az, nx, ny, nz, ox, oy,
+    oz, q5_default (signed words as in ``IKCore``), then the flags word has_roll |
+    shoulder_back << 1 | elbow_down << 2 | tag << 3. ``o``: per pose 6 words,
+    ``ceil(max(W, 6 + tag_width) / beat_bits)`` beats each: q1..q5, then status | tag << 6.
+    Function: ``model.ik_solve`` bit for bit. Throughput: one pose per
+    ``cycles_per_result`` clocks when beats come and go every clock; one pose in flight.
+    """
+
+    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16):
+        _check_tag(tag_width, 26)
+        if isinstance(beat_bits, bool) or not isinstance(beat_bits, int) or not 1 <= beat_bits <= 32:
+            raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
+        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width)
+        self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
+        self.arch = "compact"
+        self.in_beats = -(-e.in_bits // beat_bits)
+        self.out_beats = -(-e.out_bits // beat_bits)
+        # Each input word waits for its beats, except the first: its beats arrive while the
+        # previous pose is computed. Each output word holds the engine for its beats.
+        self.latency = e.cycles + (len(X.INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
+        self.cycles_per_result = self.latency - (self.in_beats - 1)
+        self.capacity = 1
+        self.options = {"serial": beat_bits}
+        self.in_fields = {"beat": (unsigned(beat_bits), None, "input word beat, LSB first")}
+        self.out_fields = {"beat": (unsigned(beat_bits), None, "output word beat, LSB first")}
+        super().__init__({
+            "i": In(stream.Signature(unsigned(beat_bits))),
+            "o": Out(stream.Signature(unsigned(beat_bits))),
+        })
+
+    def elaborate(self, platform):
+        m = Module()
+        m.submodules.engine = e = self._engine
+        b = self.beat_bits
+        # Input: beats into a shift register; the word is offered to the engine once complete,
+        # and the next word's first beat may arrive in the clock the engine takes it.
+        word = Signal(self.in_beats * b)
+        count = Signal(range(self.in_beats))
+        have = Signal()
+        m.d.comb += [self.i.ready.eq(~have | e.in_take), e.in_valid.eq(have),
+                     e.in_data.eq(word[:e.in_bits])]
+        with m.If(e.in_take):
+            m.d.sync += have.eq(0)
+        with m.If(self.i.valid & self.i.ready):
+            m.d.sync += word.eq(Cat(word[b:], self.i.payload))
+            with m.If(count == self.in_beats - 1):
+                m.d.sync += [count.eq(0), have.eq(1)]
+            with m.Else():
+                m.d.sync += count.eq(count + 1)
+        # Output: the engine holds its word while the beats leave; it moves on after the last.
+        out_count = Signal(range(self.out_beats))
+        padded = Cat(e.out_data, Const(0, self.out_beats * b - e.out_bits))
+        last = out_count == self.out_beats - 1
+        m.d.comb += [self.o.valid.eq(e.out_valid), e.out_ready.eq(self.o.ready & last),
+                     self.o.payload.eq(select([padded[j * b:(j + 1) * b] for j in range(self.out_beats)],
+                                              out_count))]
+        with m.If(self.o.valid & self.o.ready):
+            m.d.sync += out_count.eq(Mux(last, 0, out_count + 1))
+        return m

@@ -1,0 +1,319 @@
+"""The traced IK graph (:mod:`.seq_trace`) lowered to blocks of the sequenced engine's instructions.
+
+A block is a straight run of instructions that starts from memory words and constants and ends by
+storing its value (or, for a status-only check, by its compare events): the accumulator, the F
+flag and the units hold nothing from one block to the next, so :mod:`.seq_schedule` may place
+blocks anywhere their memory words are ready. A value used once is computed inside its consumer's
+block (in the accumulator), unless it is long (a CORDIC, a square root, products) and the consumer
+also waits for another block's word; a value used more than once, or read as a B-bus operand,
+gets its own block and a memory word. An exact sum of products (wider than a memory word) is
+never stored: each consumer forms it again (the radicand of joint 1's root and the on-axis test).
+Status bits are events on the instruction that decides them: the saturation's ``SATI`` /
+``SATW``, a compare against a constant, the CORDIC's zero-vector latch; ``select(flag, status,
+0)`` adds the flag to their conditions.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+
+from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_NEG, A_NOP, A_SATI, A_SATW, A_SUB, C_F, C_ZERO,
+                      INPUT_WORDS, IO_FLAGS, IO_IN, IO_OUT, IO_STATUS, B_IN, K_LDXG, K_LDYG, Q_LOAD,
+                      Q_STEP)
+from .asm import Asm, Check as CheckOperand, Const, I, alu, operand as _op, sqrt_round, st
+from ..graph.trace import AnyOf, Check, Compare, Flag, Node, Not, Sop, Status, Zero
+
+
+#: Operations that occupy a unit for many clocks.
+HEAVY = ("atan2", "sqrt", "mulc", "rot", "rotx", "roty")
+
+
+def attach_status(status: Status) -> list:
+    """Hang each status leaf on the instruction that decides it; returns the nodes that carry
+    events (their blocks must run even where no joint needs their value)."""
+    carriers = []
+
+    def leaf(event, bit, gates):
+        if isinstance(event, Node):                # a saturation (or a rotation's two)
+            event.stat = (bit, gates)
+            carriers.append(event)
+        elif isinstance(event, AnyOf):
+            for c in event.conds:
+                leaf(c, bit, gates)
+        elif isinstance(event, Compare):
+            event.value.events.append((event.op, event.const, bit, gates))
+            carriers.append(event.value)
+        elif isinstance(event, Zero):
+            event.atan2.events.append(("zero", None, bit, gates))
+            carriers.append(event.atan2)
+        else:
+            raise NotImplementedError(f"status of {event!r}")
+
+    for ev, bit, gates in status.leaves:
+        leaf(ev, bit, gates)
+    return carriers
+
+
+def _cond_sel(v) -> bool:
+    """A selection by a comparison (not a branch flag): only the CORDIC's operand loads take it."""
+    return isinstance(v, Node) and v.op == "sel" and not isinstance(v.params[0], Flag)
+
+
+def _compare_of(cond):
+    """(the compared value, op, constant, F means cond)."""
+    if isinstance(cond, Not):
+        value, op, const, truth = _compare_of(cond.cond)
+        return value, op, const, not truth
+    return cond.value, cond.op, cond.const, True
+
+
+def deps(n) -> list:
+    """The values ``n``'s code reads (as the lowering emits it)."""
+    if isinstance(n, Sop):
+        return [v for a, b, _, _ in n.terms for v in (a, b) if not isinstance(v, int)]
+    if n.op in ("word", "in"):
+        return []
+    if n.op == "sel" and isinstance(n.params[0], Flag):
+        a, b = n.args
+        if isinstance(a, Node) and a.op in ("neg", "opp") and a.args[0] is b:
+            return [b]
+        if isinstance(b, Node) and b.op in ("neg", "opp") and b.args[0] is a:
+            return [a]
+        if _add_sub(a, b):
+            return list(a.args)
+    if n.op == "atan2":
+        out = []
+        for v in n.args:
+            out += list(v.args) + [_compare_of(v.params[0])[0]] if _cond_sel(v) else [v]
+        return list(dict.fromkeys(out))
+    return [v for v in n.args if not isinstance(v, int)]
+
+
+def _add_sub(a, b) -> bool:
+    return (isinstance(a, Node) and isinstance(b, Node) and a.op == "add" and b.op == "sub"
+            and all(x is y for x, y in zip(a.args, b.args)))
+
+
+class Lower:
+    """Emits the blocks of a traced graph (``blocks[0]`` the inputs, ``blocks[-1]`` the outputs)."""
+
+    def __init__(self, asm: Asm, joints: list, status: Status):
+        self.a, self.ki = asm, asm.ki
+        carriers = attach_status(status)
+        self.uses: Counter = Counter()
+        seen: set = set()
+
+        def visit(n):
+            for d in deps(n):
+                self.uses[d] += 1
+                if id(d) not in seen:
+                    seen.add(id(d))
+                    visit(d)
+
+        roots = list(joints) + [c for c in carriers if all(c is not j for j in joints)]
+        for r in roots:
+            if id(r) not in seen:
+                seen.add(id(r))
+                visit(r)
+        self.mem: dict = {}
+        self.emitted: set = set()
+        code = []
+        for index, name in enumerate(INPUT_WORDS):
+            code += [I(io=IO_IN, iw=index, bsel=B_IN, alu=A_LD), st(name)]
+        self.blocks = [code + [I(io=IO_FLAGS, iw=len(INPUT_WORDS))]]
+        names = [self.operand(j) for j in joints]
+        for r in roots:
+            if id(r) not in self.emitted:      # status-only checks (their value feeds no joint)
+                self.blocks.append(self._inline(r))
+        out = [alu(A_LD, names[0])]
+        for index in range(1, 5):
+            out += [alu(A_LD, names[index], io=IO_OUT, iw=index - 1)]
+        self.blocks.append(out + [I(io=IO_OUT, iw=4), I(io=IO_STATUS)])
+
+    # -- operands --
+    def operand(self, n):
+        """A B-bus operand for ``n``: a constant, or a memory word (given its own block)."""
+        if isinstance(n, int):
+            return Const(n)
+        if isinstance(n, Check):
+            return CheckOperand(self.operand(n.args[0]))
+        if n.op == "in":
+            return n.params[0]
+        if n not in self.mem:
+            if n.op in ("rotx", "roty"):
+                self._rotate(n.args[0])
+            else:
+                name = f"v{n.id}"
+                self.blocks.append(self._inline(n) + [st(name)])
+                self.mem[n] = name
+        return self.mem[n]
+
+    def _cheap(self, n) -> bool:
+        return isinstance(n, int) or n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1
+
+    def acc(self, n, alone: bool = True) -> list:
+        """Code leaving ``n`` in the accumulator (and raising its status events)."""
+        if isinstance(n, int):
+            return [alu(A_LD, Const(n))]
+        if isinstance(n, Node) and (n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1
+                                    or (not alone and self._heavy(n))):
+            return [alu(A_LD, self.operand(n))]
+        return self._inline(n)
+
+    def _heavy(self, n) -> bool:
+        """``n`` (computed in its consumer's block) runs a CORDIC, a square root or products: a
+        consumer that also waits for other blocks' words would hold it back, so it gets its own."""
+        if isinstance(n, int) or (isinstance(n, Node) and (n in self.mem or n.op == "in")):
+            return False
+        if isinstance(n, Sop) or n.op in HEAVY:
+            return True
+        return self.uses[n] == 1 and any(self._heavy(d) for d in deps(n))
+
+    def _early(self, n) -> bool:
+        """``n`` is a constant or an input word (ready when the inputs are in)."""
+        return isinstance(n, int) or n.op == "in"
+
+    def _inline(self, n) -> list:
+        self.emitted.add(id(n))
+        code = self._sop(n) if isinstance(n, Sop) else self._code(n)
+        for op, const, bit, gates in n.events:
+            if op != "zero":
+                code.append(_compare(op, const, gates, bit))
+        return code
+
+    # -- values --
+    def _code(self, n) -> list:
+        a, op, args = self.a, n.op, n.args
+        if op in ("add", "sub"):
+            x, y = args
+            if op == "add" and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
+                x, y = y, x
+            return self.acc(x, self._early(y)) + [alu(A_ADD if op == "add" else A_SUB, self.operand(y))]
+        if op == "neg":
+            return self.acc(args[0]) + [alu(A_NEG)]
+        if op == "sat":
+            bit, gates = n.stat or (0, ())
+            sat = A_SATI if n.params[0] == self.ki.cfg.width else A_SATW
+            return self.acc(args[0]) + [alu(sat, None, *gates, stat=bit)]
+        if op == "rsr":
+            return self.acc(args[0]) + a.round_shift(n.params[0])
+        if op == "mulc":
+            return self.acc(args[0]) + a.mul_const(n.params[0], args[0].bits)
+        if op == "clip":
+            return self._clip(n)
+        if op == "wrap":
+            return self.acc(args[0]) + a.wrap()
+        if op == "opp":
+            return self.acc(args[0]) + a.opposite()
+        if op == "sel":
+            return self._select(n)
+        if op == "sqrt":
+            return self._sqrt(n)
+        if op == "atan2":
+            return self._atan2(n)
+        raise NotImplementedError(f"no engine code for {n}")
+
+    def _clip(self, n) -> list:
+        x = n.args[0]
+        lo, hi = n.params
+        xlo, xhi = x.bounds() if isinstance(x, Sop) else (x.lo, x.hi)
+        code = self.acc(x)
+        if hi is not None and xhi > hi:
+            code += [alu(A_CMPGT, Const(hi)), alu(A_LD, Const(hi), (C_F, 0))]
+        if lo is not None and xlo < lo:
+            code += [alu(A_CMPLT, Const(lo)), alu(A_LD, Const(lo), (C_F, 0))]
+        return code
+
+    def _select(self, n) -> list:
+        flag = n.params[0]
+        if not isinstance(flag, Flag):
+            raise NotImplementedError("a selection by a comparison feeds a CORDIC load only")
+        a, b = n.args
+        yes, no = (flag.source, 0), (flag.source, 1)
+        for x, f, cond in ((a, b, yes), (b, a, no)):
+            if isinstance(x, Node) and x.op == "neg" and x.args[0] is f:
+                return self.acc(f) + [alu(A_NEG, None, cond)]
+            if isinstance(x, Node) and x.op == "opp" and x.args[0] is f:
+                return self.acc(f) + self.a.opposite(cond)
+        if _add_sub(a, b):
+            x, y = a.args
+            return self.acc(x, self._early(y)) + [alu(A_ADD, self.operand(y), yes),
+                                                  alu(A_SUB, self.operand(y), no)]
+        if self._cheap(b) or not self._cheap(a):
+            return self.acc(a, self._early(b)) + [alu(A_LD, self.operand(b), no)]
+        return self.acc(b, self._early(a)) + [alu(A_LD, self.operand(a), yes)]
+
+    def _sqrt(self, n) -> list:
+        """isqrt(x, bits): the radicand aligned to the top of the engine's register, bits / 2 digit
+        steps, rounded."""
+        x, bits = n.args[0], n.params[0]
+        extra = 2 * self.ki.cfg.width - bits
+        if extra and not isinstance(x, Sop):
+            raise NotImplementedError("a narrow radicand must be a sum of products")
+        code = self._sop(x, extra) if isinstance(x, Sop) else self.acc(x)
+        return code + [I(sq=Q_LOAD)] + [I(sq=Q_STEP)] * (bits // 2) + sqrt_round(self.a)
+
+    def _atan2(self, n) -> list:
+        """Operand loads (a selection by a comparison: F, then the other operand where not F), the
+        vectoring, the angle; the zero vector's status events while the latch is held."""
+        code, loads = [], []
+        if len({id(v.params[0]) for v in n.args if _cond_sel(v)}) > 1:
+            raise NotImplementedError("the two operands of an atan2 selected by different conditions")
+        for v, op in zip(n.args[::-1], (K_LDXG, K_LDYG)):
+            if _cond_sel(v):
+                value, cmp, const, truth = _compare_of(v.params[0])
+                if not code:
+                    code = self.acc(value) + [alu(A_CMPGT if cmp == ">" else A_CMPLT, Const(const))]
+                loads += [I(cop=op, **_op(self.operand(v.args[1]))),
+                          I((C_F, int(not truth)), cop=op, **_op(self.operand(v.args[0])))]
+            else:
+                loads += [I(cop=op, **_op(self.operand(v)))]
+        zeros = [(bit, gates) for kind, _, bit, gates in n.events if kind == "zero"]
+        merged = zeros[0][0] if len(zeros) == 1 and not zeros[0][1] else 0
+        tail = [] if merged else [alu(A_NOP, None, (C_ZERO, 0), *gates, stat=bit) for bit, gates in zeros]
+        return code + loads + self.a.atan2_body() + self.a.atan2_angle(merged) + tail
+
+    def _rotate(self, r):
+        x, y, angle = r.args
+        self.emitted.add(id(r))
+        bit, gates = r.stat or (0, ())
+        names = (f"v{r.id}x", f"v{r.id}y")
+        self.blocks.append(self.a.rotate(self.operand(x), self.operand(y), self.operand(angle),
+                                         *names, f"v{r.id}g", bit, gates))
+        for node in r.g.nodes:
+            if isinstance(node, Node) and node.op in ("rotx", "roty") and node.args[0] is r:
+                self.mem[node] = names[node.op == "roty"]
+
+    # -- exact sums --
+    def _sop(self, s: Sop, extra: int = 0) -> list:
+        """acc = sum of ±a*b << shift (+ const), all shifted up by ``extra``; a negative term
+        goes first (the multiplier negates only the first product)."""
+        terms = []
+        for a, b, neg, shift in s.terms:
+            if isinstance(b, int) and neg:
+                b, neg = -b, False
+            terms.append((a, b, neg, shift + extra))
+        if not terms:
+            return [alu(A_LD, Const(s.const << extra))]
+        terms.sort(key=lambda t: not t[2])
+        if sum(t[2] for t in terms) > 1:
+            raise NotImplementedError("more than one negative product in a sum")
+        lead = [alu(A_LD, Const(s.const << extra))] if s.const and not terms[0][2] else []
+        code = lead + self.a.products([(self.operand(a), _bits(a, self.ki), self.operand(b),
+                                        _bits(b, self.ki), neg, shift) for a, b, neg, shift in terms],
+                                      first=not lead)
+        if s.const and not lead:
+            code += [alu(A_ADD, Const(s.const << extra))]
+        return code
+
+
+def _bits(v, ki) -> int:
+    if isinstance(v, int):
+        return v.bit_length() + 1
+    if isinstance(v, Check):
+        return ki.cfg.width
+    return v.bits
+
+
+def _compare(op, const, gates, bit) -> dict:
+    return alu(A_CMPGT if op == ">" else A_CMPLT, Const(const), *gates, stat=bit)

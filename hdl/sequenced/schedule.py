@@ -1,0 +1,242 @@
+"""List scheduling of the lowered IK blocks (:mod:`.seq_lower`) onto the sequenced engine's units.
+
+Each block keeps its own clock-by-clock shape (a product's pick and its accumulate two clocks
+later, a CORDIC's load, micro-rotations and read-out); what moves is where it starts. A block
+claims, clock by clock, the instruction fields it sets, the B bus and the memory ports, and the
+unit state it must keep: the accumulator and the F flag while a value in them is still to be read
+(a liveness scan), the CORDIC, the multiplier's operand registers and the square root from their
+first to their last use. Blocks are placed in order of their longest path to the end of the
+program (the CORDIC chain first), each at the first clock where its claims are free and its memory
+words are stored (READ_AHEAD + 1 clocks before the read), so products, checks and glue fill the
+clocks the CORDIC and the square root run alone. The memory words are then shared among values
+whose lifetimes do not overlap.
+"""
+
+from __future__ import annotations
+
+from .asm import fold, hazards
+from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SATW, A_SETF,
+                      A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT,
+                      C_F, C_ZERO, IO_OUT, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, Q_LOAD, READ_AHEAD)
+
+COND_FIELDS = ("ca", "cai", "cb", "cbi")
+ACC_WRITE = {A_LD, A_ADD, A_SUB, A_NEG, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW, A_MLD, A_MACC}
+ACC_READ = {A_ADD, A_SUB, A_NEG, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW, A_MACC, A_CMPGT, A_CMPLT}
+BUS_ALU = {A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT}
+LOADS = {K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA}
+
+
+def _cond(ins) -> tuple:
+    return tuple(ins.get(f, 0) for f in COND_FIELDS)
+
+
+def _conditional(ins) -> bool:
+    return _cond(ins) != (0, 0, 0, 0)
+
+
+def _bus(ins) -> bool:
+    return bool(ins.get("alu", 0) in BUS_ALU and "alu" in ins or ins.get("mld") or ins.get("cop", 0) in LOADS)
+
+
+def _sensitive(ins) -> bool:
+    """The instruction's conditions gate something (an ALU op or event, a CORDIC load)."""
+    return "alu" in ins or ins.get("cop", 0) in LOADS
+
+
+def _liveness(code, reads, writes, kills) -> list:
+    """Clocks at which a register (accumulator, F) holds a value of this block."""
+    held, live = [False] * len(code), False
+    for t in range(len(code) - 1, -1, -1):
+        r, w, k = reads(code[t]), writes(code[t]), kills(code[t])
+        held[t] = live or r or w
+        live = r or (live and not k)
+    return held
+
+
+def _span(code, touches) -> list:
+    hits = [t for t, ins in enumerate(code) if touches(ins)]
+    return [bool(hits) and hits[0] <= t <= hits[-1] for t in range(len(code))]
+
+
+def _acc_reads(ins) -> bool:
+    op = ins.get("alu", 0) if "alu" in ins else None
+    return bool(op in ACC_READ or (op in (A_LD, A_MLD) and _conditional(ins)) or ins.get("wr")
+                or ins.get("sq") == Q_LOAD or ins.get("io") == IO_OUT
+                or (_bus(ins) and ins.get("bsel") == B_ACC))
+
+
+def _f_reads(ins) -> bool:
+    return C_F in (ins.get("ca", 0), ins.get("cb", 0))
+
+
+def _f_writes(ins) -> bool:
+    return "alu" in ins and ins["alu"] in (A_CMPGT, A_CMPLT, A_SETF)
+
+
+class Block:
+    """One block's code and, per clock, what it claims; its memory reads and writes."""
+
+    def __init__(self, code: list):
+        self.code = code = hazards(fold(code))
+        acc = _liveness(code, _acc_reads, lambda i: "alu" in i and i["alu"] in ACC_WRITE,
+                        lambda i: "alu" in i and i["alu"] in (A_LD, A_MLD) and not _conditional(i))
+        flag = _liveness(code, _f_reads, _f_writes, lambda i: _f_writes(i) and not _conditional(i))
+        cordic = _span(code, lambda i: i.get("cop", 0) or C_ZERO in (i.get("ca", 0), i.get("cb", 0))
+                       or (_bus(i) and i.get("bsel") in (B_CX, B_CY, B_CZ)))
+        mop = _span(code, lambda i: i.get("mld") or i.get("pick"))
+        sqrt = _span(code, lambda i: i.get("sq") or (_bus(i) and i.get("bsel") in (B_ROOT, B_REM)))
+        self.claims, self.conds = [], []
+        for t, ins in enumerate(code):
+            keys = set(ins) - set(COND_FIELDS)
+            keys |= {name for name, held in (("acc", acc), ("F", flag), ("cordic", cordic),
+                                             ("mop", mop), ("sqrt", sqrt)) if held[t]}
+            if _bus(ins):
+                keys.add("bus")
+            self.claims.append(keys)
+            self.conds.append(_cond(ins) if _sensitive(ins) else None)
+        self.reads = [(t, ins["rd"][1]) for t, ins in enumerate(code)
+                      if _bus(ins) and ins.get("bsel", B_MEM) == B_MEM and ins.get("rd", ("c",))[0] == "v"]
+        self.writes = [(t, ins["wa"][1]) for t, ins in enumerate(code) if ins.get("wr")]
+
+
+class Table:
+    """The program being scheduled: per clock, the claims and the condition of what is placed."""
+
+    def __init__(self):
+        self.claims: list[set] = []
+        self.conds: list = []
+        self.code: list[dict] = []
+
+    def fits(self, b: Block, start: int) -> bool:
+        for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
+            at = start + t
+            if at >= len(self.claims):
+                return True
+            if keys & self.claims[at]:
+                return False
+            if cond is not None and self.conds[at] is not None and cond != self.conds[at]:
+                return False
+        return True
+
+    def place(self, b: Block, start: int):
+        end = start + len(b.code)
+        while len(self.claims) < end:
+            self.claims.append(set())
+            self.conds.append(None)
+            self.code.append({})
+        for t, ins in enumerate(b.code):
+            self.claims[start + t] |= b.claims[t]
+            if b.conds[t] is not None:
+                self.conds[start + t] = b.conds[t]
+            self.code[start + t] = {**self.code[start + t], **ins}
+
+
+def _priorities(blocks: list, producer: dict) -> list:
+    """Each block's longest path (clocks) from its start to the end of the program."""
+    prio = [len(b.code) for b in blocks]
+    for i in range(len(blocks) - 1, -1, -1):          # consumers come after their producers
+        b = blocks[i]
+        for t_read, name in b.reads:
+            p, t_write = producer[name]
+            if p != i:
+                prio[p] = max(prio[p], t_write + READ_AHEAD + 1 - t_read + prio[i])
+    return prio
+
+
+def schedule(codes: list) -> list:
+    """Place the blocks (``codes[0]`` the inputs, ``codes[-1]`` the outputs) and share the
+    memory words of the shortest program found (:func:`share_words`).
+
+    The longest-path priorities are a start: a block off the critical path placed late may find
+    its unit taken where it had room (the roll's atan2 behind the elbow's). So each block's
+    priority is raised by a few steps in turn, a change kept when the program gets shorter, until
+    a pass keeps none (a hill climb, deterministic)."""
+    blocks = [Block(c) for c in codes]
+    prio = _priorities(blocks, _Placer(blocks).producer)
+    best = _Placer(blocks, prio).run()
+    for _ in range(PASSES):
+        improved = False
+        for i in range(1, len(blocks) - 1):
+            for step in (40, 100, 200, 400):
+                trial = prio[:i] + [prio[i] + step] + prio[i + 1:]
+                code = _Placer(blocks, trial).run()
+                if len(code) < len(best):
+                    best, prio, improved = code, trial, True
+        if not improved:
+            break
+    return share_words(best)
+
+
+#: Hill-climbing passes over the priorities (each schedules the program once per block and step).
+PASSES = 3
+
+
+class _Placer:
+    """List scheduling in order of priority: each block, the most urgent ready one first, at its
+    first clock where its claims are free (later blocks fill earlier gaps)."""
+
+    def __init__(self, blocks: list, prio: list | None = None):
+        self.blocks = blocks
+        self.producer = {name: (i, t) for i, b in enumerate(blocks) for t, name in b.writes}
+        self.prio = prio
+        self.table, self.start, self.written = Table(), {}, {}
+
+    def ready(self, i: int):
+        """The first clock block ``i`` may start at (None while a producer is not placed)."""
+        b = self.blocks[i]
+        t = len(self.blocks[0].code) if i else 0
+        for t_read, name in b.reads:
+            p = self.producer[name][0]
+            if p != i and p not in self.start:
+                return None
+            if name in self.written:
+                t = max(t, self.written[name] + READ_AHEAD + 1 - t_read)
+        return t
+
+    def place(self, i: int, t: int):
+        self.table.place(self.blocks[i], t)
+        self.start[i] = t
+        for t_write, name in self.blocks[i].writes:
+            self.written[name] = t + t_write
+
+    def first_fit(self, i: int, t: int) -> int:
+        while not self.table.fits(self.blocks[i], t):
+            t += 1
+        return t
+
+    def run(self) -> list:
+        last = len(self.blocks) - 1
+        self.place(0, 0)
+        todo = sorted(range(1, last), key=lambda i: -self.prio[i])
+        while todo:
+            i = next(i for i in todo if self.ready(i) is not None)
+            todo.remove(i)
+            self.place(i, self.first_fit(i, self.ready(i)))
+        self.place(last, self.first_fit(last, max(self.ready(last), len(self.table.code))))
+        return [dict(ins) for ins in self.table.code]
+
+
+def share_words(code: list) -> list:
+    """Values whose lifetimes (store to last read) do not overlap share a memory word."""
+    first, last = {}, {}
+    for t, ins in enumerate(code):
+        if ins.get("wr"):
+            first.setdefault(ins["wa"][1], t)
+        if _bus(ins) and ins.get("bsel", B_MEM) == B_MEM and ins.get("rd", ("c",))[0] == "v":
+            last[ins["rd"][1]] = t
+    free_at: list[int] = []          # per word: the clock of its last read
+    word = {}
+    for name in sorted(first, key=first.get):
+        s = first[name]
+        slot = next((w for w, f in enumerate(free_at) if f < s), None)
+        if slot is None:
+            slot = len(free_at)
+            free_at.append(0)
+        free_at[slot] = last.get(name, s)
+        word[name] = f"w{slot}"
+    for ins in code:
+        for key in ("rd", "wa"):
+            ref = ins.get(key)
+            if isinstance(ref, tuple) and ref[0] == "v" and ref[1] in word:
+                ins[key] = ("v", word[ref[1]])
+    return code
