@@ -48,6 +48,16 @@ class Arm:
         """Upper bound of |tool point - joint 2 axis| over all joint values (cm)."""
         return self.a[1] + self.a[2] + math.hypot(self.a[3], self.d[4])
 
+    def dh_sha256(self) -> str:
+        """16 hex digits of SHA-256 over the DH numbers and limits (not the name or the file): the
+        arm's identity in Verilog headers, port maps, the C header and records."""
+        import hashlib
+        import json
+
+        doc = {"a": self.a, "alpha": self.alpha, "d": self.d, "theta_offset": self.theta_offset,
+               "limits": self.limits}
+        return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:16]
+
     @property
     def reach(self) -> float:
         """Upper bound of the tool point's distance from the joint-1 axis (cm): a1 + a2 + a3 +

@@ -69,8 +69,11 @@ def check_fits(cfg, arm: Arm) -> None:
         need = magnitude_bits(bound, power)
         if need > m:
             unit = "cm" if power == 1 else "cm^2"
+            width = cfg.frac_length + 1 + need
+            fits = (f"smallest width that fits: {width}" if width <= 32 else
+                    f"no width up to 32 fits with frac.length {cfg.frac_length}")
             raise InputError(
                 arm.source, f"arm {arm.name} does not fit config {cfg.name}: {quantity} reaches "
                 f"{bound:.4g} {unit}, the format holds {2.0 ** (m * power):g} {unit} (frac.length "
-                f"{cfg.frac_length} in {cfg.width} bits); smallest width that fits: "
-                f"{cfg.frac_length + 1 + need} (or ik5r config --arm {arm.name} --width {cfg.width})")
+                f"{cfg.frac_length} in {cfg.width} bits); {fits} (or fewer fraction bits: "
+                f"ik5r config --arm {arm.name} --width {cfg.width} -o FILE)")

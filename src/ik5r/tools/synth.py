@@ -29,7 +29,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ik5r.core.errors import InputError
-from ik5r.core.fxconfig import FixedConfig, constants
+from ik5r.core.fxconfig import FixedConfig
 
 #: Bump when the figures or the flow change in a way the cache key does not see.
 FLOW_VERSION = 1
@@ -71,7 +71,7 @@ TARGETS = {
 
 #: Keys every result carries (values may be None when a figure does not apply).
 RESULT_FIELDS = (
-    "block", "arch", "module", "config", "width", "iterations", "target", "device", "package",
+    "block", "arch", "module", "config", "arm", "width", "iterations", "target", "device", "package",
     "speed_grade", "freq_target_mhz", "placer", "router", "seed", "luts", "lut4", "carry", "ffs", "dsps",
     "brams", "lutram", "utilisation", "fits_device", "fmax_mhz", "timing_met", "latency_cycles", "cycles_per_result",
     "results_per_second", "latency_ns", "critical_path", "tools", "seconds", "key", "cache_dir",
@@ -292,27 +292,28 @@ def _figures(target: str, cells: dict, report: dict | None) -> dict:
             "lutram": lutram, "utilisation": util, "fits_device": fit, "cells": cells}
 
 
-def _design(block: str, arch: str, k, opts: SynthOptions):
-    """The Verilog of a block (or the soft CPU SoC): (arch, dsp, options, text, port map)."""
-    from ik5r.hdl.generate import generate, resolve_arch
+def _design(design, opts: SynthOptions):
+    """The Verilog of a design (or the soft CPU SoC): (design, options, text, port map)."""
+    from .design import Design
 
-    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.system.CPUS)
+    if design.block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.system.CPUS)
         from .softcpu import soc_design
-        text, pmap = soc_design(k, arch)
-        return arch, "generic", {}, text, pmap
-    arch = resolve_arch(block, arch)
+        text, pmap = soc_design(design.constants, design.arch)
+        return design, {}, text, pmap
     # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-    dsp = opts.dsp if arch == "pipelined" else "generic"
-    options = {} if dsp == "generic" else {"dsp": dsp}
-    if block == "ik" and arch == "compact" and opts.target == "ice40":
+    dsp = opts.dsp if design.arch == "pipelined" else "generic"
+    serial = None
+    if design.block == "ik" and design.arch == "compact" and opts.target == "ice40":
         # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
         # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
-        options["serial"] = ICE40_BEAT_BITS
-    text, pmap = generate(block, arch, k, opts.tag_width, **options)
-    return arch, dsp, options, text, pmap
+        serial = ICE40_BEAT_BITS
+    design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
+                            tag_width=opts.tag_width, dsp=dsp, serial=serial)
+    text, pmap = design.verilog()
+    return design, design.options.generate_kwargs(), text, pmap
 
 
-def _cached(folder: Path, key: str, cfg: FixedConfig, opts: SynthOptions) -> dict | None:
+def _cached(folder: Path, key: str, design, opts: SynthOptions) -> dict | None:
     """The stored result of this very run (same key), its figures re-derived; else None."""
     result_path = folder / "result.json"
     if not result_path.is_file():
@@ -320,7 +321,11 @@ def _cached(folder: Path, key: str, cfg: FixedConfig, opts: SynthOptions) -> dic
     result = json.loads(result_path.read_text())
     if result.get("key") != key:
         return None
-    result.update(cached=True, config=cfg.name, iterations=cfg.iterations)
+    from ik5r.hdl.provenance import arm_hash
+
+    cfg = design.config
+    result.update(cached=True, config=cfg.name, iterations=cfg.iterations, arm=design.arm.name,
+                  arm_sha256=arm_hash(design.constants), arm_reach_cm=design.arm.reach)
     # Re-derive the figures from the stored tool outputs (parsing may have improved).
     try:
         stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
@@ -394,23 +399,25 @@ def _fmax(report: dict | None) -> float | None:
     return float(entry["achieved"]) if entry else None
 
 
-def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | None = None, *,
+def synthesize(design, opts: SynthOptions | None = None, *,
                cache_dir: str | Path = DEFAULT_CACHE, force: bool = False, log=None,
                timeout: float | None = None) -> dict:
-    """Synthesise, place and route one block; returns the figures (see the module docstring).
+    """Synthesise, place and route one :class:`~ik5r.tools.design.Design` (its tag width and
+    DSP mapping come from ``opts``); returns the figures (see the module docstring).
 
     ``log(message)`` receives progress lines (default: silent).
     """
-    from ik5r.hdl.provenance import strip_header
+    from ik5r.hdl.provenance import arm_hash, strip_header
 
     say = log or (lambda message: None)
     opts = (opts or SynthOptions()).resolved()
-    k = constants(cfg)
+    cfg = design.config
     t0 = time.perf_counter()
-    arch, dsp, options, text, pmap = _design(block, arch, k, opts)
+    design, options, text, pmap = _design(design, opts)
+    block, arch, dsp = design.block, design.arch, design.options.dsp
     gen_seconds = time.perf_counter() - t0
     module = pmap["module"]
-    label = f"{module} {cfg.name}"
+    label = f"{module} {design.config_label}"
     tools = tool_versions(opts.target)
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
@@ -422,8 +429,8 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
     # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
     # shipped q32) give the same Verilog and share one run.
-    folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
-    cached = None if force else _cached(folder, key, cfg, opts)
+    folder = Path(cache_dir) / f"{module}_w{cfg.width}{design.arm_suffix}_{opts.target}-{opts.device}_{key[:12]}"
+    cached = None if force else _cached(folder, key, design, opts)
     if cached is not None:
         say(f"{label}: cached ({folder})")
         return cached
@@ -441,6 +448,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
         "serial": options.get("serial"),
         "config": cfg.name,
+        "arm": design.arm.name, "arm_sha256": arm_hash(design.constants), "arm_reach_cm": design.arm.reach,
         "width": cfg.width,
         "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
