@@ -7,7 +7,7 @@ and the arm once and builds their :class:`~ik5r.core.fxconfig.Constants`, which 
 the config's formats cannot hold (:mod:`ik5r.core.armfit`): nothing is generated for it.
 
 :meth:`Design.verilog` is the one way to the Verilog and the port map (cached on disk by
-:func:`ik5r.tools.testbench.runner.generate_cached`). The arm is part of the design point: its
+:func:`ik5r.tools.verilog_cache.generate_cached`). The arm is part of the design point: its
 name and numbers are in the Verilog header and the port map (``arm``), the caches' keys, and the
 names of records (:attr:`Design.arm_suffix`: empty for the arm of record, so its records keep
 their names).
@@ -83,7 +83,7 @@ class Design:
 
     def verilog(self) -> tuple[str, dict]:
         """The Verilog text (header included) and the port map, from the on-disk cache."""
-        from .testbench.runner import generate_cached
+        from .verilog_cache import generate_cached
 
         return generate_cached(self.block, self.arch, self.constants, self.options.tag_width,
                                **self.options.generate_kwargs())
