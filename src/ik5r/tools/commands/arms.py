@@ -16,11 +16,9 @@ def register(subparsers) -> None:
 
 
 def source_line(path) -> str:
-    """The first comment line of an arm file: what the arm is and where its numbers come from."""
-    for line in path.read_text().splitlines():
-        if line.startswith("#"):
-            return line.lstrip("# ").strip()
-    return ""
+    """Where an arm file's numbers come from: its ``# Source:`` line, else its first comment line."""
+    comments = [line.lstrip("# ").strip() for line in path.read_text().splitlines() if line.startswith("#")]
+    return next((c for c in comments if c.startswith("Source:")), comments[0] if comments else "")
 
 
 def run(args) -> int:
