@@ -45,8 +45,10 @@ firmware: $(STAMP) riscv
 	$(VENV)/bin/ik5r firmware --isa rv32i --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_min_rv32i_$(CONFIG).json
 	$(VENV)/bin/ik5r firmware --isa rv32i --cpu vexriscv --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32i_$(CONFIG).json
 
+# ARM=NAME (ik5r arms) or ARM=path/to/arm.toml: the demo of that arm's cores.
+ARM ?=
 demo: $(STAMP) simulator
-	$(PY) -m ik5r.tools.demo --config $(CONFIG)
+	$(PY) -m ik5r.tools.demo --config $(CONFIG) $(if $(ARM),--arm $(ARM))
 
 test: $(STAMP) simulator riscv
 	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1

@@ -151,6 +151,7 @@ def generate_header(k: Constants) -> str:
         "",
         f'#define IK5R_CONFIG_NAME "{c.name}"',
         f'#define IK5R_ARM_NAME "{arm.name}"',
+        f'#define IK5R_ARM_SHA256 "{arm.dh_sha256()}"  /* DH numbers and limits, as in the Verilog header */',
         "",
         "/* Fixed-point configuration. */",
     ]

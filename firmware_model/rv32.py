@@ -115,7 +115,7 @@ def build(k: Constants, isa: str = "rv32im", ram_words: int = 16384,
     digest = hashlib.sha256(header + version.encode() + "\0".join(flags).encode())
     for name in SOURCES:
         digest.update(name.encode() + (SOURCE_DIR / name).read_bytes())
-    directory = cache_root() / f"{k.cfg.name}-{isa}-fw-{digest.hexdigest()[:20]}"
+    directory = cache_root() / f"{k.cfg.name}-{k.arm.name}-{isa}-fw-{digest.hexdigest()[:20]}"
     elf = directory / "ik5r_rv32.elf"
     if not elf.exists():
         directory.mkdir(parents=True, exist_ok=True)

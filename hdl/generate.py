@@ -23,7 +23,7 @@ from ik5r.core.fxconfig import Constants
 
 from .datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
 from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
-from .provenance import verilog_header
+from .provenance import arm_hash, verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
 
@@ -136,6 +136,8 @@ def portmap(component, block: str, arch: str, constants: Constants, name: str | 
             "frac_angle": c.frac_angle, "iterations": c.iterations, "guard_bits": c.guard_bits,
             "angle_guard_bits": c.angle_guard_bits, "rounding": c.rounding,
         },
+        "arm": {"name": constants.arm.name, "sha256": arm_hash(constants),
+                "reach_cm": constants.arm.reach},
         "tag_width": component.tag_width,
         "latency_cycles": component.latency,
         "cycles_per_result": component.cycles_per_result,

@@ -25,7 +25,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import Constants
 
-__all__ = ["HEADER_END", "verilog_header", "strip_header", "body_sha256", "config_hash",
+__all__ = ["HEADER_END", "verilog_header", "strip_header", "body_sha256", "config_hash", "arm_hash",
            "tool_versions", "source_commit"]
 
 #: The last line of the header; everything after it is the body Amaranth wrote.
@@ -49,9 +49,14 @@ def body_sha256(text: str) -> str:
 def config_hash(constants: Constants) -> str:
     """16 hex digits of SHA-256 over the config's numbers and the arm (not names or paths)."""
     cfg = {k: v for k, v in asdict(constants.cfg).items() if k not in ("name", "source")}
-    arm = {k: v for k, v in asdict(constants.arm).items() if k != "name"}
+    arm = {k: v for k, v in asdict(constants.arm).items() if k not in ("name", "source")}
     doc = json.dumps({"config": cfg, "arm": arm}, sort_keys=True)
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
+
+
+def arm_hash(constants: Constants) -> str:
+    """16 hex digits of SHA-256 over the arm's DH numbers and limits (not its name or file)."""
+    return constants.arm.dh_sha256()
 
 
 def _version(package: str) -> str:
@@ -131,12 +136,14 @@ def verilog_header(portmap: dict, constants: Constants, options: dict | None = N
     c = constants.cfg
     tools = tool_versions()
     block, arch = portmap["block"], portmap["arch"]
+    arm = constants.arm
     lines = [
         f"{portmap['module']}: ik5r generated Verilog, do not edit (ik5r verilog --block {block} "
-        f"--arch {arch} --config {c.name})",
+        f"--arch {arch} --config {c.name} --arm {arm.name})",
         f"block {block}, arch {arch}, tag_width {portmap['tag_width']}, options "
         f"{json.dumps(options or {}, sort_keys=True)}",
         f"config: {c.name} (numbers and arm: sha256 {config_hash(constants)})",
+        f"arm: {arm.name} (DH numbers and limits: sha256 {arm_hash(constants)}; reach {arm.reach:.6g} cm)",
         *_format_lines(block, constants),
         f"latency: {portmap['latency_cycles']} cycles; cycles per result: {portmap['cycles_per_result']}",
         *_error_lines(block, constants),

@@ -67,12 +67,12 @@ CASES = [
 
 
 def run_case(block, arch, config, dsp, sim):
-    from ik5r.tools.testbench.runner import run_block
+    from ik5r.tools.testbench.runner import run_block, sim_design
 
     stream, bulk = _sizes(arch, dsp)
     # O0: the C++ of a Verilator build compiles ~4x faster; these runs are short.
-    return run_block(block, arch, config, sim, stream_vectors=stream, bulk_vectors=bulk, seed=2024,
-                     cflags="-O0", dsp=dsp)
+    return run_block(sim_design(block, arch, config, dsp=dsp), sim, stream_vectors=stream, bulk_vectors=bulk,
+                     seed=2024, cflags="-O0")
 
 
 @pytest.mark.parametrize("block,arch,config,dsp,sim", CASES)

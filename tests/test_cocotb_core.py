@@ -78,11 +78,11 @@ def _edge_stride(arch: str, dsp: str) -> int:
 
 
 def run_case(arch, config, dsp, sim):
-    from ik5r.tools.testbench.runner import run_block
+    from ik5r.tools.testbench.runner import run_block, sim_design
 
     stream, bulk = _sizes(arch, config, dsp, sim)
-    return run_block("ik", arch, config, sim, stream_vectors=stream, bulk_vectors=bulk, seed=2024,
-                     cflags="-O0", dsp=dsp, edge_stride=_edge_stride(arch, dsp),
+    return run_block(sim_design("ik", arch, config, dsp=dsp), sim, stream_vectors=stream, bulk_vectors=bulk,
+                     seed=2024, cflags="-O0", edge_stride=_edge_stride(arch, dsp),
                      bulk_edge_rest=_edge_stride(arch, dsp) > 1)
 
 

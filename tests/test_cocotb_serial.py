@@ -40,11 +40,12 @@ CASES = [
 
 
 def run_case(config, size, sim):
-    from ik5r.tools.testbench.runner import run_block
+    from ik5r.tools.testbench.runner import run_block, sim_design
 
     random_poses, stride = SIZES[size]
-    return run_block("ik", "compact", config, sim, stream_vectors=random_poses, bulk_vectors=0, seed=2024,
-                     cflags="-O0", serial=ICE40_BEAT_BITS, edge_stride=stride, tag_width=TAG_WIDTH[sim])
+    design = sim_design("ik", "compact", config, serial=ICE40_BEAT_BITS, tag_width=TAG_WIDTH[sim])
+    return run_block(design, sim, stream_vectors=random_poses, bulk_vectors=0, seed=2024,
+                     cflags="-O0", edge_stride=stride)
 
 
 @pytest.mark.sim
@@ -102,14 +103,14 @@ SELFTEST = dict(config="q18", sim="icarus", serial=8, stream_vectors=1, edge_str
 
 
 def _selftest_run(fault):
-    from ik5r.tools.testbench.runner import run_block, simulator_missing
+    from ik5r.tools.testbench.runner import run_block, sim_design, simulator_missing
 
     missing = simulator_missing(SELFTEST["sim"])
     if missing:
         pytest.fail(f"{missing} (CI installs both simulators)", pytrace=False)
-    opts = {k: v for k, v in SELFTEST.items() if k not in ("config", "sim")}
-    return run_block("ik", "compact", SELFTEST["config"], SELFTEST["sim"], bulk_vectors=0, seed=5,
-                     fault=fault, **opts)
+    opts = {k: v for k, v in SELFTEST.items() if k not in ("config", "sim", "serial")}
+    design = sim_design("ik", "compact", SELFTEST["config"], serial=SELFTEST["serial"])
+    return run_block(design, SELFTEST["sim"], bulk_vectors=0, seed=5, fault=fault, **opts)
 
 
 @pytest.mark.sim

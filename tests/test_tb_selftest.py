@@ -16,9 +16,9 @@ CASE = dict(block="atan2", arch="iterative", config="q18", sim="icarus")
 
 
 def _run(fault=None):
-    from ik5r.tools.testbench.runner import run_block
+    from ik5r.tools.testbench.runner import run_block, sim_design
 
-    return run_block(CASE["block"], CASE["arch"], CASE["config"], CASE["sim"], stream_vectors=24,
+    return run_block(sim_design(CASE["block"], CASE["arch"], CASE["config"]), CASE["sim"], stream_vectors=24,
                      bulk_vectors=0, seed=7, fault=fault)
 
 
@@ -76,9 +76,9 @@ def test_stream_stride_and_bulk_rest_split_the_edge_set(tmp_path):
     import numpy as np
 
     from ik5r.tools.testbench.job import Job
-    from ik5r.tools.testbench.runner import generate_sources
+    from ik5r.tools.testbench.runner import generate_sources, sim_design
 
-    _, portmap = generate_sources("ik", "pipelined", "q18", tmp_path)
+    _, portmap = generate_sources(sim_design("ik", "pipelined", "q18"), tmp_path)
     path = tmp_path / "job.json"
     path.write_text(json.dumps({"portmap": str(portmap), "block": "ik", "config": "q18", "work_dir": str(tmp_path)}))
     job = Job(str(path))

@@ -8,7 +8,7 @@ vertical, joints 2-4 parallel and horizontal, joint 5 along the tool. So ``alpha
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
@@ -32,6 +32,8 @@ class Arm:
     d: tuple[float, ...]
     theta_offset: tuple[float, ...]
     limits: tuple[tuple[float, float], ...]
+    #: The file it was read from (error messages name it); not part of the arm's numbers.
+    source: str = field(default="<arm>", compare=False)
 
     @property
     def lower(self) -> np.ndarray:
@@ -45,6 +47,22 @@ class Arm:
     def max_reach(self) -> float:
         """Upper bound of |tool point - joint 2 axis| over all joint values (cm)."""
         return self.a[1] + self.a[2] + math.hypot(self.a[3], self.d[4])
+
+    def dh_sha256(self) -> str:
+        """16 hex digits of SHA-256 over the DH numbers and limits (not the name or the file): the
+        arm's identity in Verilog headers, port maps, the C header and records."""
+        import hashlib
+        import json
+
+        doc = {"a": self.a, "alpha": self.alpha, "d": self.d, "theta_offset": self.theta_offset,
+               "limits": self.limits}
+        return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:16]
+
+    @property
+    def reach(self) -> float:
+        """Upper bound of the tool point's distance from the joint-1 axis (cm): a1 + a2 + a3 +
+        |(a4, d5)|; the scale of the tool-point error floor (error <= 5e-9 x reach)."""
+        return abs(self.a[0]) + self.max_reach
 
 
 def _number(path, where, table, key, default=None):
@@ -98,12 +116,42 @@ def parse_arm(doc: dict, path: str | Path = "<arm>") -> Arm:
         raise InputError(path, "the closed-form IK needs a = 0 here", field="joint[5].a")
     if a[1] <= 0 or a[2] <= 0:
         raise InputError(path, "links 2 and 3 must have positive length", field="joint[2].a" if a[1] <= 0 else "joint[3].a")
-    return Arm(str(doc.get("name", Path(str(path)).stem)), tuple(a), tuple(alpha), tuple(d), tuple(offset), tuple(limits))
+    return Arm(str(doc.get("name", Path(str(path)).stem)), tuple(a), tuple(alpha), tuple(d), tuple(offset),
+               tuple(limits), str(path))
+
+
+#: The arm of record's name (``seed_arm.toml``, ``arms/hu-5r.toml``).
+SEED_ARM = "hu-5r"
+
+
+def arms_dir() -> Path:
+    """The shipped arm files (``src/ik5r/data/arms/``)."""
+    return Path(str(resources.files("ik5r").joinpath("data/arms")))
+
+
+def shipped_arm_names() -> list[str]:
+    return sorted(p.stem for p in arms_dir().glob("*.toml"))
+
+
+def resolve_arm_path(spec: str | Path) -> Path:
+    """A file, or the name of a shipped arm (``scorbot-er4u``); InputError naming the shipped ones."""
+    candidate = Path(spec)
+    if candidate.is_file():
+        return candidate
+    if not candidate.suffix and len(candidate.parts) == 1 and (arms_dir() / f"{spec}.toml").is_file():
+        return arms_dir() / f"{spec}.toml"
+    raise InputError(spec, f"no such arm file or shipped arm name (shipped: {', '.join(shipped_arm_names())})")
 
 
 def load_arm(path: str | Path | None = None) -> Arm:
-    """Load an arm TOML; ``None`` gives the arm of record."""
+    """Load an arm TOML (a path, or a shipped arm's name); ``None`` gives the arm of record."""
     if path is None:
         return parse_arm(read_toml("seed_arm.toml", resources.files("ik5r").joinpath("data/seed_arm.toml").read_text()),
                          "seed_arm.toml")
+    path = resolve_arm_path(path)
     return parse_arm(read_toml(path), path)
+
+
+def is_seed_arm(arm: Arm) -> bool:
+    """The arm of record's numbers (whatever its file is called): designs of it keep their old names."""
+    return arm == load_arm(None)

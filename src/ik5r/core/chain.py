@@ -192,6 +192,9 @@ def load_chain(path: str | Path | None = None) -> Chain:
     if path is None:
         text = resources.files("ik5r").joinpath("data/seed_arm.toml").read_text()
         return parse_chain(read_toml("seed_arm.toml", text), "seed_arm.toml")
+    from .arm import resolve_arm_path
+
+    path = resolve_arm_path(path)
     return parse_chain(read_toml(path), path)
 
 
@@ -281,11 +284,12 @@ def closed_form_arm(path: str | Path | None = None):
     """The :class:`ik5r.core.arm.Arm` of an arm file of the closed-form 5R family, else None.
 
     The file is validated as a general chain first (errors name FILE and field either way)."""
-    from .arm import parse_arm
+    from .arm import parse_arm, resolve_arm_path
 
     if path is None:
         return parse_arm(read_toml("seed_arm.toml", resources.files("ik5r").joinpath(
             "data/seed_arm.toml").read_text()), "seed_arm.toml")
+    path = resolve_arm_path(path)
     doc = read_toml(path)
     parse_chain(doc, path)
     if doc.get("convention", "standard") != "standard" or "tool" in doc:

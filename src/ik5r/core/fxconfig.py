@@ -20,6 +20,7 @@ from importlib import resources
 from pathlib import Path
 
 from .arm import Arm, load_arm
+from .armfit import check_fits
 from .errors import InputError, read_toml
 
 MAX_WIDTH = 32
@@ -258,6 +259,7 @@ class Constants:
 
     def __post_init__(self):
         c, a = self.cfg, self.arm
+        check_fits(c, a)      # an arm too big for the length format is refused, never saturated
         set_ = object.__setattr__
         zf = c.frac_angle + c.angle_guard_bits
         set_(self, "atan_table", tuple(_q(math.atan(2.0**-i), zf) for i in range(c.iterations)))

@@ -124,11 +124,11 @@ SIM_RUNS = (("atan2", "verilator", 200_000), ("atan2", "icarus", 5_000),
 
 def simulation_speeds(config: str) -> list[dict]:
     """Vectors/s of the cocotb bulk runs (pipelined) of a block and of the IK core on both simulators."""
-    from .testbench.runner import run_block
+    from .testbench.runner import run_block, sim_design
 
     rows = []
     for block, sim, vectors in SIM_RUNS:
-        r = run_block(block, "pipelined", config, sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
+        r = run_block(sim_design(block, "pipelined", config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
         rows.append({"block": block, "simulator": sim, "vectors": r["vectors"], "mismatches": r["mismatches"],
                      "vectors_per_second": r["bulk_vectors_per_second"], "build_seconds": r["build_seconds"],
                      "latency_cycles": r["latency_cycles_portmap"],

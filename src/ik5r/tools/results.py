@@ -27,6 +27,9 @@ import json
 import shutil
 from pathlib import Path
 
+from ik5r.core.arm import SEED_ARM
+
+from .results_arms import arms_table
 from .routes import routes_part
 
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
@@ -47,21 +50,29 @@ class VerilogOfCheckout:
         self._texts = {}
 
     def text(self, r: dict) -> str:
-        from ik5r.core.fxconfig import constants, load_config
-        from ik5r.hdl.generate import generate
+        """The record's design point (a record without ``arm`` is of the arm of record) as this
+        checkout builds it; a record of an arm not shipped here has no Verilog (empty text)."""
+        from ik5r.core.errors import InputError
+
+        from .design import Design
 
         dsp = r.get("dsp", "generic")
         serial = r.get("serial")
-        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial)
-        if key not in self._texts and r["block"] == "cpu":
+        arm = r.get("arm")
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm)
+        if key in self._texts:
+            return self._texts[key]
+        try:
+            design = Design.resolve(r["block"], r["arch"], config=r["config"], arm=arm,
+                                    tag_width=r.get("tag_width", 0), dsp=dsp, serial=serial)
+        except InputError:
+            self._texts[key] = ""
+            return ""
+        if r["block"] == "cpu":
             from .softcpu import soc_design  # the SoC with the firmware this checkout builds
-            self._texts[key] = soc_design(constants(load_config(r["config"])), r["arch"])[0]
-        if key not in self._texts:
-            options = {} if dsp == "generic" else {"dsp": dsp}
-            if serial:
-                options["serial"] = serial
-            self._texts[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
-                                        r.get("tag_width", 0), **options)[0]
+            self._texts[key] = soc_design(design.constants, r["arch"])[0]
+        else:
+            self._texts[key] = design.verilog()[0]
         return self._texts[key]
 
     def sha256(self, r: dict) -> str:
@@ -76,7 +87,11 @@ def _router(r: dict) -> str:
 
 
 def _record_name(r: dict) -> str:
-    return f"{r['module']}_{r['config']}_{r['target']}-{r['device']}.json"
+    """``<module>_<config>[_arm-<arm>]_<target>-<device>.json``: records of the arm of record keep
+    the names they had before arms were part of the design point."""
+    arm = r.get("arm")
+    suffix = "" if arm in (None, SEED_ARM) else f"_arm-{arm}"
+    return f"{r['module']}_{r['config']}{suffix}_{r['target']}-{r['device']}.json"
 
 
 def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: VerilogOfCheckout) -> list[str]:
@@ -98,6 +113,9 @@ def collect(build: Path, sweep: Path, records: Path, docs: Path, verilog: Verilo
             continue
         record = {k: v for k, v in r.items() if k not in LOCAL_KEYS}
         record["verilog_sha256"] = verilog.sha256(r)
+        if r.get("arm"):      # the arm file's numbers now (limits do not enter the Verilog yet)
+            from ik5r.core.arm import load_arm
+            record["arm_sha256"] = load_arm(r["arm"]).dh_sha256()
         record["measured_at"] = path.stat().st_mtime
         target = synth_dir / _record_name(r)
         if target.exists() and json.loads(target.read_text()).get("measured_at", 0) >= record["measured_at"]:
@@ -169,6 +187,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
             rows.append(r)
         else:
             stale.append(path.name)
+    rows = [r for r in rows if r.get("arm", SEED_ARM) == SEED_ARM]   # other arms: arms_table
     if not rows:
         return ["No synthesis results yet: run `ik5r synth` (see above)."], stale
     rows.sort(key=lambda r: (r["config"], r["block"], r["arch"]))
@@ -249,6 +268,8 @@ def section(records: Path, verilog: VerilogOfCheckout) -> tuple[str, list[str]]:
              "### Speed (`make bench`)", "", *bench_table(records), "",
              "### Any serial arm: numeric IK (`make bench`, `python -m ik5r.tools.seedtables`)", "", *arms_part(records), "",
              "### Synthesis (`ik5r synth`, Yosys + nextpnr, out of context)", "", *synth, "",
+             "### Your arm in hardware (`ik5r synth --arm`, `python -m ik5r.tools.arm_accuracy`)", "",
+             *arms_table(records, lambda r: _current(r, verilog)), "",
              *routes_part(records, lambda r: _current(r, verilog)), "",
              "### Word-length sweep (`ik5r sweep`)", "", *sweep_part(records), "", END]
     return "\n".join(parts), stale

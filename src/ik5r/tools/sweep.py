@@ -7,7 +7,8 @@ Configs come from the schema of ik5r.core.fxconfig by one rule of the word width
 =====================  =========================  ==================================================
 field                  rule                       why
 =====================  =========================  ==================================================
-``frac.length``        ``w - 8``                  8 integer bits (sign included): |p| < 128 cm
+``frac.length``        ``w - 8``                  8 integer bits (sign included): |p| < 128 cm; with
+                                                  ``--arm``: ``w - armfit.integer_bits_for(arm)``
 ``frac.unit``          ``w - 2``                  unit-vector components in [-1, 1] (Q1.(w-2))
 ``frac.angle``         ``w - 3``                  angles in [-pi, pi] (Q2.(w-3)), pi < 4
 ``cordic.iterations``  ``w``                      one micro-rotation per bit (override: --iterations)
@@ -66,15 +67,20 @@ def guard_bits_for(width: int) -> int:
     return max(0, min(8, round(math.log2(width)) - 1))
 
 
-def config_for(width: int, iterations: int | None = None, internal_guard_bits: int | None = None
-               ) -> FixedConfig:
-    """The config of word width ``width`` by the rule of the module docstring."""
+def config_for(width: int, iterations: int | None = None, internal_guard_bits: int | None = None,
+               arm=None) -> FixedConfig:
+    """The config of word width ``width`` by the rule of the module docstring; ``arm``: its
+    length format holds that arm (:func:`ik5r.core.armfit.integer_bits_for`; 8 bits for the
+    arm of record, as the shipped configs)."""
+    from ik5r.core.armfit import integer_bits_for
+
+    int_bits = 8 if arm is None else integer_bits_for(arm)
     iters = width if iterations is None else iterations
     name = f"w{width}" + ("" if iterations is None else f"i{iters}")
     name += "" if internal_guard_bits is None else f"g{internal_guard_bits}"
     doc = {
         "name": name, "width": width,
-        "frac": {"length": width - 8, "unit": width - 2, "angle": width - 3},
+        "frac": {"length": width - int_bits, "unit": width - 2, "angle": width - 3},
         "cordic": {"iterations": iters, "guard_bits": guard_bits_for(width),
                    "angle_guard_bits": ANGLE_GUARD_BITS},
         "ik": {"rounding": "nearest", "singular_sin_q3": 1e-3,
@@ -85,9 +91,9 @@ def config_for(width: int, iterations: int | None = None, internal_guard_bits: i
     return parse_config(doc, f"<sweep {name}>")
 
 
-def sweep_configs(widths, iterations=None, internal_guard_bits=None) -> list[FixedConfig]:
+def sweep_configs(widths, iterations=None, internal_guard_bits=None, arm=None) -> list[FixedConfig]:
     """Every config of the sweep: widths x iteration counts x internal guard bits."""
-    return [config_for(w, it, g) for w in widths for it in (iterations or [None])
+    return [config_for(w, it, g, arm) for w in widths for it in (iterations or [None])
             for g in (internal_guard_bits or [None])]
 
 
@@ -142,22 +148,25 @@ def _write_cache(path: Path, doc) -> None:
 
 # --- the two kinds of task (run in worker processes) ---------------------------------------------
 
-def error_task(cfg: FixedConfig, poses: int, seed: int) -> dict:
+def error_task(cfg: FixedConfig, poses: int, seed: int, arm=None) -> dict:
     """Error figures of the fixed-point IK at ``cfg`` against float64 (see ik5r.tools.sweep_error)."""
     from .sweep_error import error_figures
 
     start, cpu = time.perf_counter(), time.process_time()
-    doc = error_figures(cfg, poses, seed)
+    doc = error_figures(cfg, poses, seed, arm)
     doc["error_seconds"] = round(time.perf_counter() - start, 2)
     doc["error_cpu_seconds"] = round(time.process_time() - cpu, 2)
     return doc
 
 
 def synth_task(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions, cache_dir: str,
-               timeout: float | None) -> dict:
+               timeout: float | None, arm=None) -> dict:
+    from .design import Design
+
     start = time.perf_counter()
     try:
-        result = synthesize(block, arch, cfg, opts, cache_dir=cache_dir, timeout=timeout)
+        design = Design.resolve(block, arch, config=cfg, arm=arm)
+        result = synthesize(design, opts, cache_dir=cache_dir, timeout=timeout)
     except Exception as exc:  # reported per point; the sweep goes on
         return {"error": f"{type(exc).__name__}: {exc}"[:2000]}
     result["synth_seconds"] = round(time.perf_counter() - start, 2)
@@ -180,8 +189,10 @@ class Task:
         return f"ik5r-{self.kind}-{self.path.stem}"
 
 
-def _plan(configs, blocks, archs, poses, seed, opts, synth_cache, timeout, cache: Path):
-    """(error figures cached, synthesis figures cached, tasks to run), longest tasks first."""
+def _plan(configs, blocks, archs, poses, seed, opts, synth_cache, timeout, cache: Path, arm=None):
+    """(error figures cached, synthesis figures cached, tasks to run), longest tasks first; the
+    arm (None: the arm of record, whose cache names stay as they were) is in every key."""
+    arm_tag = "" if arm is None else f"_arm-{arm.name}-{arm.dh_sha256()}"
     opts_key = {k: v for k, v in asdict(opts).items() if k != "threads"}
     # One nextpnr thread per task: the workers already fill the cores.
     worker_opts = SynthOptions(**{**asdict(opts), "threads": 1})
@@ -189,21 +200,21 @@ def _plan(configs, blocks, archs, poses, seed, opts, synth_cache, timeout, cache
     hdl_hash, tools = (hdl_sources_hash(), tool_versions(opts.target)) if blocks else (None, None)
     errors, synths, pending = {}, {}, []
     for cfg in configs:
-        path = cache / f"error_{cfg.name}_{_key(_config_key(cfg), poses, seed, err_hash)}.json"
+        path = cache / f"error_{cfg.name}{arm_tag}_{_key(_config_key(cfg), poses, seed, err_hash)}.json"
         doc = _read_cache(path)
         if doc is not None:
             errors[cfg.name] = dict(doc, from_cache=True)
         else:
-            pending.append(Task("error", cfg.name, path, (error_task, cfg, poses, seed), cfg.width))
+            pending.append(Task("error", cfg.name, path, (error_task, cfg, poses, seed, arm), cfg.width))
         for block in blocks:
             for arch in dict.fromkeys(resolve_arch(block, a) for a in archs):
                 key = _key(_config_key(cfg), block, arch, opts_key, hdl_hash, tools)
-                path = cache / f"synth_{block}_{arch}_{cfg.name}_{key}.json"
+                path = cache / f"synth_{block}_{arch}_{cfg.name}{arm_tag}_{key}.json"
                 doc = _read_cache(path)
                 if doc is not None and "error" not in doc:
                     synths[(cfg.name, block, arch)] = dict(doc, from_cache=True)
                 else:
-                    call = (synth_task, block, arch, cfg, worker_opts, str(synth_cache), timeout)
+                    call = (synth_task, block, arch, cfg, worker_opts, str(synth_cache), timeout, arm)
                     pending.append(Task("synth", (cfg.name, block, arch), path, call, cfg.width))
     # Longest first (wide pipelined synthesis), so the workers end together.
     pending.sort(key=lambda t: (t.kind != "synth", -t.width,
@@ -305,7 +316,7 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
               seed: int = 0, opts: SynthOptions | None = None, synth_cache=DEFAULT_CACHE,
               timeout: float | None = None, progress: bool = True, log=print, *,
               guard_bits=None, synth: bool = True, scheduler: str | None = None, client=None,
-              note=None, on_done=None) -> dict:
+              note=None, on_done=None, arm=None) -> dict:
     """Run (or resume) a sweep on Dask; writes DIR/sweep.csv, sweep.json, the plots and index.html.
 
     ``client``: an open Dask client to use (else one of ``scheduler``, else a LocalCluster).
@@ -315,9 +326,9 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
     blocks = list(blocks) if synth else []
     archs = list(dict.fromkeys(archs)) if synth else []
     opts = (opts or SynthOptions()).resolved()
-    configs = sweep_configs(widths, iterations, guard_bits)
+    configs = sweep_configs(widths, iterations, guard_bits, arm)
     errors, synths, pending, opts_key, tools = _plan(configs, blocks, archs, poses, seed, opts,
-                                                     synth_cache, timeout, out_dir / "cache")
+                                                     synth_cache, timeout, out_dir / "cache", arm)
     cached_count = len(errors) + len(synths)
     where = f"the Dask cluster at {scheduler}" if scheduler else \
         "the given Dask client" if client else f"a LocalCluster of {jobs or os.cpu_count()} process(es)"
@@ -347,6 +358,7 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
         "rule": "frac.length = w-8, frac.unit = w-2, frac.angle = w-3, iterations = w (or "
                 "--iterations), guard_bits = round(log2 w)-1, angle_guard_bits = 3, nearest, "
                 "ik.internal_guard_bits = --guard-bits (0)",
+        "arm": "hu-5r" if arm is None else arm.name, "arm_sha256": None if arm is None else arm.dh_sha256(),
         "widths": list(widths), "iterations": list(iterations) if iterations else "auto",
         "internal_guard_bits": list(guard_bits) if guard_bits else [0],
         "blocks": blocks, "archs": archs, "synth": synth, "poses": poses, "seed": seed,

@@ -24,12 +24,12 @@ JOINTS = ("q1", "q2", "q3", "q4", "q5")
 
 
 @lru_cache(maxsize=2)
-def _float_side(poses: int, seed: int) -> dict:
-    """Target poses, their float64 branch (arm of record), as the report draws them, and the
-    float32 solver's largest position error on that branch."""
+def _float_side(poses: int, seed: int, arm=None) -> dict:
+    """Target poses, their float64 branch (``arm``; None: the arm of record), as the report draws
+    them, and the float32 solver's largest position error on that branch."""
     from .report import quantisation as qz
 
-    arm = load_arm()
+    arm = arm or load_arm()
     q = ref.random_joints(arm, poses, np.random.default_rng(seed))
     p, n, o, a = ref.fk(arm, q)
     r64 = ref.ik(arm, p, a, n, o)
@@ -43,14 +43,15 @@ def _float_side(poses: int, seed: int) -> dict:
             "sin_q3": np.abs(np.sin(q64[:, 2] + arm.theta_offset[2])), "radius": np.hypot(p[:, 0], p[:, 1])}
 
 
-def error_figures(cfg: FixedConfig, poses: int, seed: int) -> dict:
-    """Position, approach and joint error of the fixed-point IK at ``cfg`` against float64."""
+def error_figures(cfg: FixedConfig, poses: int, seed: int, arm=None) -> dict:
+    """Position, approach and joint error of the fixed-point IK at ``cfg`` against float64, on
+    ``arm`` (None: the arm of record)."""
     from ik5r.firmware_model.vector import solve_batch
 
     from .report import quantisation as qz
 
-    arm = load_arm()
-    f = _float_side(poses, seed)
+    arm = arm or load_arm()
+    f = _float_side(poses, seed, arm)
     p_l, _ = quantize(f["p"], cfg.frac_length, cfg)
     a_u, n_u, o_u = (quantize(f[v], cfg.frac_unit, cfg)[0] for v in ("a", "n", "o"))
     branch = f["branch"]

