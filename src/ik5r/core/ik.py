@@ -62,16 +62,35 @@ def off_plane(ax, ay, c1_u, s1_u, ki: Constants):
 # --- the IK, stage by stage -------------------------------------------------------------------
 
 
+def _plane_direction(fx, px, py, ax, ay, ki: Constants):
+    """The horizontal direction of the arm's plane, (x, y) words: the tool point's horizontal part
+    plus the approach's, the latter shifted to one LSB per frac.length LSB (1 cm of point per unit
+    of approach) and its sign turned to agree with the point's (docs/algorithm.md, "Joint 1 near
+    the base axis"). Each part enters by its own precision, so near the axis the approach sets q1.
+
+    Words: |px|, |py| < 2**(width - 1); the products px * vx < 2**(2 width - 1 - (fu - fl)) (exact,
+    wide in the C); the sums may pass the word range only for points beyond any reach: clipped."""
+    shift = ki.cfg.frac_unit - ki.cfg.frac_length
+    nearest = ki.cfg.round_nearest
+    vx, vy = fx.rshift_round(ax, shift, nearest), fx.rshift_round(ay, shift, nearest)
+    opposed = fx.exact_less(fx.exact_add(fx.exact_mul(px, vx, ki), fx.exact_mul(py, vy, ki)),
+                            fx.exact_const(0, ki))
+    low, high = ki.word_min, ki.word_max
+    x = fx.select(opposed, fx.clip(px - vx, low, high), fx.clip(px + vx, low, high))
+    y = fx.select(opposed, fx.clip(py - vy, low, high), fx.clip(py + vy, low, high))
+    return x, y
+
+
 def _joint1(fx, fw, px, py, ax, ay, back, ki: Constants):
-    """q1 and the signed radius r: the arm's plane contains the tool point, or the approach if the
-    point is on the axis. Returns (q1_a, r_l, c1_u, s1_u, status)."""
+    """q1 and the signed radius r: the arm's plane from the tool point and the approach together
+    (:func:`_plane_direction`). Returns (q1_a, r_l, c1_u, s1_u, status)."""
     nearest = ki.cfg.round_nearest
     # px^2 + py^2 reaches 2**(2 width - 1) (px = py = word_min): the C sums it in 128 bits.
     rho_l, status = fx.saturate(fw.isqrt(fx.sum_of_squares(px, py, ki), 2 * ki.cfg.width, nearest), ki)
-    on_axis = rho_l == 0          # isqrt(r) >= 1 for r >= 1: only px == py == 0
-    # The point's atan2, or the approach's on the axis (one CORDIC for both cases); a zero vector
-    # implies on_axis.
-    theta1_a, vertical = fw.atan2_angle(fx.select(on_axis, ay, py), fx.select(on_axis, ax, px), ki)
+    # The direction is the zero vector only where the point is on the axis and the approach
+    # vertical (then q1 is free).
+    x, y = _plane_direction(fx, px, py, ax, ay, ki)
+    theta1_a, vertical = fw.atan2_angle(y, x, ki)
     status |= fx.flag(vertical, SINGULAR_BASE)
     q1_a = fx.select(back, fx.opposite(theta1_a, ki), theta1_a)
     r_l = fx.select(back, -rho_l, rho_l)
