@@ -70,10 +70,13 @@ def status_cases(arm: Arm) -> list[tuple[str, str, tuple]]:
         ("base axis, vertical approach", "singular_base",
          (np.array([0.0, 0, 20]), np.array([0.0, 0, 1]), np.array([1.0, 0, 0]), np.array([0.0, 1, 0]))),
         ("base axis, horizontal approach", "ok", on_axis),
+        # Near the axis the approach sets the arm's plane. Its horizontal part points away from
+        # the axis along the tool point's (phi < 0), so that a config whose words put the point on
+        # the axis (q18) keeps the branches of the float (the front shoulder faces the approach).
         ("1e-6 cm off the base axis, approach tilted 0.5 rad", "ok",
-         pose_of(near_axis_joints(arm, (1e-6,), (0.5,))[0])),
+         pose_of(near_axis_joints(arm, (1e-6,), (-0.5,))[0])),
         ("1e-7 cm off the base axis, approach horizontal", "ok",
-         pose_of(near_axis_joints(arm, (1e-7,), (math.pi / 2,))[1])),
+         pose_of(near_axis_joints(arm, (1e-7,), (-math.pi / 2,))[1])),
         ("off-plane approach (frame rotated 0.2 rad about z)", "bad_orientation",
          (p, _rotate_z(a, 0.2), _rotate_z(n, 0.2), _rotate_z(o, 0.2))),
         ("off-plane approach, no n/o", "bad_orientation", (p, _rotate_z(a, 0.2), None, None)),
