@@ -484,16 +484,37 @@ static int64_t clip_word(int64_t value, const format_t *f)
     return value > f->word_max ? f->word_max : value < f->word_min ? f->word_min : value;
 }
 
+/* |value| of a word (model.ik._magnitude: two clips, no negation of a word). */
+static int64_t magnitude(int64_t value, const format_t *f)
+{
+    return (value > 0 ? (value < f->word_max ? value : f->word_max) : 0)
+         - (value < 0 ? (value > f->word_min ? value : f->word_min) : 0);
+}
+
+/* 1 where the tool point lies within 2 input LSB of the approach's vertical plane, else 0
+ * (model.ik._approach_weight): |px ay - py ax| >> fu (128 bits, rounded) against
+ * (|ax| + |ay|) >> (fu - guard - 1). */
+static int64_t approach_weight(int64_t px, int64_t py, int64_t ax, int64_t ay, const format_t *f)
+{
+    const int nearest = IK5R_ROUND_NEAREST;
+    const int64_t cross = wide_rshift_round(wide_sub(wide_mul(px, ay), wide_mul(py, ax)),
+                                            IK5R_IK_FRAC_UNIT, nearest);
+    const int64_t span = magnitude(ax, f) + magnitude(ay, f);
+    const int64_t slack = rshift_round(span, IK5R_IK_FRAC_UNIT - IK5R_INTERNAL_GUARD_BITS - 1, nearest)
+                        - magnitude(cross, f);
+    return slack + 1 < 0 ? 0 : slack + 1 > 1 ? 1 : slack + 1;
+}
+
 /* The horizontal direction of the arm's plane (model.ik._plane_direction): the tool point's
- * horizontal part plus the approach's, shifted to one LSB per length LSB and turned to agree in
- * sign with the point's (exact 128-bit dot product); sums clipped to the word range. */
+ * horizontal part, plus the approach's (sign turned to agree with it, from the approach's check
+ * words) where approach_weight is 1; sums clipped to the word range. */
 static void plane_direction(int64_t px, int64_t py, int64_t ax, int64_t ay, const format_t *f,
                             int64_t *x, int64_t *y)
 {
-    const int shift = IK5R_IK_FRAC_UNIT - IK5R_IK_FRAC_LENGTH;
-    const int64_t vx = rshift_round(ax, shift, IK5R_ROUND_NEAREST);
-    const int64_t vy = rshift_round(ay, shift, IK5R_ROUND_NEAREST);
-    const int opposed = wide_less(wide_add(wide_mul(px, vx), wide_mul(py, vy)), wide_from(0));
+    const int shift = IK5R_IK_CHECK_SHIFT;
+    const int64_t weight = approach_weight(px, py, ax, ay, f);
+    const int64_t vx = ax * weight, vy = ay * weight;
+    const int opposed = (ax >> shift) * px + (ay >> shift) * py < 0;
 
     *x = clip_word(opposed ? px - vx : px + vx, f);
     *y = clip_word(opposed ? py - vy : py + vy, f);

@@ -50,11 +50,23 @@ def frame_error(n, o, a):
     return np.max(np.abs(np.vstack([nn, oo, no, cross])), axis=0)
 
 
+def plane_direction(px, py, ax, ay, weight_cm, lsb_cm):
+    """The fixed-point solver's direction of the arm's plane (docs/algorithm.md, "Joint 1 near the
+    base axis") in float: u = (px, py), plus weight_cm * v (v = (ax, ay), sign turned to agree
+    with u) where u lies within 2 lsb_cm of v's plane (|u x v| <= 2 lsb_cm (|ax| + |ay|))."""
+    cross = px * ay - py * ax
+    near = np.abs(cross) <= 2 * lsb_cm * (np.abs(ax) + np.abs(ay))
+    scale = np.where(near, np.where(px * ax + py * ay < 0, -weight_cm, weight_cm), 0)
+    return px + scale * ax, py + scale * ay
+
+
 class Kernel:
     """The closed-form IK of one chunk of poses, written into slices of the result arrays."""
 
-    def __init__(self, arm: Arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance):
+    def __init__(self, arm: Arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance,
+                 approach_plane=None):
         self.arm, self.dt, self.singular = arm, dt, float(singular_sin_q3)
+        self.approach_plane = approach_plane
         self.reach, self.orientation = float(reach_tolerance), float(orientation_tolerance)
         self.tolerances = tolerances
         self.offsets = np.asarray(arm.theta_offset, dtype=np.float64)
@@ -133,8 +145,12 @@ class Kernel:
         rho = px * px
         rho += py * py
         np.sqrt(rho, out=rho)
+        length = rho
+        if self.approach_plane is not None:
+            px, py = plane_direction(px, py, ax, ay, *self.approach_plane)
+            length = np.hypot(px, py)
         with np.errstate(invalid="ignore", divide="ignore"):
-            inv_rho = np.reciprocal(rho)
+            inv_rho = np.reciprocal(length)
             c1 = px * inv_rho                  # fixed below where the point is on the axis
             s1 = py * inv_rho
         theta1 = _atan2(py, px)

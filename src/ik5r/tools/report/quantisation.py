@@ -131,7 +131,10 @@ def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
     q_fx = np.asarray(q_a, dtype=np.float64) * 2.0**-cfg.frac_angle
     out["status_fixed"] = np.asarray(status, dtype=np.int64)
     deq_l, deq_u = 2.0**-cfg.frac_length, 2.0**-cfg.frac_unit
-    r_deq = ref.ik(arm, poses.p * deq_l, poses.a * deq_u, poses.n * deq_u, poses.o * deq_u, confirm_tolerance_cm=None)
+    # float64 on the solver's own words, with the solver's arm plane (near the base axis the
+    # quantised point alone would not give it; docs/algorithm.md, "Joint 1 near the base axis").
+    r_deq = ref.ik(arm, poses.p * deq_l, poses.a * deq_u, poses.n * deq_u, poses.o * deq_u, confirm_tolerance_cm=None,
+                   approach_plane=ref.fixed_plane(cfg.frac_length, cfg.frac_unit))
     q64_deq = _take(r_deq.q, branch)
     out["fixed_vs_exact"] = ref.wrap(q_fx - q64)
     out["fixed_vs_quantised"] = ref.wrap(q_fx - q64_deq)
