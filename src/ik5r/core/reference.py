@@ -228,10 +228,10 @@ def _rows(x, dtype, name):
 CHUNK = 16384
 
 
-def fixed_plane(frac_length: int, frac_unit: int) -> tuple[float, float]:
-    """``approach_plane`` of :func:`ik` for a fixed-point format: the approach weighs 2^(fu - fl)
-    cm per unit (each direction by its length in its own LSBs), the test is 2 length LSB."""
-    return 2.0 ** (frac_unit - frac_length), 2.0 ** -frac_length
+def fixed_plane(cfg) -> tuple:
+    """``approach_plane`` of :func:`ik` for a fixed-point config (a FixedConfig): the solver's
+    rule for the arm's plane, on float values that are that config's input words."""
+    return (cfg.frac_length, cfg.frac_unit, cfg.internal_guard_bits, cfg.width, cfg.round_nearest)
 
 
 def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
@@ -245,8 +245,8 @@ def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
     vector that a free q1 and an unspecified q5 take (the choice of branch is
     :meth:`IKResult.choose`). The FK round trip tolerances default ("auto") to
     :data:`CONFIRM_TOLERANCE` of the dtype; ``confirm_tolerance_cm=None`` skips the round trip.
-    ``approach_plane`` (weight_cm, lsb_cm): the arm's plane as the fixed-point solver takes it
-    (:func:`fixed_plane`), for float64 on the solver's own input words; None: the tool point's.
+    ``approach_plane`` (:func:`fixed_plane`): the arm's plane as the fixed-point solver takes it,
+    for float64 on the solver's own input words; None: the tool point's.
     """
     dt = np.dtype(dtype)
     p = _rows(p, dt, "p")

@@ -134,7 +134,7 @@ def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
     # float64 on the solver's own words, with the solver's arm plane (near the base axis the
     # quantised point alone would not give it; docs/algorithm.md, "Joint 1 near the base axis").
     r_deq = ref.ik(arm, poses.p * deq_l, poses.a * deq_u, poses.n * deq_u, poses.o * deq_u, confirm_tolerance_cm=None,
-                   approach_plane=ref.fixed_plane(cfg.frac_length, cfg.frac_unit))
+                   approach_plane=ref.fixed_plane(cfg))
     q64_deq = _take(r_deq.q, branch)
     out["fixed_vs_exact"] = ref.wrap(q_fx - q64)
     out["fixed_vs_quantised"] = ref.wrap(q_fx - q64_deq)
