@@ -479,6 +479,47 @@ static int off_plane(int64_t ax, int64_t ay, int64_t c1_u, int64_t s1_u)
                   IK5R_IK_CHECK_TOL_C2);
 }
 
+static int64_t clip_word(int64_t value, const format_t *f)
+{
+    return value > f->word_max ? f->word_max : value < f->word_min ? f->word_min : value;
+}
+
+/* |value| of a word (model.ik._magnitude: two clips, no negation of a word). */
+static int64_t magnitude(int64_t value, const format_t *f)
+{
+    return (value > 0 ? (value < f->word_max ? value : f->word_max) : 0)
+         - (value < 0 ? (value > f->word_min ? value : f->word_min) : 0);
+}
+
+/* 1 where the tool point lies within 2 input LSB of the approach's vertical plane, else 0
+ * (model.ik._approach_weight): |px ay - py ax| >> fu (128 bits, rounded) against
+ * (|ax| + |ay|) >> (fu - guard - 1). */
+static int64_t approach_weight(int64_t px, int64_t py, int64_t ax, int64_t ay, const format_t *f)
+{
+    const int nearest = IK5R_ROUND_NEAREST;
+    const int64_t cross = wide_rshift_round(wide_sub(wide_mul(px, ay), wide_mul(py, ax)),
+                                            IK5R_IK_FRAC_UNIT, nearest);
+    const int64_t span = magnitude(ax, f) + magnitude(ay, f);
+    const int64_t slack = rshift_round(span, IK5R_IK_FRAC_UNIT - IK5R_INTERNAL_GUARD_BITS - 1, nearest)
+                        - magnitude(cross, f);
+    return slack + 1 < 0 ? 0 : slack + 1 > 1 ? 1 : slack + 1;
+}
+
+/* The horizontal direction of the arm's plane (model.ik._plane_direction): the tool point's
+ * horizontal part, plus the approach's (sign turned to agree with it, from the approach's check
+ * words) where approach_weight is 1; sums clipped to the word range. */
+static void plane_direction(int64_t px, int64_t py, int64_t ax, int64_t ay, const format_t *f,
+                            int64_t *x, int64_t *y)
+{
+    const int shift = IK5R_IK_CHECK_SHIFT;
+    const int64_t weight = approach_weight(px, py, ax, ay, f);
+    const int64_t vx = ax * weight, vy = ay * weight;
+    const int opposed = (ax >> shift) * px + (ay >> shift) * py < 0;
+
+    *x = clip_word(opposed ? px - vx : px + vx, f);
+    *y = clip_word(opposed ? py - vy : py + vy, f);
+}
+
 /* The fixed-point IK of one pose for one branch: q_a[5] and the status bits. n_u, o_u NULL:
  * q5 = q5_default_a (the model's Pose with n = o = None). Every quantity is in the internal
  * format (ik_format, IK5R_IK_* constants) until the joints are rounded back to words. */
@@ -493,22 +534,20 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
     uint32_t status = 0;
     const int64_t px = to_internal(p_l[0]), py = to_internal(p_l[1]), pz = to_internal(p_l[2]);
     const int64_t ax = to_internal(a_u[0]), ay = to_internal(a_u[1]), az = to_internal(a_u[2]);
-    int64_t rho_l, theta1_a, q1_a, r_l, c1_u, s1_u, a_radial_u, pitch_a, phi_a, off_x_l, off_y_l;
+    int64_t plane_x, plane_y, rho_l, theta1_a, q1_a, r_l, c1_u, s1_u, a_radial_u, pitch_a, phi_a, off_x_l, off_y_l;
     int64_t xw_l, yw_l, c3_u, elbow_a, s3_u, q3_a, gamma_a, beta_a, q2_a, q4_a, q5_a, unused;
     wide_t num_l2;
     int64_t joints[5];
     int i;
 
-    /* Joint 1: the arm's plane contains the tool point, or the approach if the point is on
-     * the axis. px^2 + py^2 < 2^(2 width): 128 bits. */
+    /* Joint 1: the arm's plane from the tool point and the approach together (plane_direction).
+     * px^2 + py^2 < 2^(2 width): 128 bits. */
     rho_l = saturate((int64_t)isqrt(wide_add(wide_mul(px, px), wide_mul(py, py)), 2 * IK5R_IK_WIDTH,
                                     nearest),
                      ik, &status);
-    if (rho_l != 0) {
-        (void)cordic_atan2(py, px, ik, &theta1_a, &unused);
-    } else if (cordic_atan2(ay, ax, ik, &theta1_a, &unused)) {
+    plane_direction(px, py, ax, ay, ik, &plane_x, &plane_y);
+    if (cordic_atan2(plane_y, plane_x, ik, &theta1_a, &unused))
         status |= IK5R_STATUS_SINGULAR_BASE; /* vertical approach on the axis: q1 free */
-    }
     if (shoulder_back) {
         q1_a = opposite(theta1_a, ik);
         r_l = -rho_l;

@@ -2,7 +2,8 @@
 
 Every check of the C solver, the bit-accurate models and the hardware draws its poses from here, so
 they all see the same cases: zero vectors, full-scale words (the most negative word in every input),
-the tool point on the base axis (vertical and horizontal approach), straight and folded elbow,
+the tool point on the base axis (vertical and horizontal approach) and within 1e-6 cm of it
+(reachable, several approach tilts), straight and folded elbow,
 unreachable (too far, too near), approach off the arm's plane and perpendicular to it, n/o with no
 component across the plane, and the seed paper's pose q = [0, -pi/2, 0, -pi/2, 0].
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from ik5r.core import reference
 from ik5r.core.fxconfig import Constants, quantize
-from ik5r.core.status_cases import status_cases
+from ik5r.core.status_cases import near_axis_joints, status_cases
 from ik5r.firmware_model.poses import PoseBatch, concat, every_branch, pose_words
 
 
@@ -34,10 +35,20 @@ def random_poses(k: Constants, count: int, seed: int) -> PoseBatch:
     return every_branch(*words, q5)
 
 
+def near_axis_poses(k: Constants, radii=None, pitches=None) -> PoseBatch:
+    """Reachable poses (FK) with the tool point within 1e-6 cm of the base axis, at several
+    approach tilts (:func:`ik5r.core.status_cases.near_axis_joints`; its defaults where None)."""
+    kwargs = {name: value for name, value in (("radii", radii), ("pitches", pitches)) if value is not None}
+    q = near_axis_joints(k.arm, **kwargs)
+    p, n, o, a = reference.fk(k.arm, q)
+    words = pose_words(k.cfg, p, a, n, o)[:4]
+    return every_branch(*words, quantize(q[:, 4], k.cfg.frac_angle, k.cfg)[0])
+
+
 def directed_poses(k: Constants) -> PoseBatch:
     """The small directed set, each pose in every branch, with and without n/o: the paper's pose
     q = [0, -pi/2, 0, -pi/2, 0]; tool point on the base axis with vertical (q1 free) and horizontal
-    approach; nothing at all; straight and folded elbow; unreachable (too far, too close);
+    approach, and a few near-axis poses (:func:`near_axis_poses`); nothing at all; straight and folded elbow; unreachable (too far, too close);
     off-plane approaches; approach normal to the arm's plane and n, o with no in-plane component
     (invalid); the directed status cases of :mod:`ik5r.core.status_cases`; q5 defaults at the word
     limits; full-scale and most negative words."""
@@ -90,15 +101,17 @@ def directed_poses(k: Constants) -> PoseBatch:
     p_w, a_w, n_w, o_w = pose_words(k.cfg, *cols)[:4]
     q5 = quantize(np.array([r[4] for r in real]), c.frac_angle, c)[0]
     wcols = [np.array([r[i] for r in words], dtype=np.int64) for i in range(5)]
-    return every_branch(np.concatenate([p_w, wcols[0]]), np.concatenate([a_w, wcols[1]]),
-                        np.concatenate([n_w, wcols[2]]), np.concatenate([o_w, wcols[3]]),
-                        np.concatenate([q5, wcols[4]]))
+    listed = every_branch(np.concatenate([p_w, wcols[0]]), np.concatenate([a_w, wcols[1]]),
+                          np.concatenate([n_w, wcols[2]]), np.concatenate([o_w, wcols[3]]),
+                          np.concatenate([q5, wcols[4]]))
+    # A few of the near-axis poses (the whole set is in edge_poses).
+    return concat(listed, near_axis_poses(k, (0.0, 1e-7, 1e-6), (0.1, math.pi / 2, -1.5)))
 
 
 def edge_poses(k: Constants) -> PoseBatch:
     """Directed edge set (each pose in every branch, with and without n/o), :func:`directed_poses`
     first."""
-    return concat(directed_poses(k), _more_edges(k))
+    return concat(directed_poses(k), near_axis_poses(k), _more_edges(k))
 
 
 def _real_edges(arm) -> list:

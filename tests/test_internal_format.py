@@ -203,7 +203,8 @@ def joint_error_vs_quantised(name: str, count: int = 40_000, seed: int = 404):
     q_a, status = vector.solve_batch(k, p_l, a_u, n_u, o_u, np.ones(count, bool), branch >= 2,
                                      (branch & 1).astype(bool), np.zeros(count, np.int64))
     lsb_l, lsb_u = 2.0**-cfg.frac_length, 2.0**-cfg.frac_unit
-    seen = ref.ik(ARM, p_l * lsb_l, a_u * lsb_u, n_u * lsb_u, o_u * lsb_u, confirm_tolerance_cm=None)
+    seen = ref.ik(ARM, p_l * lsb_l, a_u * lsb_u, n_u * lsb_u, o_u * lsb_u, confirm_tolerance_cm=None,
+                  approach_plane=ref.fixed_plane(cfg))
     q64 = seen.q[np.arange(count), branch]
     sin_q3 = np.abs(np.sin(q64[:, 2] + ARM.theta_offset[2]))
     err = np.abs(ref.wrap(q_a * 2.0**-cfg.frac_angle - q64))

@@ -104,6 +104,12 @@ def test_task_space_figures(q32_run):
     assert fixed["max"] <= 1e-5                       # q32: well below a tenth of a micrometre
     assert fixed["max"] < f32["max"] and fixed["rms"] < f32["rms"]   # the floor: fixed beats float32
     assert ts["fixed_beats_float32"] is True
+    for unit in ("approach_rad", "orientation_rad"):    # issue 31: the tool's direction too
+        for solver in ("fixed", "float32", "float64"):
+            _check_stats(ts[solver][unit])
+        assert ts["fixed"][unit]["max"] < ts["float32"][unit]["max"]
+        assert ts["fixed"][unit]["rms"] < ts["float32"][unit]["rms"]
+    assert ts["beats_float32"] == {"position": True, "approach": True, "orientation": True}
     ratio = ts["ratio_fixed_over_float32"]
     assert ratio["position_max"] == pytest.approx(fixed["max"] / f32["max"])
     assert ratio["position_rms"] == pytest.approx(fixed["rms"] / f32["rms"])
@@ -183,7 +189,10 @@ def test_build_report_api_and_extra_section(tmp_path):
              or ts["fixed"]["position_cm"]["rms"] >= ts["float32"]["position_cm"]["rms"])
     assert loses and ts["fixed_beats_float32"] is False
     verdict = [line for line in text.splitlines() if line.startswith("fixed beats float32")]
-    assert len(verdict) == 1 and verdict[0].split(": ")[1].startswith("NO ")
+    assert [line.split(": ")[0].split()[-2] for line in verdict] == ["position", "approach", "n/o"]
+    assert verdict[0].split(": ")[1].startswith("NO ")
+    for line, key in zip(verdict, ("position", "approach", "orientation")):
+        assert line.split(": ")[1].startswith("YES " if ts["beats_float32"][key] else "NO ")
     assert "config q18" in text.splitlines()[0]
     fig = {**doc["sections"]["overview"]["data"], **{k: doc["sections"][k]["data"]
                                                      for k in ("joint_error", "task_space")},

@@ -119,10 +119,11 @@ def test_program_is_traced_from_the_one_ik():
 
 
 def test_program_is_short_and_shared():
-    """One program per config; the q32w pose within 800 clocks; units used side by side."""
+    """One program per config; the q32w pose within 840 clocks (720 before issue 31's plane from
+    the approach near the base axis: 830); units used side by side."""
     k = _k("q32w")
     prog = ik_program(k)
-    assert len(prog.code) <= 800
+    assert len(prog.code) <= 840
     both = [ins for ins in prog.code if ins.get("cop") and (ins.get("alu") or ins.get("pick"))]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)

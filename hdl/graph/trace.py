@@ -378,6 +378,9 @@ class SymFx:
     def sum_of_squares(self, x, y, k):
         return Sop(self.g, [(x, x, False, 0), (y, y, False, 0)], 0)
 
+    def mul_round(self, a, b, shift, nearest, k):
+        return self.rshift_round(Sop(self.g, [(a, b, False, 0)], 0), shift, nearest)
+
     def dot_round(self, a1, b1, a2, b2, shift, nearest, k):
         terms = [(a.args[0], b, True, 0) if getattr(a, "op", None) == "neg" else (a, b, False, 0)
                  for a, b in ((a1, b1), (a2, b2))]

@@ -62,16 +62,56 @@ def off_plane(ax, ay, c1_u, s1_u, ki: Constants):
 # --- the IK, stage by stage -------------------------------------------------------------------
 
 
-def _joint1(fx, fw, px, py, ax, ay, back, ki: Constants):
-    """q1 and the signed radius r: the arm's plane contains the tool point, or the approach if the
-    point is on the axis. Returns (q1_a, r_l, c1_u, s1_u, status)."""
+def _magnitude(fx, value, k: Constants):
+    """|value| of a word, from two clips (no negation of a word)."""
+    return fx.clip(value, 0, k.word_max) - fx.clip(value, k.word_min, 0)
+
+
+def _approach_weight(fx, px, py, ax, ay, guard: int, ki: Constants):
+    """2 where the tool point lies within 2 input LSB of the approach's vertical plane (the
+    mismatch the input rounding can make), else 0: then the approach may set the arm's plane.
+
+    |u x v| / |v| is the point's distance from the approach's plane; |v| is bounded by
+    L = |ax| + |ay| in [|v|, sqrt(2) |v|], so the test is |u x v| / one_u <= 2 2^guard L / one_u,
+    both sides rounded to integers. Words: |px ay - py ax| < 2**(2 width - 1) (exact, then >> fu)."""
+    nearest = ki.cfg.round_nearest
+    cross = fx.dot_round(px, ay, -py, ax, ki.cfg.frac_unit, nearest, ki)
+    span = _magnitude(fx, ax, ki) + _magnitude(fx, ay, ki)
+    slack = fx.rshift_round(span, ki.cfg.frac_unit - guard - 1, nearest) - _magnitude(fx, cross, ki)
+    return fx.clip(slack + slack + 2, 0, 2)
+
+
+def _plane_direction(fx, px, py, ax, ay, guard: int, ki: Constants):
+    """The horizontal direction of the arm's plane, (x, y) words (docs/algorithm.md, "Joint 1
+    near the base axis"): the tool point's horizontal part u, plus the approach's v (sign turned
+    to agree with u) where the point lies on the approach's plane to within the input rounding.
+    Then each enters by its length in its own LSBs: near the axis the approach sets q1. Elsewhere
+    (a pose whose approach is off the point's plane) u alone, as the word IK always did.
+
+    Words: the sums may pass the word range only for points beyond any reach: clipped."""
+    nearest = ki.cfg.round_nearest
+    weight = _approach_weight(fx, px, py, ax, ay, guard, ki)
+    # v or 0: v * weight / 2 (weight 0 or 2), exact, one product the tracer can lower.
+    vx, vy = (fx.mul_round(v, weight, 1, nearest, ki) for v in (ax, ay))
+    # The sign of u . v from v's check words (products below 2**55 in every format): wrong only
+    # where u is too short (2 LSB) to tell the point's side of the axis.
+    opposed = check_word(ax, ki) * px + check_word(ay, ki) * py < 0
+    low, high = ki.word_min, ki.word_max
+    x = fx.select(opposed, fx.clip(px - vx, low, high), fx.clip(px + vx, low, high))
+    y = fx.select(opposed, fx.clip(py - vy, low, high), fx.clip(py + vy, low, high))
+    return x, y
+
+
+def _joint1(fx, fw, px, py, ax, ay, back, guard: int, ki: Constants):
+    """q1 and the signed radius r: the arm's plane from the tool point and the approach together
+    (:func:`_plane_direction`). Returns (q1_a, r_l, c1_u, s1_u, status)."""
     nearest = ki.cfg.round_nearest
     # px^2 + py^2 reaches 2**(2 width - 1) (px = py = word_min): the C sums it in 128 bits.
     rho_l, status = fx.saturate(fw.isqrt(fx.sum_of_squares(px, py, ki), 2 * ki.cfg.width, nearest), ki)
-    on_axis = rho_l == 0          # isqrt(r) >= 1 for r >= 1: only px == py == 0
-    # The point's atan2, or the approach's on the axis (one CORDIC for both cases); a zero vector
-    # implies on_axis.
-    theta1_a, vertical = fw.atan2_angle(fx.select(on_axis, ay, py), fx.select(on_axis, ax, px), ki)
+    # The direction is the zero vector only where the point is on the axis and the approach
+    # vertical (then q1 is free).
+    x, y = _plane_direction(fx, px, py, ax, ay, guard, ki)
+    theta1_a, vertical = fw.atan2_angle(y, x, ki)
     status |= fx.flag(vertical, SINGULAR_BASE)
     q1_a = fx.select(back, fx.opposite(theta1_a, ki), theta1_a)
     r_l = fx.select(back, -rho_l, rho_l)
@@ -185,7 +225,7 @@ def solve(fx, fw, k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default
     px, py, pz = (v << guard for v in p_l)
     ax, ay, az = (v << guard for v in a_u)
 
-    q1_a, r_l, c1_u, s1_u, status = _joint1(fx, fw, px, py, ax, ay, back, ki)
+    q1_a, r_l, c1_u, s1_u, status = _joint1(fx, fw, px, py, ax, ay, back, guard, ki)
     phi_a, sat = _pitch(fx, fw, ax, ay, az, c1_u, s1_u, ki)
     status |= sat
     xw_l, yw_l, sat = _wrist(fx, fw, r_l, pz, phi_a, ki)

@@ -228,9 +228,16 @@ def _rows(x, dtype, name):
 CHUNK = 16384
 
 
+def fixed_plane(cfg) -> tuple:
+    """``approach_plane`` of :func:`ik` for a fixed-point config (a FixedConfig): the solver's
+    rule for the arm's plane, on float values that are that config's input words."""
+    return (cfg.frac_length, cfg.frac_unit, cfg.internal_guard_bits, cfg.width, cfg.round_nearest)
+
+
 def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
        reach_tolerance=REACH_TOLERANCE, orientation_tolerance=ORIENTATION_TOLERANCE,
-       dtype=np.float64, confirm_tolerance_cm="auto", confirm_tolerance_dir="auto") -> IKResult:
+       dtype=np.float64, confirm_tolerance_cm="auto", confirm_tolerance_dir="auto",
+       approach_plane=None) -> IKResult:
     """Closed-form IK of N poses, all four branches (see the module docstring).
 
     p, a: (N, 3) tool point (cm) and approach (any length). n, o: (N, 3) or None (both or
@@ -238,6 +245,8 @@ def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
     vector that a free q1 and an unspecified q5 take (the choice of branch is
     :meth:`IKResult.choose`). The FK round trip tolerances default ("auto") to
     :data:`CONFIRM_TOLERANCE` of the dtype; ``confirm_tolerance_cm=None`` skips the round trip.
+    ``approach_plane`` (:func:`fixed_plane`): the arm's plane as the fixed-point solver takes it,
+    for float64 on the solver's own input words; None: the tool point's.
     """
     dt = np.dtype(dtype)
     p = _rows(p, dt, "p")
@@ -264,7 +273,8 @@ def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,
     S = np.empty((N_BRANCHES, count), dtype=np.int64)
     residual = np.empty(count, dtype=dt)
     q1_free = np.zeros(count, dtype=bool)
-    kernel = Kernel(arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance)
+    kernel = Kernel(arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance,
+                    approach_plane)
     for lo in range(0, count, CHUNK):
         sl = slice(lo, min(count, lo + CHUNK))
         near_c = near_q if near_q.ndim == 1 else near_q[sl]

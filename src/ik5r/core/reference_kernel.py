@@ -13,6 +13,7 @@ import numpy as np
 
 from . import status as st
 from .arm import Arm
+from .fxconfig import CHECK_BITS
 
 #: Tool point closer than this to the base axis (cm) counts as on it.
 AXIS_TOLERANCE_CM = 1e-9
@@ -50,11 +51,37 @@ def frame_error(n, o, a):
     return np.max(np.abs(np.vstack([nn, oo, no, cross])), axis=0)
 
 
+def _magnitude(value, high):
+    return np.clip(value, 0, high) - np.clip(value, -high - 1, 0)
+
+
+def plane_direction(px, py, ax, ay, plane):
+    """The fixed-point solver's direction of the arm's plane (docs/algorithm.md, "Joint 1 near the
+    base axis; ``ik.solve``'s ``_plane_direction``) for float values that are input words of the
+    format ``plane`` = (frac_length, frac_unit, guard bits, width, round nearest): its integer
+    test and sign, bit for bit, then u + s v 2^(fu - fl) (cm) where near, else u."""
+    fl, fu, guard, width, nearest = plane
+    words = [np.rint(v * 2.0 ** f).astype(np.int64) for v, f in ((px, fl), (py, fl), (ax, fu), (ay, fu))]
+    wpx, wpy, wax, way = words
+    high = (1 << (width + guard - 1)) - 1            # the internal word's range
+    cross = wpx * way - wpy * wax                    # words: below 2**63 (see ik.py)
+    cross = (cross + ((1 << (fu - guard - 1)) if nearest else 0)) >> (fu - guard)
+    span = _magnitude(wax << guard, high) + _magnitude(way << guard, high)
+    threshold = (span + ((1 << (fu - 2)) if nearest else 0)) >> (fu - 1)
+    near = threshold - _magnitude(cross, high) >= 0
+    shift = max(0, width + guard - CHECK_BITS)
+    opposed = ((wax << guard) >> shift) * (wpx << guard) + ((way << guard) >> shift) * (wpy << guard) < 0
+    scale = np.where(near, np.where(opposed, -1.0, 1.0), 0.0) * 2.0 ** (fu - fl)
+    return px + scale * ax, py + scale * ay
+
+
 class Kernel:
     """The closed-form IK of one chunk of poses, written into slices of the result arrays."""
 
-    def __init__(self, arm: Arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance):
+    def __init__(self, arm: Arm, dt, singular_sin_q3, tolerances, reach_tolerance, orientation_tolerance,
+                 approach_plane=None):
         self.arm, self.dt, self.singular = arm, dt, float(singular_sin_q3)
+        self.approach_plane = approach_plane
         self.reach, self.orientation = float(reach_tolerance), float(orientation_tolerance)
         self.tolerances = tolerances
         self.offsets = np.asarray(arm.theta_offset, dtype=np.float64)
@@ -133,8 +160,12 @@ class Kernel:
         rho = px * px
         rho += py * py
         np.sqrt(rho, out=rho)
+        length = rho
+        if self.approach_plane is not None:
+            px, py = plane_direction(px, py, ax, ay, self.approach_plane)
+            length = np.hypot(px, py)
         with np.errstate(invalid="ignore", divide="ignore"):
-            inv_rho = np.reciprocal(rho)
+            inv_rho = np.reciprocal(length)
             c1 = px * inv_rho                  # fixed below where the point is on the axis
             s1 = py * inv_rho
         theta1 = _atan2(py, px)

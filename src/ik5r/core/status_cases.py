@@ -24,6 +24,28 @@ def _rotate_z(v, angle):
     return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
 
 
+#: Distances of the tool point from the base axis (cm) and tool pitches phi = q2 + q3 + q4 (rad,
+#: the approach's tilt from vertical is |sin phi|) of :func:`near_axis_joints`.
+NEAR_AXIS_RADII = (0.0, 1e-8, 1e-7, 3e-7, 1e-6)
+NEAR_AXIS_PITCHES = (0.01, 0.1, 0.5, 1.2, math.pi / 2, 2.3, -0.4, -1.5)
+
+
+def near_axis_joints(arm: Arm, radii=NEAR_AXIS_RADII, pitches=NEAR_AXIS_PITCHES) -> np.ndarray:
+    """Joints (m, 5) whose tool point lies at each radius from the base axis, at each pitch, in two
+    arm directions: the elbow at 1 rad, q2 solved from r = a1 + a2 c2 + a3 c23 + a4 c(phi) -
+    d5 s(phi) (angles with the arm's offsets), q5 varied. Reachable by construction (FK poses)."""
+    a1, a2, a3, a4, _ = arm.a
+    d5, t3 = arm.d[4], 1.0
+    gain = complex(a2 + a3 * math.cos(t3), a3 * math.sin(t3))
+    rows = []
+    for index, (radius, phi, t1) in enumerate((r, f, t) for r in radii for f in pitches for t in (0.4, -2.2)):
+        wanted = radius - a1 - a4 * math.cos(phi) + d5 * math.sin(phi)   # = |gain| cos(t2 + arg gain)
+        t2 = math.acos(wanted / abs(gain)) - math.atan2(gain.imag, gain.real)
+        t = np.array([t1, t2, t3, phi - t2 - t3, 0.3 * index - 2.0])
+        rows.append(t - np.asarray(arm.theta_offset, dtype=float))
+    return np.array(rows)
+
+
 def status_cases(arm: Arm) -> list[tuple[str, str, tuple]]:
     """[(name, expected class, (p, a, n, o))]: the class of at least one branch (for a pose made by
     forward kinematics, the branch of its own joints); n, o None for position and approach only."""
@@ -48,6 +70,13 @@ def status_cases(arm: Arm) -> list[tuple[str, str, tuple]]:
         ("base axis, vertical approach", "singular_base",
          (np.array([0.0, 0, 20]), np.array([0.0, 0, 1]), np.array([1.0, 0, 0]), np.array([0.0, 1, 0]))),
         ("base axis, horizontal approach", "ok", on_axis),
+        # Near the axis the approach sets the arm's plane. Its horizontal part points away from
+        # the axis along the tool point's (phi < 0), so that a config whose words put the point on
+        # the axis (q18) keeps the branches of the float (the front shoulder faces the approach).
+        ("1e-6 cm off the base axis, approach tilted 0.5 rad", "ok",
+         pose_of(near_axis_joints(arm, (1e-6,), (-0.5,))[0])),
+        ("1e-7 cm off the base axis, approach horizontal", "ok",
+         pose_of(near_axis_joints(arm, (1e-7,), (-math.pi / 2,))[1])),
         ("off-plane approach (frame rotated 0.2 rad about z)", "bad_orientation",
          (p, _rotate_z(a, 0.2), _rotate_z(n, 0.2), _rotate_z(o, 0.2))),
         ("off-plane approach, no n/o", "bad_orientation", (p, _rotate_z(a, 0.2), None, None)),

@@ -16,11 +16,12 @@ from .quantisation import (
     JOINTS,
     PERCENTILES,
     SIN_Q3_BINS,
+    TASK_MEASURES,
     Samples,
     compute,
     figures,
-    summary_text,
 )
+from .summary import summary_text
 
 
 def _where(source: str) -> str:
@@ -184,20 +185,25 @@ def _task_section(fig: dict, imgs: tuple[str, str, str]) -> Section:
     parts = [para("FK (float64) of the solved joint vector against the target pose: Euclidean tool-point "
                   "error and the angle between the approach vectors. float64 is the reference's own "
                   "round-trip floor.")]
-    for unit, label in (("position_cm", "Position error (cm)"), ("approach_rad", "Approach-direction error (rad)")):
+    captions = {"position_cm": "Position error (cm)", "approach_rad": "Approach-direction error (rad)",
+                "orientation_rad": "n/o error (rad): the larger angle between solved and target n, o"}
+    r = ts["ratio_fixed_over_float32"]
+    for unit, (_, name) in TASK_MEASURES.items():
         rows = []
         for s in stats:
             fx, f32, f64 = (ts[k][unit].get(s) for k in ("fixed", "float32", "float64"))
             rows.append((s, fx, f32, f64, fx / f32 if fx is not None and f32 else None))
-        parts.append(table(("statistic", "fixed", "float32", "float64", "fixed/float32"), rows, caption=label))
-    r = ts["ratio_fixed_over_float32"]
-    verdict = ts["fixed_beats_float32"]
-    parts.append(para(f"Fixed/float32 ratio of the position error: max {fmt(r['position_max'])}, RMS "
-                      f"{fmt(r['position_rms'])} &mdash; fixed point beats float32 on both: "
-                      f"<span class=\"{'ok' if verdict else 'bad'}\">{'yes' if verdict else 'no'}</span>."))
+        parts.append(table(("statistic", "fixed", "float32", "float64", "fixed/float32"), rows,
+                           caption=captions[unit]))
+        key = unit.split("_")[0]
+        verdict = ts["beats_float32"][key]
+        parts.append(para(f"Fixed/float32 ratio of the {name} error: max {fmt(r[key + '_max'])}, RMS "
+                          f"{fmt(r[key + '_rms'])}, p99.9 {fmt(r[key + '_p99.9'])} &mdash; fixed point beats "
+                          f"float32 on max and RMS: <span class=\"{'ok' if verdict else 'bad'}\">"
+                          f"{'yes' if verdict else 'no'}</span>."))
     worst_rows = []
     for solver in ("fixed", "float32"):
-        for unit in ("position_cm", "approach_rad"):
+        for unit in TASK_MEASURES:
             w = ts[solver]["worst_pose"][unit]
             worst_rows.append((f"{solver}: max {unit.split('_')[0]} error", w["error"], w["radius_cm"],
                                w["height_cm"], w["abs_sin_q3"]))
@@ -263,12 +269,15 @@ def _glance(fig: dict, sections: list[Section]) -> Section:
     def verdict(ok):
         return f'<span class="{"ok" if ok else "bad"}">{"yes" if ok else "no"}</span>'
 
-    rows = [("fixed point beats float32 on max and RMS position error",
-             f"{verdict(ts['fixed_beats_float32'])} (max {fmt(ts['fixed']['position_cm']['max'])} cm against "
-             f"{fmt(ts['float32']['position_cm']['max'])} cm)"),
-            ("joint error ≤ 1e-6 rad against float64 on the same words, |sin q3| ≥ 1e-3",
-             f"{verdict(floor['met'])} (max {fmt(floor['max_rad'])} rad)")]
-    data = {"fixed_beats_float32": ts["fixed_beats_float32"], "joint_floor_met": floor["met"]}
+    rows = [(f"fixed point beats float32 on max and RMS {name} error",
+             f"{verdict(ts['beats_float32'][unit.split('_')[0]])} (max {fmt(ts['fixed'][unit]['max'])} "
+             f"{unit.split('_')[1]} against {fmt(ts['float32'][unit]['max'])}, RMS "
+             f"{fmt(ts['fixed'][unit]['rms'])} against {fmt(ts['float32'][unit]['rms'])})")
+            for unit, (_, name) in TASK_MEASURES.items()]
+    rows.append(("joint error ≤ 1e-6 rad against float64 on the same words, |sin q3| ≥ 1e-3",
+                 f"{verdict(floor['met'])} (max {fmt(floor['max_rad'])} rad)"))
+    data = {"fixed_beats_float32": ts["fixed_beats_float32"], "beats_float32": ts["beats_float32"],
+            "joint_floor_met": floor["met"]}
     total = by_key.get("bit_accuracy", {}).get("total_mismatches")
     if total is not None:
         rows.append(("C, scalar model, vectorised model and HDL agree on every bit",

@@ -1,7 +1,7 @@
 """The worst poses of each error measure, as CSV files beside the report.
 
 Each file lists the N poses with the largest error of one measure (fixed-point position error,
-approach error, largest joint error against float64), worst first. Its columns are the pose as
+approach error, n/o error, largest joint error against float64), worst first. Its columns are the pose as
 ``ik5r fk`` writes it and ``ik5r solve`` reads it (px..az at repr precision), the joints q1..q5 the
 pose was drawn from (``ik5r fk`` reads them back into the same pose), the branch the report solved,
 the fixed-point joints and status of that branch, and the errors. So
@@ -31,11 +31,13 @@ POSE = ("px", "py", "pz", "nx", "ny", "nz", "ox", "oy", "oz", "ax", "ay", "az")
 MEASURES = {
     "position": ("position_err_cm", "task-space position error (cm)"),
     "approach": ("approach_err_rad", "approach-direction error (rad)"),
+    "orientation": ("orientation_err_rad", "n/o error: the larger angle between solved and target n, o (rad)"),
     "joint": ("joint_err_max_rad", "largest joint error against float64 on the exact pose (rad)"),
 }
 COLUMNS = ("rank", *POSE, "q1", "q2", "q3", "q4", "q5", "branch",
            "fixed_q1", "fixed_q2", "fixed_q3", "fixed_q4", "fixed_q5", "fixed_status",
-           "position_err_cm", "approach_err_rad", "joint_err_max_rad", "abs_sin_q3", "radius_cm")
+           "position_err_cm", "approach_err_rad", "orientation_err_rad", "joint_err_max_rad", "abs_sin_q3",
+           "radius_cm")
 
 
 def _fixed(samples: Samples, pose: np.ndarray, branch: np.ndarray):
@@ -55,7 +57,7 @@ def _fixed(samples: Samples, pose: np.ndarray, branch: np.ndarray):
 def worst_rows(samples: Samples, measure: str, count: int) -> list[dict]:
     joint = np.max(np.abs(samples.joint_err["fixed_vs_exact"]), axis=1)
     values = {"position": samples.position_err["fixed"], "approach": samples.approach_err["fixed"],
-              "joint": joint}[measure]
+              "orientation": samples.orientation_err["fixed"], "joint": joint}[measure]
     idx = np.argsort(-values, kind="stable")[:count]
     p, n, o, a = ref.fk(samples.arm, samples.q[idx])
     pose = np.concatenate([p, n, o, a], axis=1)
@@ -69,6 +71,7 @@ def worst_rows(samples: Samples, measure: str, count: int) -> list[dict]:
         row["fixed_status"] = st.describe(int(status[rank]))
         row.update(position_err_cm=float(samples.position_err["fixed"][i]),
                    approach_err_rad=float(samples.approach_err["fixed"][i]),
+                   orientation_err_rad=float(samples.orientation_err["fixed"][i]),
                    joint_err_max_rad=float(joint[i]), abs_sin_q3=float(samples.sin_q3[i]),
                    radius_cm=float(samples.radius[i]))
         rows.append(row)
@@ -93,7 +96,7 @@ def section(samples: Samples, out_dir, count: int = 20) -> Section:
         files[measure], data[measure] = name, rows
         for row in rows[:3]:
             shown.append((f"{measure} #{row['rank']}", row[key], row["position_err_cm"],
-                          row["approach_err_rad"], row["joint_err_max_rad"], row["radius_cm"],
+                          row["approach_err_rad"], row["orientation_err_rad"], row["joint_err_max_rad"], row["radius_cm"],
                           row["abs_sin_q3"], row["branch"], row["fixed_status"]))
     links = ", ".join(f'<a href="{esc(f)}">{esc(f)}</a> ({esc(MEASURES[m][1])})' for m, f in files.items())
     parts = [
@@ -104,7 +107,7 @@ def section(samples: Samples, out_dir, count: int = 20) -> Section:
              "gives the same fixed_q1..fixed_q5 on each row's branch line (also for a flagged pose when "
              "no branch of it is valid; --all because <code>ik5r solve</code> alone takes the first valid "
              "branch); <code>ik5r fk</code> on the file gives the pose back from q1..q5."),
-        table(("pose", "measure", "position (cm)", "approach (rad)", "joint max (rad)", "ρ (cm)",
+        table(("pose", "measure", "position (cm)", "approach (rad)", "n/o (rad)", "joint max (rad)", "ρ (cm)",
                "|sin q3|", "branch", "fixed status"), shown, caption="The three worst of each measure"),
     ]
     return Section("worst_poses", "Worst poses (CSV)", "\n".join(parts),
