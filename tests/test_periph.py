@@ -50,7 +50,7 @@ def test_regmap_is_consistent_and_texts_carry_every_register():
 
 class Master:
     """A Wishbone classic master: one access at a time, random idle clocks between accesses;
-    asserts that each is acknowledged on the clock after its request, once."""
+    asserts that each is acknowledged in its own clock and nothing without a request."""
 
     def __init__(self, ctx, bus, rng):
         self.ctx, self.bus, self.rng = ctx, bus, rng
@@ -70,14 +70,13 @@ class Master:
         ctx.set(bus.sel, sel)
         ctx.set(bus.cyc, 1)
         ctx.set(bus.stb, 1)
-        assert not ctx.get(bus.ack)
-        await self._tick()
+        # Zero wait states: acknowledged in the request's clock, the transfer at its edge.
         assert ctx.get(bus.ack) and not ctx.get(bus.err)
         value = ctx.get(bus.dat_r)
+        await self._tick()
         ctx.set(bus.cyc, 0)
         ctx.set(bus.stb, 0)
-        await self._tick()
-        assert not ctx.get(bus.ack)      # one acknowledgement per request
+        assert not ctx.get(bus.ack)      # no acknowledgement without a request
         return value
 
     async def read(self, name_or_word) -> int:

@@ -68,8 +68,8 @@ class IKPeripheral(wiring.Component):
     Formats: 32-bit registers, word addresses ``bus.adr`` (offset / 4) in a window of
     :data:`ADDR_WIDTH` bits; pose and joint words are the config's signed words (low W bits
     written, joints sign-extended), status bits of :mod:`ik5r.core.status`.
-    Latency: every access is acknowledged on the clock after the request (``ack`` for one clock;
-    ``err`` is never raised), whatever the core does; a pose's result is valid ``core.latency``
+    Latency: every access is acknowledged in the clock of its request (zero wait states: ``ack``
+    is ``cyc & stb``, read data from registers; ``err`` is never raised), whatever the core does; a pose's result is valid ``core.latency``
     (+ 1 for the input register) clocks after its ``START``.
     Throughput: the compact core one pose per ``core.cycles_per_result`` clocks (holding up to 3),
     the pipelined core one pose per clock (holding ``core.capacity``, its output FIFO the queue).
@@ -93,10 +93,9 @@ class IKPeripheral(wiring.Component):
         m = Module()
         m.submodules.core = core = self.core
         bus = self.bus
-        ack = Signal()
-        access = bus.cyc & bus.stb & ~ack           # the one clock in which a request acts
-        m.d.sync += ack.eq(bus.cyc & bus.stb & ~ack)
-        m.d.comb += [bus.ack.eq(ack), bus.err.eq(0)]
+        # Zero wait states: a request is acknowledged, and acts, in its own clock.
+        access = bus.cyc & bus.stb
+        m.d.comb += [bus.ack.eq(access), bus.err.eq(0)]
         hit = {r.name: access & (bus.adr == r.offset // 4) for r in R.REGISTERS}
         mapped = Cat(*hit.values()).any()
         write, read = access & bus.we, access & ~bus.we
@@ -125,11 +124,9 @@ class IKPeripheral(wiring.Component):
         m.d.comb += self.irq.eq(irq_enable & core.o.valid)
 
         values = self._read_values(core, pose, flags, irq_enable, events, tag, pending)
-        with m.If(read):
-            m.d.sync += bus.dat_r.eq(0)
-            for name, value in values.items():
-                with m.If(hit[name]):
-                    m.d.sync += bus.dat_r.eq(value)
+        for name, value in values.items():
+            with m.If(hit[name] & ~bus.we):
+                m.d.comb += bus.dat_r.eq(value)
         return m
 
     def _queue(self, m, core, pose, flags, start, pop_read):
