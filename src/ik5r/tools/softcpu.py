@@ -251,19 +251,26 @@ SYNTH_RAM_WORDS = 4096
 def soc_design(k: Constants, cpu: str) -> tuple[str, dict]:
     """Verilog of the SoC with ``cpu`` and the firmware of ``k`` in its RAM (no host port), and a
     port-map-like dict for :func:`ik5r.tools.synth.synthesize` (cycles per solve: measured by
-    simulation, not known here)."""
+    simulation, not known here). ``cpu`` may name a peripheral too: ``vexriscv+compact`` is the
+    SoC with the compact IK core on its bus and the firmware that calls it."""
     from ik5r.hdl.soc.system import CPUS, generate_soc
 
+    cpu, _, kind = cpu.partition("+")
     if cpu not in CPUS:
         raise SoftCpuError(f"cpu must be one of {', '.join(CPUS)}, got {cpu!r}")
+    periph = peripheral(k, kind or None)
     isa = CPUS[cpu][1][0]
     try:
-        fw = rv32.build(k, isa, SYNTH_RAM_WORDS)
+        fw = rv32.build(k, isa, SYNTH_RAM_WORDS, periph=periph is not None)
     except rv32.Rv32BuildError as exc:
         raise SoftCpuError(str(exc)) from None
-    module = f"ik5r_soc_{cpu}"
+    module = f"ik5r_soc_{cpu}" + (f"_{kind}" if kind else "")
     text = generate_soc(cpu=cpu, ram_words=SYNTH_RAM_WORDS, init=fw.image, host_port=False,
-                        name=module)
-    return text, {"module": module, "latency_cycles": None, "cycles_per_result": None,
-                  "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
-                  "data_bytes": fw.data_bytes}
+                        name=module, periph=periph)
+    pmap = {"module": module, "latency_cycles": None, "cycles_per_result": None,
+            "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
+            "data_bytes": fw.data_bytes}
+    if periph is not None:
+        pmap.update(peripheral=kind, core_latency_cycles=periph.latency,
+                    core_cycles_per_result=periph.core.cycles_per_result)
+    return text, pmap
