@@ -26,6 +26,7 @@ def _check(r: dict, vectors: int) -> None:
     assert r["vectors"] >= vectors
     assert r["mismatches"] == 0 and r["differing_bits_vs_model"] == 0, r
     assert r["differing_words_hw_vs_sw"] == 0 and r["mismatches_hw_vs_sw"] == 0, r
+    assert r["differing_words_irq_vs_sw"] == 0, r
     calls, core = r["call_cycles"], r["core_latency_cycles"]
     # A call waits for the core and moves 14 words in and 6 out, at least a clock each.
     assert core + 20 <= calls["min"] <= calls["mean"] <= calls["max"]

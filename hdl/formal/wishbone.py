@@ -6,14 +6,15 @@ proved with SymbiYosys whatever the core does.
 ``o.payload`` are free values every clock (``$anyseq``), so a property proved holds for any
 behaviour of any core, including one that never takes a pose or never gives a result. The master
 is free too (any ``cyc``, ``stb``, ``we``, ``adr``, ``dat_w``, ``sel`` each clock, reset in any
-clock), with one assumption of the classic protocol, a master that ends its cycle after an
-acknowledgement (``stb`` low in the clock after ``ack``), which makes "one acknowledgement per
-request" observable. Proved by k-induction (every reachable state):
+clock), with the rules of the classic protocol assumed: a master holds its request (``cyc``,
+``stb``, ``we``, ``adr``, ``dat_w``, ``sel``) until acknowledged, and ends its cycle after an
+acknowledgement (``stb`` low in the next clock), which makes "one acknowledgement per request"
+observable. Proved by k-induction (every reachable state):
 
 * ``ack_only_on_request``: ``ack`` only in a clock with ``cyc & stb`` (none without a request,
   none twice for one request);
-* ``request_acknowledged``: a request waits at most :data:`MAX_WAIT` clocks for its ``ack`` (the
-  slave has zero wait states: 0);
+* ``request_acknowledged``: a request waits at most :data:`MAX_WAIT` clocks for its ``ack`` (a
+  write none, a read one);
 * ``no_err``: ``err`` never rises (unmapped offsets are acknowledged with a defined value);
 * ``irq_means_result``: the interrupt is high only while a result waits.
 
@@ -29,7 +30,7 @@ import os
 import time
 
 from amaranth.back import rtlil
-from amaranth.hdl import Assert, Assume, Module, Signal, unsigned
+from amaranth.hdl import Assert, Assume, Cat, Module, Signal, unsigned
 from amaranth.hdl._ast import AnySeq
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
@@ -43,8 +44,8 @@ from ..soc.periph import ADDR_WIDTH, IKPeripheral
 __all__ = ["FreeCore", "WishboneHarness", "MUTATIONS", "MAX_WAIT", "prove_wishbone"]
 
 MUTATIONS = ("late_ack", "stretched_ack", "wait_on_core", "spurious_ack")
-#: Clocks a request may wait for its acknowledgement.
-MAX_WAIT = 0
+#: Clocks a request may wait for its acknowledgement (a read's one wait state).
+MAX_WAIT = 1
 INDUCTION_DEPTH = 4
 
 
@@ -118,7 +119,13 @@ class WishboneHarness(wiring.Component):
         m.d.sync += waited.eq(0)
         with m.If(request & ~ack & (waited <= MAX_WAIT)):
             m.d.sync += waited.eq(waited + 1)
+        held = Signal()             # the previous clock had a request without ack
+        m.d.sync += held.eq(request & ~ack)
+        previous = [Signal.like(v, name=f"prev_{v.name}") for v in (self.we, self.adr, self.dat_w, self.sel)]
+        m.d.sync += [p.eq(v) for p, v in zip(previous, (self.we, self.adr, self.dat_w, self.sel))]
+        same = Cat(*(p == v for p, v in zip(previous, (self.we, self.adr, self.dat_w, self.sel)))).all()
         m.d.comb += [
+            Assume(~held | (request & same)),     # the master holds a request until its ack
             Assume(~acked | ~self.stb),           # the master ends its cycle after an ack
             self._assert(~ack | request, "ack_only_on_request"),
             self._assert(~request | ack | (waited < MAX_WAIT), "request_acknowledged"),

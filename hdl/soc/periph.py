@@ -68,8 +68,8 @@ class IKPeripheral(wiring.Component):
     Formats: 32-bit registers, word addresses ``bus.adr`` (offset / 4) in a window of
     :data:`ADDR_WIDTH` bits; pose and joint words are the config's signed words (low W bits
     written, joints sign-extended), status bits of :mod:`ik5r.core.status`.
-    Latency: every access is acknowledged in the clock of its request (zero wait states: ``ack``
-    is ``cyc & stb``, read data from registers; ``err`` is never raised), whatever the core does; a pose's result is valid ``core.latency``
+    Latency: a write is acknowledged in the clock of its request, a read in the next (one wait
+    state, its data registered), whatever the core does; ``err`` is never raised; a pose's result is valid ``core.latency``
     (+ 1 for the input register) clocks after its ``START``.
     Throughput: the compact core one pose per ``core.cycles_per_result`` clocks (holding up to 3),
     the pipelined core one pose per clock (holding ``core.capacity``, its output FIFO the queue).
@@ -97,12 +97,18 @@ class IKPeripheral(wiring.Component):
         m = Module()
         m.submodules.core = core = self.core
         bus = self.bus
-        # Zero wait states: a request is acknowledged, and acts, in its own clock.
-        access = bus.cyc & bus.stb
-        m.d.comb += [bus.ack.eq(access), bus.err.eq(0)]
-        hit = {r.name: access & (bus.adr == r.offset // 4) for r in R.REGISTERS}
+        # A request acts in its first clock. A write is acknowledged in that clock; a read in the
+        # next, with its data registered (a combinational read path from the CPU's address to its
+        # data register was the SoC's critical path). The master holds a request until its ack.
+        request = bus.cyc & bus.stb
+        read_wait = Signal()
+        write, read = request & bus.we, request & ~bus.we & ~read_wait
+        m.d.sync += read_wait.eq(read)
+        access = write | read
+        m.d.comb += [bus.ack.eq(write | (request & ~bus.we & read_wait)), bus.err.eq(0)]
+        word = {r.name: bus.adr == r.offset // 4 for r in R.REGISTERS}
+        hit = {name: access & selected for name, selected in word.items()}
         mapped = Cat(*hit.values()).any()
-        write, read = access & bus.we, access & ~bus.we
         lanes = _lanes(bus.sel)
 
         pose = {r.name: Signal(32, name=f"reg_{r.name.lower()}") for r in R.POSE_REGISTERS}
@@ -128,9 +134,11 @@ class IKPeripheral(wiring.Component):
         m.d.comb += self.irq.eq(irq_enable & core.o.valid)
 
         values = self._read_values(core, pose, flags, irq_enable, events, tag, pending)
-        for name, value in values.items():
-            with m.If(hit[name] & ~bus.we):
-                m.d.comb += bus.dat_r.eq(value)
+        with m.If(read):
+            m.d.sync += bus.dat_r.eq(0)
+            for name, value in values.items():
+                with m.If(word[name]):
+                    m.d.sync += bus.dat_r.eq(value)
         return m
 
     def _queue(self, m, core, pose, flags, start, pop_read):

@@ -125,7 +125,9 @@ class RunStats:
     instructions: list = field(default_factory=list)
     mark_cycles: int = 0       # cost of one MARK write (measured: two back to back)
     software_q: list = field(default_factory=list)       # peripheral runs: the software path's
-    software_status: list = field(default_factory=list)  # results of the same firmware
+    software_status: list = field(default_factory=list)  # results of the same firmware, and
+    interrupt_q: list = field(default_factory=list)      # those of the hardware's interrupt path
+    interrupt_status: list = field(default_factory=list)
     sim_seconds: float = 0.0
     total_cycles: int = 0
     total_instructions: int = 0
@@ -216,8 +218,11 @@ class SoftCpu:
         results = rest[first_result:].reshape(count, self.firmware.result_words)
         q = results[:, :5].astype(np.uint32).view(np.int32).astype(np.int64)
         if self.periph is not None:
-            self.stats.software_q.extend(results[:, 6:11].astype(np.uint32).view(np.int32).astype(np.int64))
-            self.stats.software_status.extend(results[:, 11].tolist())
+            words = results.astype(np.uint32).view(np.int32).astype(np.int64)
+            self.stats.interrupt_q.extend(words[:, 6:11])
+            self.stats.interrupt_status.extend(results[:, 11].tolist())
+            self.stats.software_q.extend(words[:, 12:17])
+            self.stats.software_status.extend(results[:, 17].tolist())
         return q, results[:, 5].copy()
 
     def solve_batch(self, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a,

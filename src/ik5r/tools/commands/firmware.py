@@ -122,12 +122,16 @@ def _peripheral_figures(soft, q, status, q_model, status_model) -> dict:
     import numpy as np
 
     q_sw, status_sw = np.array(soft.stats.software_q).reshape(-1, 5), np.array(soft.stats.software_status)
-    words = np.column_stack([q, status]) != np.column_stack([q_sw, status_sw])
+    q_irq, status_irq = np.array(soft.stats.interrupt_q).reshape(-1, 5), np.array(soft.stats.interrupt_status)
+    software = np.column_stack([q_sw, status_sw])
+    words = np.column_stack([q, status]) != software
+    irq_words = np.column_stack([q_irq, status_irq]) != software
     calls = np.array(soft.stats.cycles)
     core = soft.periph.core
     overhead = calls - core.latency
     return {"peripheral": soft.periph.kind, "differing_words_hw_vs_sw": int(words.sum()),
             "mismatches_hw_vs_sw": int(words.any(axis=1).sum()),
+            "differing_words_irq_vs_sw": int(irq_words.sum()),
             "call_cycles": {"mean": float(calls.mean()), "median": float(np.median(calls)),
                             "min": int(calls.min()), "max": int(calls.max())},
             "core_latency_cycles": core.latency, "core_cycles_per_result": core.cycles_per_result,
@@ -183,11 +187,11 @@ def run(args) -> int:
     if args.peripheral:
         o = r["bus_overhead_cycles"]
         print(f"peripheral {r['peripheral']}: {r['differing_words_hw_vs_sw']} differing words hardware vs "
-              f"software; call cycles mean {r['call_cycles']['mean']:,.1f} max {r['call_cycles']['max']:,}; "
+              f"software ({r['differing_words_irq_vs_sw']} on the interrupt path); call cycles mean {r['call_cycles']['mean']:,.1f} max {r['call_cycles']['max']:,}; "
               f"core latency {r['core_latency_cycles']:,}; bus overhead mean {o['mean']:,.1f} max "
               f"{o['max']:,} ({100 * r['bus_share']:.1f}% of the call)")
     if args.json:
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(r, indent=1) + "\n")
-    return 1 if r["mismatches"] or r.get("differing_words_hw_vs_sw") else 0
+    return 1 if r["mismatches"] or r.get("differing_words_hw_vs_sw") or r.get("differing_words_irq_vs_sw") else 0
