@@ -15,7 +15,8 @@ import ik5r
 from ik5r.core import regmap as R
 from ik5r.core.fxconfig import Constants
 
-__all__ = ["WishboneSignature", "IKPeripheral", "PERIPHERAL_CORES", "ADDR_WIDTH"]
+__all__ = ["WishboneSignature", "IKPeripheral", "PERIPHERAL_CORES", "ADDR_WIDTH", "generate_peripheral",
+           "peripheral_verilog"]
 
 #: Cores the peripheral wraps (``CORE.KIND`` of the map).
 PERIPHERAL_CORES = tuple(R.CORE_KINDS)
@@ -178,8 +179,25 @@ class IKPeripheral(wiring.Component):
 
 
 def generate_peripheral(constants: Constants, core: str = "compact", *, name: str = "ik5r_periph") -> str:
-    """Verilog of the peripheral alone (top module ``name``)."""
+    """Verilog of the peripheral alone (top module ``name``: ports ``clk``, ``rst``, ``bus__*``,
+    ``irq``), with a header comment saying what it is (no time stamp: deterministic)."""
+    return peripheral_verilog(IKPeripheral(constants=constants, core=core), name=name)
+
+
+def peripheral_verilog(periph: IKPeripheral, *, name: str = "ik5r_periph") -> str:
+    """Verilog of ``periph`` (see :func:`generate_peripheral`)."""
     from amaranth.back import verilog
 
-    periph = IKPeripheral(constants=constants, core=core)
-    return verilog.convert(periph, name=name, emit_src=False)
+    from ..provenance import HEADER_END, config_hash, source_commit, tool_versions
+
+    constants, core = periph.constants, periph.kind
+    body = verilog.convert(periph, name=name, emit_src=False)
+    tools = tool_versions()
+    lines = [f"{name}: ik5r generated Verilog, do not edit: the IK core ({core}) as a Wishbone B4 "
+             "classic slave (ik5r.hdl.soc.periph.IKPeripheral; register map ik5r.core.regmap)",
+             f"config: {constants.cfg.name} (numbers and arm: sha256 {config_hash(constants)}); "
+             f"ID words {', '.join(f'{k} 0x{v:08X}' for k, v in periph.ids.items())}",
+             f"core latency {periph.core.latency} cycles, cycles per result {periph.core.cycles_per_result}, "
+             f"capacity {periph.capacity} poses",
+             f"tools: amaranth {tools['amaranth']}; yosys {tools['yosys']}", f"source: {source_commit()}"]
+    return "".join(f"// {line}\n" for line in lines) + HEADER_END + body
