@@ -14,6 +14,14 @@ branch prediction: the class of a Nios II/f; runs rv32im and rv32i code) and ``v
 (5 stages, no bypassing, no caches, no multiplier: the class of a Nios II/e; rv32i only). The
 default is vexriscv for rv32im and vexriscv_min for rv32i.
 
+``--peripheral compact|pipelined`` adds the IK core on the CPU's data bus (``ik5r.hdl.soc.periph``,
+register map ``ik5r.core.regmap``) and runs the firmware ``rv32_periph_main.c``: every pose through
+the driver's blocking call ``ik5r_hw_solve`` (timed from the CPU's side), its interrupt path and the
+software ``ik5r_solve``; every word of the hardware paths is compared with the software path's
+(``differing_words_hw_vs_sw``, ``differing_words_irq_vs_sw``), the model and the host C. The cycles
+are then those of the call (``call_cycles``); ``bus_overhead_cycles`` = call cycles - the core's
+latency (``core_latency_cycles``), ``bus_share`` its share of the call.
+
 Exit status: 0 with no mismatch, 1 on any mismatch, 2 when the firmware or the simulator cannot
 be built (missing cross compiler or Verilator) or the CPU traps, stops early or hangs (cycle limit).
 """
