@@ -44,6 +44,8 @@ firmware: $(STAMP) riscv
 	$(VENV)/bin/ik5r firmware --isa rv32im --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32im_$(CONFIG).json
 	$(VENV)/bin/ik5r firmware --isa rv32i --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_min_rv32i_$(CONFIG).json
 	$(VENV)/bin/ik5r firmware --isa rv32i --cpu vexriscv --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32i_$(CONFIG).json
+	$(VENV)/bin/ik5r firmware --peripheral compact --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32im_$(CONFIG)_periph_compact.json
+	$(VENV)/bin/ik5r firmware --peripheral pipelined --config $(CONFIG) --vectors $(FW_VECTORS) --json build/firmware/vexriscv_rv32im_$(CONFIG)_periph_pipelined.json
 
 # ARM=NAME (ik5r arms) or ARM=path/to/arm.toml: the demo of that arm's cores.
 ARM ?=

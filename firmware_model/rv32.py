@@ -25,17 +25,28 @@ from ik5r.core.fxconfig import Constants
 
 from .codegen import HEADER_NAME, generate_header
 from ik5r.core.cbuild import cache_root
+from ik5r.core.regmap_out import HEADER_NAME as REGS_HEADER
+from ik5r.core.regmap_out import c_header as regs_header
 
 from .csolver import SOURCE_DIR
 
 ISAS = ("rv32im", "rv32i")
 PREFIX = "riscv64-unknown-elf-"
 SOURCES = ("ik5r.c", "ik5r.h", "rv32_main.c", "rv32_start.S", "rv32.ld")
+#: The firmware of the IK peripheral (both paths on every pose): the driver and its harness.
+#: The driver is linked right after the harness's main, before the solver: the timed loop and
+#: the driver then sit together in the 4 KiB instruction cache (with the q32w solver between
+#: them they evicted each other: about 60 cycles a call).
+PERIPH_SOURCES = ("ik5r_hw.c", "ik5r_hw.h", "ik5r.c", "ik5r.h", "rv32_periph_main.c",
+                  "rv32_periph_start.S", "rv32.ld")
 CFLAGS = ("-mabi=ilp32", "-O2", "-std=c99", "-pedantic", "-Wall", "-Wextra", "-Werror",
           "-ffreestanding", "-ffunction-sections", "-fdata-sections", "-DIK5R_NO_BATCH_API")
 #: Words of one pose in the job area and of one result (rv32_main.c).
 POSE_WORDS = 14
 RESULT_WORDS = 6
+#: Words of one result of the peripheral harness: q_a[5] status of the blocking hardware call, of
+#: the interrupt path, of the software.
+PERIPH_RESULT_WORDS = 18
 JOB_HEADER_WORDS = 2
 STACK_BYTES = 2048
 #: Packages that provide the toolchain on Debian / Ubuntu.
@@ -58,11 +69,12 @@ class Firmware:
     code_bytes: int              # .text (solver, harness, libgcc helpers)
     data_bytes: int              # .rodata + .data + .sdata + .bss
     stack_bytes: int
+    result_words: int = RESULT_WORDS
 
     def job_capacity(self) -> int:
         """The most poses one job can hold."""
         free = self.ram_words - self.job_word - JOB_HEADER_WORDS
-        return max(0, free // (POSE_WORDS + RESULT_WORDS))
+        return max(0, free // (POSE_WORDS + self.result_words))
 
 
 def tool(name: str) -> str:
@@ -102,8 +114,9 @@ def _symbol(elf: Path, name: str) -> int:
 
 
 def build(k: Constants, isa: str = "rv32im", ram_words: int = 16384,
-          stack_bytes: int = STACK_BYTES) -> Firmware:
-    """Build (or reuse) the firmware of config ``k`` for ``isa`` and a RAM of ``ram_words``."""
+          stack_bytes: int = STACK_BYTES, periph: bool = False) -> Firmware:
+    """Build (or reuse) the firmware of config ``k`` for ``isa`` and a RAM of ``ram_words``;
+    with ``periph``, the harness that solves every pose on the IK peripheral and in software."""
     if isa not in ISAS:
         raise Rv32BuildError(f"--isa must be one of {', '.join(ISAS)}, got {isa!r}")
     gcc = tool("gcc")
@@ -111,31 +124,43 @@ def build(k: Constants, isa: str = "rv32im", ram_words: int = 16384,
     link = (f"-Wl,--defsym=__ram_size={4 * ram_words}", f"-Wl,--defsym=__stack_size={stack_bytes}")
     flags = ("--specs=picolibc.specs", f"-march={isa}", *CFLAGS, "-nostartfiles",
              "-Wl,--gc-sections", *link)
-    header = generate_header(k).encode()
-    digest = hashlib.sha256(header + version.encode() + "\0".join(flags).encode())
-    for name in SOURCES:
+    headers = {HEADER_NAME: generate_header(k).encode()}
+    if periph:
+        headers[REGS_HEADER] = regs_header().encode()
+    sources = PERIPH_SOURCES if periph else SOURCES
+    digest = hashlib.sha256(b"".join(headers.values()) + version.encode() + "\0".join(flags).encode())
+    for name in sources:
         digest.update(name.encode() + (SOURCE_DIR / name).read_bytes())
-    directory = cache_root() / f"{k.cfg.name}-{k.arm.name}-{isa}-fw-{digest.hexdigest()[:20]}"
+    kind = "fwp" if periph else "fw"
+    directory = cache_root() / f"{k.cfg.name}-{k.arm.name}-{isa}-{kind}-{digest.hexdigest()[:20]}"
     elf = directory / "ik5r_rv32.elf"
     if not elf.exists():
-        directory.mkdir(parents=True, exist_ok=True)
-        (directory / HEADER_NAME).write_bytes(header)
-        for name in SOURCES:
-            shutil.copyfile(SOURCE_DIR / name, directory / name)
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=".elf.")
-        os.close(fd)
-        try:
-            _run([gcc, *flags, "-T", str(directory / "rv32.ld"), "-I", str(directory),
-                  *(str(directory / s) for s in ("rv32_start.S", "rv32_main.c", "ik5r.c")),
-                  "-o", tmp, "-lgcc"], f"firmware build ({isa}, {k.cfg.name})")
-        except Rv32BuildError:
-            os.unlink(tmp)
-            raise
-        os.replace(tmp, elf)
-    return _load(elf, isa, ram_words, stack_bytes)
+        _compile(directory, headers, sources, [gcc, *flags, "-T", str(directory / "rv32.ld")], elf,
+                 f"firmware build ({isa}, {k.cfg.name})")
+    return _load(elf, isa, ram_words, stack_bytes, PERIPH_RESULT_WORDS if periph else RESULT_WORDS)
 
 
-def _load(elf: Path, isa: str, ram_words: int, stack_bytes: int) -> Firmware:
+def _compile(directory: Path, headers: dict, sources: tuple, cmd: list, elf: Path, what: str) -> None:
+    directory.mkdir(parents=True, exist_ok=True)
+    for name, text in headers.items():
+        (directory / name).write_bytes(text)
+    for name in sources:
+        shutil.copyfile(SOURCE_DIR / name, directory / name)
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".elf.")
+    os.close(fd)
+    # The link order of the original harness: start-up, the harness's main, then the rest.
+    order = sorted((s for s in sources if s.endswith((".c", ".S"))),
+                   key=lambda s: (not s.endswith(".S"), not s.endswith("main.c")))
+    compiled = [str(directory / s) for s in order]
+    try:
+        _run([*cmd, "-I", str(directory), *compiled, "-o", tmp, "-lgcc"], what)
+    except Rv32BuildError:
+        os.unlink(tmp)
+        raise
+    os.replace(tmp, elf)
+
+
+def _load(elf: Path, isa: str, ram_words: int, stack_bytes: int, result_words: int) -> Firmware:
     binary = elf.with_suffix(".bin")
     if not binary.exists() or binary.stat().st_mtime < elf.stat().st_mtime:
         _run([tool("objcopy"), "-O", "binary", str(elf), str(binary)], "riscv64-unknown-elf-objcopy")
@@ -146,4 +171,4 @@ def _load(elf: Path, isa: str, ram_words: int, stack_bytes: int) -> Firmware:
     data_bytes = sum(sizes.get(s, 0) for s in (".rodata", ".data", ".sdata", ".bss"))
     return Firmware(isa=isa, elf=elf, image=image, job_word=_symbol(elf, "ik5r_job") // 4,
                     ram_words=ram_words, code_bytes=sizes.get(".text", 0), data_bytes=data_bytes,
-                    stack_bytes=stack_bytes)
+                    stack_bytes=stack_bytes, result_words=result_words)

@@ -33,6 +33,7 @@ from .results_arms import arms_table
 from .routes import routes_part
 
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
+REGMAP_BEGIN, REGMAP_END = "<!-- regmap:begin -->", "<!-- regmap:end -->"
 SHIPPED = ("q32w", "q32", "q24", "q18")
 PLOTS = ("error_vs_luts.png", "fmax_vs_width.png")
 #: Keys of a synth result that describe this machine's cache, not the measurement.
@@ -275,6 +276,18 @@ def section(records: Path, verilog: VerilogOfCheckout) -> tuple[str, list[str]]:
     return "\n".join(parts), stale
 
 
+def regmap_section(text: str) -> str:
+    """``text`` with the IK peripheral's register table (between :data:`REGMAP_BEGIN` and
+    :data:`REGMAP_END`, when present) generated from the register map."""
+    from ik5r.core.regmap_out import markdown_table
+
+    if REGMAP_BEGIN not in text or REGMAP_END not in text:
+        return text
+    head, rest = text.split(REGMAP_BEGIN, 1)
+    _, tail = rest.split(REGMAP_END, 1)
+    return f"{head}{REGMAP_BEGIN}\n\n{markdown_table()}\n{REGMAP_END}{tail}"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m ik5r.tools.results", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -299,7 +312,7 @@ def main(argv=None) -> int:
         print(f"left out {name}: its Verilog is not what this checkout generates (re-run ik5r synth)")
     head, rest = text.split(BEGIN, 1)
     _, tail = rest.split(END, 1)
-    readme.write_text(head + body + tail)
+    readme.write_text(regmap_section(head + body + tail))
     print(f"{readme}: results section regenerated")
     return 0
 

@@ -23,6 +23,10 @@ ROUTES = (
     ("compact IK core", "ik5r_ik_compact_{c}_ecp5-25k", None),
     ("pipelined IK core (ECP5 DSP + carry primitives)", "ik5r_ik_dspecp5_pipelined_{c}_ecp5-85k", None),
 )
+#: The fourth route: the soft CPU calling the compact core on its bus (ik5r firmware --peripheral),
+#: and the SoC running the C it is compared with.
+PERIPH_ROUTE = ("soft CPU + compact core: VexRiscv rv32im, ik5r_hw_solve on the bus",
+                "ik5r_soc_vexriscv_compact_{c}_ecp5-25k", "vexriscv_rv32im_{c}_periph_compact")
 
 
 def _load(path: Path):
@@ -32,12 +36,14 @@ def _load(path: Path):
 def route_rows(records: Path, is_current) -> list[dict]:
     """One dict per route whose records exist: figures and derived columns."""
     rows = []
-    for label, synth_name, fw_name in ROUTES:
+    for label, synth_name, fw_name in (*ROUTES, PERIPH_ROUTE):
         s = _load(records / "synth" / f"{synth_name.format(c=CONFIG)}.json")
         fw = _load(records / "firmware" / f"{fw_name.format(c=CONFIG)}.json") if fw_name else None
         if s is None or not s.get("fmax_mhz") or (fw_name and fw is None):
             continue
-        if fw:
+        if fw and fw.get("peripheral"):     # the hardware call, timed from the CPU's side
+            cycles = latency_cycles = fw["call_cycles"]["mean"]
+        elif fw:
             cycles, latency_cycles = fw["cycles_per_solve"]["mean"], fw["cycles_per_solve"]["mean"]
         else:
             cycles, latency_cycles = s["cycles_per_result"], s["latency_cycles"]
@@ -48,7 +54,8 @@ def route_rows(records: Path, is_current) -> list[dict]:
                      "cycles": cycles, "latency_us": latency_cycles / fmax, "poses": poses,
                      "per_kilo_lut": poses / (s["luts"] / 1000), "current": is_current(s),
                      "mismatches": None if fw is None else fw["mismatches"],
-                     "vectors": None if fw is None else fw["vectors"], "cpu": bool(fw),
+                     "vectors": None if fw is None else fw["vectors"],
+                     "cpu": bool(fw) and not fw.get("peripheral"), "periph": fw if fw and fw.get("peripheral") else None,
                      "firmware": fw_name})
     return rows
 
@@ -69,7 +76,7 @@ def _verdict(rows: list[dict]) -> list[str]:
     """One line per IK core against the rv32im soft CPU on the same device (else the 25k)."""
     cpus = {r["device"]: r for r in rows if r["cpu"] and "rv32im" in r["label"]}
     lines = []
-    for core in (r for r in rows if not r["cpu"]):
+    for core in (r for r in rows if not r["cpu"] and not r["periph"]):
         cpu = cpus.get(core["device"]) or cpus.get("ecp5-25k")
         if cpu is None:
             continue
@@ -92,7 +99,8 @@ def _verdict(rows: list[dict]) -> list[str]:
 def routes_part(records: Path, is_current) -> list[str]:
     """The README subsection: the table and the verdict."""
     rows = route_rows(records, is_current)
-    head = [f"### Three routes: firmware on a soft CPU vs the IK cores ({CONFIG})", ""]
+    head = [f"### {'Four' if any(r['periph'] for r in rows) else 'Three'} routes: firmware on a soft CPU "
+            f"vs the IK cores ({CONFIG})", ""]
     if not rows:
         return head + ["No records yet: run `make firmware` and `ik5r synth --block cpu --device 25k`."]
     lines = head + [
@@ -112,5 +120,30 @@ def routes_part(records: Path, is_current) -> list[str]:
              "in Verilator; " + "; ".join(f"{r['label'].split(': ')[1]}: {r['vectors']:,} poses, "
                                           f"{r['mismatches']} mismatches" for r in checked) + ". "
              "The SoC's block RAMs hold the 16 KiB program/data RAM and the CPU's caches and register file.",
-             "", *_verdict(rows)]
+             "", *_verdict(rows), *_periph_lines(rows)]
     return lines + notes
+
+
+def _periph_lines(rows: list[dict]) -> list[str]:
+    """The fourth route against the same SoC running the C: solves/s, time per call, the CPU's
+    free cycles per solve, the bus's share."""
+    cpu = next((r for r in rows if r["cpu"] and r["device"] == "ecp5-25k" and "rv32im" in r["label"]
+                and "85k" not in r["label"]), None)
+    lines = []
+    for r in (r for r in rows if r["periph"]):
+        fw = r["periph"]
+        over = fw["bus_overhead_cycles"]
+        line = (f"- **{r['label']}**{_stale(r)}: {fw['vectors']:,} poses, {fw['differing_words_hw_vs_sw']} "
+                f"words differ between the hardware and the software path of the same firmware "
+                f"({fw['mismatches']} mismatches vs the model and the host C); a call takes "
+                f"{_fmt(fw['call_cycles']['mean'], 1)} cycles on average (max {_fmt(fw['call_cycles']['max'])}), "
+                f"{_fmt(r['latency_us'], 2)} us, {_fmt(r['poses'])} solves/s; the core's latency is "
+                f"{_fmt(fw['core_latency_cycles'])} cycles, the bus's overhead {_fmt(over['mean'], 1)} on "
+                f"average ({100 * fw['bus_share']:.1f}% of the call, max {_fmt(over['max'])}, the first "
+                f"call of a run with cold caches); with the start/poll or interrupt path the CPU has the "
+                f"core's {_fmt(fw['core_latency_cycles'])} cycles per solve free for its control loop")
+        if cpu is not None:
+            line += (f"; {_ratio(r['poses'], cpu['poses'])} the solves/s of the same SoC running the C"
+                     f"{_stale(cpu)}, for {_ratio(r['luts'], cpu['luts'])} its LUT4")
+        lines.append(line + ".")
+    return lines

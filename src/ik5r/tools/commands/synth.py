@@ -30,7 +30,8 @@ def register(subparsers) -> None:
                              "CPU SoC running the C solver, see --cpu)")
     parser.add_argument("--cpu", default=None, metavar="NAME",
                         help="with --block cpu: vexriscv (rv32im) or vexriscv_min (rv32i) "
-                             "(default: both)")
+                             "(default: both); NAME+compact or NAME+pipelined: the SoC with the IK "
+                             "peripheral and the firmware that calls it")
     parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
                         help="architecture (default: pipelined; iterative and compact are the "
                              "same choice: one item in flight; all: both)")
@@ -90,8 +91,9 @@ def run(args) -> int:
         blocks = (args.block,)
     if args.block == "cpu":
         from ik5r.hdl.soc.system import CPUS
-        if args.cpu is not None and args.cpu not in CPUS:
-            raise InputError("--cpu", f"must be one of {', '.join(CPUS)}, got {args.cpu!r}")
+        if args.cpu is not None and args.cpu.partition("+")[0] not in CPUS:
+            raise InputError("--cpu", f"must be one of {', '.join(CPUS)} (+compact or +pipelined: with "
+                                      f"the IK peripheral), got {args.cpu!r}")
         cpus = (args.cpu,) if args.cpu else tuple(CPUS)
     # The config and the arm, loaded once; an arm the config cannot hold is refused here (exit 2).
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
