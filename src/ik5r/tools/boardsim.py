@@ -90,3 +90,79 @@ class SimulatedBoard:
         if self.proc.poll() is None:
             self.proc.kill()
             self.proc.wait()
+
+
+def random_poses(k: Constants, count: int, seed: int = 0):
+    """``count`` reachable poses (fk of random joints, with roll) as a PoseBatch on random branches."""
+    import numpy as np
+
+    from ik5r.core import reference
+    from ik5r.firmware_model.poses import PoseBatch
+
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(k.arm.lower, k.arm.upper, (count, 5))
+    p, n, o, a = reference.fk(k.arm, q)
+    batch, _ = PoseBatch.quantise(k.cfg, p, a, n, o)
+    return batch.with_branch(rng.integers(0, 4, count))
+
+
+def run_link(k: Constants, count: int, *, seed: int = 0, reset_after: int | None = None,
+             work: Path | None = None) -> dict:
+    """``count`` random poses through the host client and the simulated board: differing words
+    against the bit-accurate model, poses/s in simulated time against the line-rate bound."""
+    import tempfile
+
+    import numpy as np
+
+    from ik5r.firmware_model import vector
+
+    from .board import line_poses_per_s
+    from .boardlink import BoardClient, joints, pose_frames
+
+    batch = random_poses(k, count, seed)
+    work = Path(work or tempfile.mkdtemp(prefix="ik5r-board-"))
+    sim = SimulatedBoard(build_model(k), SIM_CLOCK_HZ // SIM_BAUD, work / "stats.txt", reset_after)
+    try:
+        with BoardClient(sim.url) as client:
+            client.check(k)
+            q, status = joints(client.solve(pose_frames(*batch.args())))
+            stats = client.stats
+        board = sim.wait()
+    finally:
+        sim.close()
+    q_model, status_model = vector.solve_batch(k, *batch.args())
+    seconds = (board["last_tx"] - board["first_rx"]) / SIM_CLOCK_HZ
+    return {"config": k.cfg.name, "poses": count, "seed": seed,
+            "differing_words": int((q != q_model).sum() + (status != status_model).sum()),
+            "clock_hz": SIM_CLOCK_HZ, "baud": SIM_BAUD, "simulated_seconds": seconds,
+            "poses_per_s": count / seconds, "line_poses_per_s": line_poses_per_s(SIM_BAUD),
+            "error_frames": stats.error_frames, "resent": stats.resent, "board_resets": stats.board_resets,
+            "host_timeouts": stats.timeouts, "harness": board, "wall_seconds": round(stats.seconds, 2)}
+
+
+def main(argv=None) -> int:
+    """``python -m ik5r.tools.boardsim [POSES] [--record]``: the simulated-link record."""
+    import argparse
+    import json
+
+    from ik5r.core.arm import load_arm
+    from ik5r.core.fxconfig import constants, load_config
+
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("poses", type=int, nargs="?", default=5000)
+    parser.add_argument("--config", default="q32w")
+    parser.add_argument("--record", action="store_true", help="write docs/results/records/board/sim_link_CONFIG.json")
+    args = parser.parse_args(argv)
+    k = constants(load_config(args.config), load_arm(None))
+    record = run_link(k, args.poses)
+    text = json.dumps(record, indent=2, sort_keys=True) + "\n"
+    print(text, end="")
+    if args.record:
+        from .board import RECORDS
+        RECORDS.mkdir(parents=True, exist_ok=True)
+        (RECORDS / f"sim_link_{k.cfg.name}.json").write_text(text)
+    return 0 if record["differing_words"] == 0 else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
