@@ -86,6 +86,8 @@ class FrameDecoder(wiring.Component):
         code = Signal(8)
         byte = self.i.payload
         take = self.i.valid & self.i.ready
+        crc_next = Signal(16)      # one CRC network, used in every state that receives
+        m.d.comb += crc_next.eq(crc16_byte(crc, byte))
         with m.If(self.overflow):
             m.d.sync += lost.eq(1)
         last_word = index == L.POSE_WORDS - 1
@@ -105,7 +107,7 @@ class FrameDecoder(wiring.Component):
             """A byte of a frame: the timeout runs while none comes."""
             m.d.comb += self.i.ready.eq(1)
             with m.If(take):
-                m.d.sync += [crc.eq(crc16_byte(crc, byte)), idle.eq(0)]
+                m.d.sync += [crc.eq(crc_next), idle.eq(0)]
                 m.next = state_next
             with m.Elif(idle == self.timeout):
                 fail(L.E_TIMEOUT)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import stream, wiring
+from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core import link as L
@@ -46,15 +47,17 @@ class FrameEncoder(wiring.Component):
                           "o": Out(stream.Signature(8)), "sent_error": Out(1)})
 
     def _collect(self, m, joints, tag, full, done):
-        """The result words into ``joints`` (a shift register, word 0 at the bottom)."""
+        """The result words into ``joints`` (a memory: block RAM, not 192 flip-flops)."""
         count = Signal(range(L.JOINT_WORDS))
         word = self.results.payload
         last = count == L.JOINT_WORDS - 1
         extended = Cat(word[:self.word_bits], word[self.word_bits - 1].replicate(32 - self.word_bits))
-        m.d.comb += self.results.ready.eq(~full)
+        write = joints.write_port()
+        m.d.comb += [self.results.ready.eq(~full), write.addr.eq(count),
+                     write.data.eq(Mux(last, word[:STATUS_BITS], extended)),
+                     write.en.eq(self.results.valid & ~full)]
         with m.If(self.results.valid & ~full):
-            m.d.sync += [joints.eq(Cat(joints[32:], Mux(last, word[:STATUS_BITS], extended))),
-                         count.eq(Mux(last, 0, count + 1))]
+            m.d.sync += count.eq(Mux(last, 0, count + 1))
             with m.If(last):
                 m.d.sync += [full.eq(1), tag.eq(word[STATUS_BITS:STATUS_BITS + 8])]
         with m.If(done):
@@ -62,9 +65,10 @@ class FrameEncoder(wiring.Component):
 
     def elaborate(self, platform):
         m = Module()
-        joints = Signal(32 * L.JOINT_WORDS)
+        m.submodules.joints = joints = Memory(shape=32, depth=8, init=[])
         joint_tag, full, done = Signal(8), Signal(), Signal()
         self._collect(m, joints, joint_tag, full, done)
+        joint_word = joints.read_port()
         boot = Signal(init=1)
         kind, tag, length, code = Signal(8), Signal(8), Signal(8), Signal(8)
         crc = Signal(16)
@@ -73,12 +77,18 @@ class FrameEncoder(wiring.Component):
         id_bytes = [Const((w >> (8 * b)) & 0xFF, 8) for w in self.id_words for b in range(4)]
         sending = self.o.valid & self.o.ready
         m.d.comb += self.o.payload.eq(out)
+        # Read a clock ahead: the word of the payload byte after this clock's transfer.
+        advance = Signal()   # a payload byte leaves this clock
+        m.d.comb += joint_word.addr.eq((index + advance)[2:])
+
+        crc_next = Signal(16)      # one CRC network on the byte going out, whatever the state
+        m.d.comb += crc_next.eq(crc16_byte(crc, out))
 
         def emit(value, state_next, add_crc=True):
             m.d.comb += [self.o.valid.eq(1), out.eq(value)]
             with m.If(sending):
                 if add_crc:
-                    m.d.sync += crc.eq(crc16_byte(crc, value))
+                    m.d.sync += crc.eq(crc_next)
                 m.next = state_next
 
         with m.FSM():
@@ -114,12 +124,11 @@ class FrameEncoder(wiring.Component):
                     with m.Case(L.ERROR):
                         m.d.comb += value.eq(Mux(index == 0, code, 0))
                     with m.Default():
-                        m.d.comb += value.eq(joints[:8])
+                        m.d.comb += value.eq(joint_word.data.word_select(index[:2], 8))
                 emit(value, "PAYLOAD")
+                m.d.comb += advance.eq(sending)
                 with m.If(sending):
                     m.d.sync += index.eq(index + 1)
-                    with m.If(kind == L.JOINTS):
-                        m.d.sync += joints.eq(joints >> 8)
                     with m.If(index == 4 * length - 1):
                         m.next = "CRC_HI"
             with m.State("CRC_HI"):
