@@ -17,7 +17,7 @@ from ik5r.core.fxconfig import Constants
 
 from .decoder import FrameDecoder
 from .encoder import FrameEncoder
-from .uart import UartRx, UartTx
+from .uart import UartRx, UartTx, divider
 
 __all__ = ["BoardLink", "CORES", "id_words", "credits"]
 
@@ -74,6 +74,11 @@ class BoardLink(wiring.Component):
             raise ValueError(f"fifo_bytes must hold a pose frame, got {fifo_bytes!r}")
         self.constants, self.core_name, self.clock_hz, self.baud = constants, core, clock_hz, baud
         self.fifo_bytes = fifo_bytes
+        divider(clock_hz, baud)   # a ValueError before any component is made
+        self.core = _core(constants, core)
+        inner = getattr(self.core, "core", self.core)
+        #: Clocks per pose of the IK core.
+        self.cycles_per_result = inner.cycles_per_result
         self.rx_uart = UartRx(clock_hz=clock_hz, baud=baud)
         self.tx_uart = UartTx(clock_hz=clock_hz, baud=baud)
         self.id = id_words(constants, core, clock_hz, baud, fifo_bytes)
@@ -87,7 +92,7 @@ class BoardLink(wiring.Component):
         m.submodules.fifo = fifo = SyncFIFOBuffered(width=8, depth=self.fifo_bytes)
         timeout = max(16, TIMEOUT_BITS * -(-self.clock_hz // self.baud))
         m.submodules.decoder = decoder = FrameDecoder(timeout=timeout)
-        m.submodules.core = core = _core(self.constants, self.core_name)
+        m.submodules.core = core = self.core
         m.submodules.encoder = encoder = FrameEncoder(word_bits=self.constants.cfg.width, id_words=self.id)
         m.d.comb += [rx.rx.eq(self.rx), self.tx.eq(tx.tx)]
         wiring.connect(m, rx.o, fifo.w_stream)

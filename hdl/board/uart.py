@@ -13,17 +13,14 @@ from amaranth.hdl import Cat, Module, Mux, Signal
 from amaranth.lib import stream, wiring
 from amaranth.lib.wiring import In, Out
 
-__all__ = ["UartRx", "UartTx", "clocks_per_bit"]
+__all__ = ["UartRx", "UartTx", "divider"]
 
 #: The fewest clocks a bit the receiver is made for (it samples mid-bit, +-1 clock).
 MIN_CLOCKS_PER_BIT = 4
 
 
-def clocks_per_bit(clock_hz: int, baud: int) -> float:
-    return clock_hz / baud
-
-
-def _divider(clock_hz, baud) -> tuple[int, int]:
+def divider(clock_hz, baud) -> tuple[int, int]:
+    """(step, modulus) of the bit clock; ValueError for a ratio the receiver is not made for."""
     for name, value in (("clock_hz", clock_hz), ("baud", baud)):
         if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
             raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -43,7 +40,7 @@ class UartTx(wiring.Component):
     """
 
     def __init__(self, *, clock_hz: int, baud: int):
-        self.step, self.modulus = _divider(clock_hz, baud)
+        self.step, self.modulus = divider(clock_hz, baud)
         super().__init__({"i": In(stream.Signature(8)), "tx": Out(1, init=1), "busy": Out(1)})
 
     def elaborate(self, platform):
@@ -79,7 +76,7 @@ class UartRx(wiring.Component):
     """
 
     def __init__(self, *, clock_hz: int, baud: int):
-        self.step, self.modulus = _divider(clock_hz, baud)
+        self.step, self.modulus = divider(clock_hz, baud)
         super().__init__({"rx": In(1, init=1), "o": Out(stream.Signature(8)), "framing": Out(1),
                           "overrun": Out(1), "busy": Out(1)})
 

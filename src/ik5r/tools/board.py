@@ -48,16 +48,21 @@ class OnBoard(Elaboratable):
         self.link, self.leds = link, leds
 
     def elaborate(self, platform):
+        from amaranth.lib import io
+
         m = Module()
         m.submodules.link = link = self.link
-        uart = platform.request("uart", 0)
-        activity, error = (platform.request(name, number) for name, number in self.leds)
-        m.d.comb += [link.rx.eq(uart.rx.i), uart.tx.o.eq(link.tx), activity.o.eq(link.led_activity),
-                     error.o.eq(link.led_error)]
-        try:  # ULX3S: the FTDI's receive line is gated by this pin.
-            m.d.comb += platform.request("uart_tx_enable", 0).o.eq(1)
-        except Exception:  # noqa: BLE001 - amaranth's ResourceError: the board has no such pin
-            pass
+        uart = platform.request("uart", 0, dir="-")
+        m.submodules.rx = rx = io.Buffer("i", uart.rx)
+        m.submodules.tx = tx = io.Buffer("o", uart.tx)
+        m.d.comb += [link.rx.eq(rx.i), tx.o.eq(link.tx)]
+        for index, ((name, number), lit) in enumerate(zip(self.leds, (link.led_activity, link.led_error))):
+            m.submodules[f"led{index}"] = led = io.Buffer("o", platform.request(name, number, dir="-"))
+            m.d.comb += led.o.eq(lit)
+        if "uart_tx_enable" in {res.name for res in platform.resources.values()}:
+            # ULX3S: the FTDI's receive line is gated by this pin.
+            m.submodules.tx_enable = enable = io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-"))
+            m.d.comb += enable.o.eq(1)
         return m
 
 
@@ -105,6 +110,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
           core: str | None = None) -> dict:
     """Build the bitstream of ``board`` into ``out``; returns the record."""
     from ik5r.hdl.board.top import BoardLink
+    from ik5r.hdl.board.uart import divider
 
     if board not in BOARDS:
         raise InputError("--board", f"must be one of {tuple(BOARDS)}, got {board!r}")
@@ -114,9 +120,10 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     baud = baud or b["baud"]
     core = core or b["core"]
     try:
-        link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud)
+        divider(clock_hz, baud)
     except ValueError as exc:
         raise InputError("--baud", str(exc)) from None
+    link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud)
     out.mkdir(parents=True, exist_ok=True)
     seconds = {}
     start = time.perf_counter()
@@ -137,7 +144,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
 def _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds) -> dict:
     clock_mhz = clock_hz / 1e6
     fmax = _fmax(report, clock_mhz)
-    cycles = link_cycles(link)
+    cycles = link.cycles_per_result
     return {
         "board": board, "device": BOARDS[board]["device"].lstrip("-"), "core": core,
         "config": constants.cfg.name, "clock_mhz": clock_mhz, "baud": baud,
@@ -152,14 +159,6 @@ def _record(board, constants, core, link, clock_hz, baud, report, bitstream, see
         "credits": link.id[L.ID_FIELDS.index("credits")], "id_words": link.id, "seed": seed,
         "seconds": seconds, "tools": tool_versions(BOARDS[board]["target"]),
     }
-
-
-def link_cycles(link) -> int | None:
-    from ik5r.hdl.board.top import _core
-
-    core = _core(link.constants, link.core_name)
-    inner = getattr(core, "core", core)
-    return getattr(inner, "cycles_per_result", None)
 
 
 def line_poses_per_s(baud: int) -> float:
