@@ -188,6 +188,16 @@ def test_simulated_link_5000_poses(k):
     assert record["poses_per_s"] >= 0.9 * record["line_poses_per_s"], record
 
 
+@pytest.mark.slow
+def test_sequenced_core_behind_the_word_adapter(k):
+    """The ULX3S-25F's core (SequencedIKCore through WordCore) on the simulated link."""
+    from ik5r.tools.boardsim import run_link
+
+    record = run_link(k, 300, seed=11, core="sequenced")
+    assert record["differing_words"] == 0
+    assert record["poses_per_s"] >= 0.9 * record["line_poses_per_s"], record
+
+
 @pytest.mark.parametrize("option", [["--config", "q18"], ["--arm", "longer-5r.toml"]])
 def test_board_for_another_config_or_arm_refused(model, tmp_path, capsys, option):
     from ik5r.tools.boardsim import SIM_BAUD, SIM_CLOCK_HZ, SimulatedBoard

@@ -7,7 +7,7 @@ struct core the same ports.
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Module, Mux, Signal
+from amaranth.hdl import Cat, Module, Mux, Signal, Value
 from amaranth.lib import stream, wiring
 from amaranth.lib.wiring import In, Out
 
@@ -49,7 +49,7 @@ class WordCore(wiring.Component):
             for j, name in enumerate(POSE_WORD_FIELDS):
                 field = getattr(pose, name)
                 with m.If(count == j):
-                    m.d.sync += field.eq(word[:len(field.as_value())])
+                    m.d.sync += field.eq(word[:len(Value.cast(field))])
             with m.If(count == L.POSE_WORDS - 1):
                 m.d.sync += [pose.has_roll.eq(word[0]), pose.shoulder_back.eq(word[1]),
                              pose.elbow_down.eq(word[2]), pose.tag.eq(word[3:11]), full.eq(1)]
@@ -57,8 +57,8 @@ class WordCore(wiring.Component):
         with m.If(core.i.valid & core.i.ready):
             m.d.sync += full.eq(0)
         out = core.o.payload
-        words = [getattr(out, f"q{j + 1}").as_value().as_unsigned() for j in range(5)]
-        words.append(Cat(out.status.as_value()[:6], out.tag.as_value()[:8]))
+        words = [Value.cast(getattr(out, f"q{j + 1}")).as_unsigned() for j in range(5)]
+        words.append(Cat(Value.cast(out.status)[:6], Value.cast(out.tag)[:8]))
         index = Signal(range(L.JOINT_WORDS))
         last = index == L.JOINT_WORDS - 1
         m.d.comb += [self.o.valid.eq(core.o.valid), self.o.payload.eq(select(words, index)),

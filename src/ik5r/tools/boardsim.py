@@ -107,7 +107,7 @@ def random_poses(k: Constants, count: int, seed: int = 0):
 
 
 def run_link(k: Constants, count: int, *, seed: int = 0, reset_after: int | None = None,
-             work: Path | None = None) -> dict:
+             work: Path | None = None, core: str = "serial") -> dict:
     """``count`` random poses through the host client and the simulated board: differing words
     against the bit-accurate model, poses/s in simulated time against the line-rate bound."""
     import tempfile
@@ -121,7 +121,7 @@ def run_link(k: Constants, count: int, *, seed: int = 0, reset_after: int | None
 
     batch = random_poses(k, count, seed)
     work = Path(work or tempfile.mkdtemp(prefix="ik5r-board-"))
-    sim = SimulatedBoard(build_model(k), SIM_CLOCK_HZ // SIM_BAUD, work / "stats.txt", reset_after)
+    sim = SimulatedBoard(build_model(k, core), SIM_CLOCK_HZ // SIM_BAUD, work / "stats.txt", reset_after)
     try:
         with BoardClient(sim.url) as client:
             client.check(k)
@@ -132,7 +132,7 @@ def run_link(k: Constants, count: int, *, seed: int = 0, reset_after: int | None
         sim.close()
     q_model, status_model = vector.solve_batch(k, *batch.args())
     seconds = (board["last_tx"] - board["first_rx"]) / SIM_CLOCK_HZ
-    return {"config": k.cfg.name, "poses": count, "seed": seed,
+    return {"config": k.cfg.name, "core": core, "poses": count, "seed": seed,
             "differing_words": int((q != q_model).sum() + (status != status_model).sum()),
             "clock_hz": SIM_CLOCK_HZ, "baud": SIM_BAUD, "simulated_seconds": seconds,
             "poses_per_s": count / seconds, "line_poses_per_s": line_poses_per_s(SIM_BAUD),
