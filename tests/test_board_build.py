@@ -30,3 +30,24 @@ def test_a_baud_rate_the_clock_cannot_make_is_one_line_exit_2(capsys):
     assert main(["board", "--board", "icebreaker", "--baud", "6000000", "--config", "q18"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--baud" in err[0] and "clocks a bit" in err[0]
+
+
+def test_board_table_is_rendered_from_the_records(tmp_path):
+    import json
+
+    from ik5r.tools.results import board_part
+
+    board = tmp_path / "board"
+    board.mkdir()
+    record = {"board": "icebreaker", "core": "serial", "config": "q32w", "clock_mhz": 12.0, "baud": 3_000_000,
+              "fmax_mhz": 17.25, "timing_met": True, "bitstream_bytes": 104090,
+              "resources": {"ICESTORM_LC": {"used": 4524, "available": 5280},
+                            "ICESTORM_RAM": {"used": 22, "available": 30}},
+              "line_poses_per_s": 4838.7, "core_poses_per_s": 16238.2}
+    (board / "icebreaker_serial_q32w.json").write_text(json.dumps(record))
+    (board / "sim_link_q32w.json").write_text(json.dumps(
+        {"poses": 5000, "config": "q32w", "differing_words": 0, "poses_per_s": 4800.0, "baud": 3_000_000,
+         "line_poses_per_s": 4838.7}))
+    lines = board_part(tmp_path)
+    assert "| icebreaker | serial | q32w | 12 | 3,000,000 | 17.2 | met | 4,524 | 22 | – | 104,090 | 4,839 | 16,238 |" in lines
+    assert any("5,000 q32w poses, 0 differing words, 4,800 poses/s" in line and "99.2%" in line for line in lines)
