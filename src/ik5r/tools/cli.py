@@ -17,7 +17,7 @@ from ik5r.core.errors import InputError
 from . import cliopts
 
 #: Verb modules, in the order ``ik5r --help`` lists them.
-VERBS = ("fk", "solve", "report", "verilog", "sim", "synth", "sweep", "firmware", "config", "arms")
+VERBS = ("fk", "solve", "report", "verilog", "sim", "synth", "sweep", "firmware", "board", "config", "arms")
 
 
 def build_parser() -> argparse.ArgumentParser:

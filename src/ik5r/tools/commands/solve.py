@@ -41,7 +41,7 @@ from ik5r.core.fxconfig import DEFAULT_CONFIG
 
 from .fk import add_on_error
 
-SOLVERS = ("float", "fixed", "c", "rv32", "numeric")
+SOLVERS = ("float", "fixed", "c", "rv32", "board", "numeric")
 
 
 def _near(text: str) -> np.ndarray:
@@ -78,6 +78,7 @@ def register(subparsers) -> None:
                         help="choose the branch nearest these joints (radians); also the free q1 "
                              "and the q5 of poses without n, o")
     _register_numeric(parser)
+    _register_board(parser)
     add_on_error(parser)
     parser.set_defaults(run=run)
 
@@ -105,7 +106,40 @@ def _register_numeric(parser) -> None:
                        help="first start of every pose (e.g. the current joints)")
 
 
-def _fixed_solver(kind: str, k):
+def _register_board(parser) -> None:
+    group = parser.add_argument_group("a board built by ik5r board (--solver board; docs/protocol.md)")
+    group.add_argument("--port", default=None, metavar="PORT",
+                       help="serial device (/dev/ttyUSB1) or pyserial URL (socket://127.0.0.1:N)")
+    group.add_argument("--baud", type=int, default=3_000_000, help="baud rate of PORT (default: 3000000)")
+    group.add_argument("--check", action="store_true",
+                       help="compare every answer with the bit-accurate model; count differing words")
+
+
+def _board_solver(k, args):
+    """The board's solve_batch; with --check it also runs the model and counts differing words."""
+    from ik5r.core.errors import InputError
+    from ik5r.tools.boardlink import board_solver
+
+    if not args.port:
+        raise InputError("--port", "--solver board needs --port (a device or a pyserial URL)")
+    on_board = board_solver(args.port, k, baud=args.baud)
+    args.board_client = on_board.client
+    if not args.check:
+        return on_board
+    from ik5r.firmware_model import vector
+
+    args.check_counts = counts = {"poses": 0, "words": 0}
+
+    def checked(*batch):
+        q, status = on_board(*batch)
+        q_model, status_model = vector.solve_batch(k, *batch)
+        counts["poses"] += len(q)
+        counts["words"] += int((q != q_model).sum() + (status != status_model).sum())
+        return q, status
+    return checked
+
+
+def _fixed_solver(kind: str, k, args=None):
     """solve_batch(p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a)."""
     if kind == "fixed":
         try:
@@ -113,6 +147,8 @@ def _fixed_solver(kind: str, k):
         except ImportError as exc:
             raise RuntimeError(f"--solver fixed needs ik5r.firmware_model.vector: {exc}") from exc
         return lambda *args: vector.solve_batch(k, *args)
+    if kind == "board":
+        return _board_solver(k, args)
     if kind == "rv32":
         from ik5r.core.errors import InputError
         from ik5r.tools.softcpu import SoftCpu, SoftCpuError
@@ -151,7 +187,7 @@ def run(args) -> int:
     solve = None
     if args.solver != "float":
         try:
-            solve = _fixed_solver(args.solver, constants(cfg, arm))
+            solve = _fixed_solver(args.solver, constants(cfg, arm), args)
         except RuntimeError as exc:
             print(f"ik5r solve: {exc}", file=sys.stderr)
             return 1
@@ -163,6 +199,12 @@ def run(args) -> int:
                          groups=[csvio.ROLL_COLUMNS], on_error=args.on_error) as reader:
         for table in reader.chunks():
             out.write(_solve_chunk(table, arm, cfg, solve, args))
+    if getattr(args, "check_counts", None) is not None:
+        c = args.check_counts
+        print(f"ik5r solve: board checked against the model: {c['poses']} poses, {c['words']} differing words",
+              file=sys.stderr)
+        if c["words"]:
+            return 1
     return 3 if reader.skipped else 0
 
 

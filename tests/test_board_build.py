@@ -1,0 +1,53 @@
+"""``ik5r board``: the platform files of a build (no Yosys / nextpnr here) and its bad input."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("amaranth_boards", reason="amaranth-boards (the 'synth' extra) is not installed")
+
+
+def test_icebreaker_plan_has_the_uart_pins_and_dsp_mapping():
+    from ik5r.core.arm import load_arm
+    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.hdl.board.top import BoardLink
+    from ik5r.tools.board import BOARDS, NAME, OnBoard, _platform
+
+    k = constants(load_config("q18"), load_arm(None))
+    platform = _platform("icebreaker")
+    link = BoardLink(constants=k, core="serial", clock_hz=int(platform.default_clk_frequency), baud=3_000_000)
+    plan = platform.build(OnBoard(link, BOARDS["icebreaker"]["leds"]), name=NAME, do_build=False, synth_opts="-dsp")
+    pcf = plan.files[f"{NAME}.pcf"]
+    # iCEBreaker: FTDI channel B on pins 6 (rx) and 9 (tx), the 12 MHz clock on 35.
+    assert "uart_0__rx__io 6" in pcf and "uart_0__tx__io 9" in pcf and "set_frequency clk12_0__io 12.0" in pcf
+    assert "synth_ice40 -dsp" in plan.files[f"{NAME}.ys"]
+    assert link.id[5:8] == [12_000_000, 3_000_000, 8]
+
+
+def test_a_baud_rate_the_clock_cannot_make_is_one_line_exit_2(capsys):
+    from ik5r.tools.cli import main
+
+    assert main(["board", "--board", "icebreaker", "--baud", "6000000", "--config", "q18"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--baud" in err[0] and "clocks a bit" in err[0]
+
+
+def test_board_table_is_rendered_from_the_records(tmp_path):
+    import json
+
+    from ik5r.tools.results import board_part
+
+    board = tmp_path / "board"
+    board.mkdir()
+    record = {"board": "icebreaker", "core": "serial", "config": "q32w", "clock_mhz": 12.0, "baud": 3_000_000,
+              "fmax_mhz": 17.25, "timing_met": True, "bitstream_bytes": 104090,
+              "resources": {"ICESTORM_LC": {"used": 4524, "available": 5280},
+                            "ICESTORM_RAM": {"used": 22, "available": 30}},
+              "line_poses_per_s": 4838.7, "core_poses_per_s": 16238.2}
+    (board / "icebreaker_serial_q32w.json").write_text(json.dumps(record))
+    (board / "sim_link_q32w.json").write_text(json.dumps(
+        {"poses": 5000, "config": "q32w", "differing_words": 0, "poses_per_s": 4800.0, "baud": 3_000_000,
+         "line_poses_per_s": 4838.7}))
+    lines = board_part(tmp_path)
+    assert "| icebreaker | serial | q32w | 12 | 3,000,000 | 17.2 | met | 4,524 | 22 | – | 104,090 | 4,839 | 16,238 |" in lines
+    assert any("5,000 q32w poses, 0 differing words, 4,800 poses/s" in line and "99.2%" in line for line in lines)
