@@ -95,6 +95,7 @@ class SynthOptions:
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
     dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
+    rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
@@ -304,6 +305,10 @@ def _design(block: str, arch: str, k, opts: SynthOptions):
     # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
     dsp = opts.dsp if arch == "pipelined" else "generic"
     options = {} if dsp == "generic" else {"dsp": dsp}
+    if opts.rotations_per_stage != 1:
+        if arch != "pipelined":
+            raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {arch}")
+        options["rotations_per_stage"] = opts.rotations_per_stage
     if block == "ik" and arch == "compact" and opts.target == "ice40":
         # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
         # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
@@ -414,7 +419,9 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     tools = tool_versions(opts.target)
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
-    flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
+    # --rotations-per-stage too (in the Verilog and the module name, and old keys stay valid).
+    flags = {name: value for name, value in asdict(opts).items()
+             if name not in ("threads", "dsp", "rotations_per_stage")}
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid
     # Keyed on the Verilog's body: the header comment (source commit, ...) does not change the netlist.

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.tools import cliopts
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
 ARCH_CHOICES = (*ARCH_NAMES, "all")
@@ -49,6 +50,7 @@ def register(subparsers) -> None:
                              "add/sub chains (module "
                              "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
                              "(default: generic)")
+    cliopts.add_rotations_per_stage(parser)
     parser.set_defaults(run=run)
 
 
@@ -68,6 +70,8 @@ def run(args) -> int:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
             # With --arch all, the small architectures are generic (they have no primitive mapping).
             primitives = {"dsp": args.dsp} if args.dsp != "generic" and arch == "pipelined" else {}
+            if args.arch != "all" or arch == "pipelined":
+                primitives |= cliopts.rotations_option(args, arch)
             text, pmap = generate(block, arch, k, args.tag_width, **primitives)
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)

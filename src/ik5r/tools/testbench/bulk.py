@@ -48,10 +48,12 @@ def _read_outputs(path: Path, cols: int) -> np.ndarray:
     return arr.reshape(-1, cols)
 
 
-def compare_chunk(job: Job, results: Results, got: dict, inputs, expected, seqs, *, done_items_first: int) -> None:
+def compare_chunk(job: Job, results: Results, got: dict, inputs, expected, seqs, *, done_items_first: int,
+                  error_sample: int | None = None) -> None:
     """Count the differences of a chunk's received outputs ``got`` (field -> array, the first
     ``m`` items) from the model's ``expected`` (role -> array) and the tags ``seqs``, every field
-    and the tag, item by item; the first one is recorded with its inputs."""
+    and the tag, item by item; the first one is recorded with its inputs. The float error
+    statistic: of every item, or of the first ``error_sample``."""
     m = len(next(iter(got.values())))
     bad = np.zeros(m, dtype=bool)
     if job.tag:
@@ -71,7 +73,8 @@ def compare_chunk(job: Job, results: Results, got: dict, inputs, expected, seqs,
                          {job.bind_out[r]: int(v[i]) for r, v in expected.items()} | (
                              {job.tag: int(seqs[i] % job.tag_mod)} if job.tag else {}),
                          {name: int(v[i]) for name, v in got.items()}, done_items_first + i)
-    results.errors({r: v[:m] for r, v in inputs.items()}, {r: got[job.bind_out[r]] for r in job.bind_out})
+    e = m if error_sample is None else min(m, error_sample)
+    results.errors({r: v[:e] for r, v in inputs.items()}, {r: got[job.bind_out[r]][:e] for r in job.bind_out})
 
 
 class BulkRun:

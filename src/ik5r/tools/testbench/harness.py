@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import threading
 import time
@@ -61,16 +62,18 @@ def ports_header(pm: PortMap) -> str:
     return "\n".join(lines) + "\n"
 
 
-def harness_dir(block: str, arch: str, config: str, dsp: str = "generic") -> Path:
-    variant = "" if dsp == "generic" else f"_dsp{dsp}"
+def harness_dir(block: str, arch: str, config: str, dsp: str = "generic", rotations_per_stage: int = 1) -> Path:
+    variant = ("" if dsp == "generic" else f"_dsp{dsp}") + ("" if rotations_per_stage == 1 else f"_rps{rotations_per_stage}")
     return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_harness"
 
 
 def build_harness(block: str, arch: str, config: str, *, dsp: str = "generic",
-                  tag_width: int = DEFAULT_TAG_WIDTH, cflags: str = "-O2") -> tuple[Path, PortMap, float]:
+                  tag_width: int = DEFAULT_TAG_WIDTH, cflags: str = "-O2",
+                  rotations_per_stage: int = 1) -> tuple[Path, PortMap, float]:
     """(the harness binary, the block's port map, seconds spent building: 0 when reused)."""
-    bdir = harness_dir(block, arch, load_config(config).name, dsp)
-    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, dsp=dsp)
+    bdir = harness_dir(block, arch, load_config(config).name, dsp, rotations_per_stage)
+    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, dsp=dsp,
+                                    rotations_per_stage=rotations_per_stage)
     pm = load_portmap(jpath)
     header = bdir / "src" / "ik5r_ports.h"
     header.write_text(ports_header(pm))
@@ -99,11 +102,15 @@ def build_harness(block: str, arch: str, config: str, *, dsp: str = "generic",
     return binary, pm, time.perf_counter() - t0
 
 
+#: Items per chunk whose float error (the statistic beside the bit-exact check) is computed.
+ERROR_SAMPLE = 1 << 14
+
+
 class _Chunk:
     """One chunk's stimulus, expected values and tags, and its files."""
 
-    def __init__(self, job: Job, index: int, count: int, first_seq: int, first_item: int):
-        self.index, self.first_item = index, first_item
+    def __init__(self, job: Job, index: int, count: int, first_seq: int):
+        self.index = index
         self.inputs = job.inputs(count, salt=100 + index, edges=index == 0)
         self.expected = job.expected(self.inputs, check_scalar=256 if index == 0 else 64)
         self.n = len(next(iter(self.inputs.values())))
@@ -111,32 +118,40 @@ class _Chunk:
         columns = {job.bind_in[r]: v for r, v in self.inputs.items()}
         if job.tag:
             columns[job.tag] = self.seqs % job.tag_mod
-        self.in_path, self.out_path = job.work / f"in{index % 2}.bin", job.work / f"out{index % 2}.bin"
+        self.in_path, self.out_path = job.work / f"in{index}.bin", job.work / f"out{index}.bin"
         job.pm.i.pack_words(columns).tofile(self.in_path)
+        self.proc = self.started = None
+
+    def remove_files(self):
+        self.in_path.unlink(missing_ok=True)
+        self.out_path.unlink(missing_ok=True)
 
 
 class HarnessRun:
-    """The chunks of one run through the built harness, simulated one after the other while
-    the next chunk is prepared and the previous one checked."""
+    """The chunks of one run through the built harness: up to ``jobs`` simulator processes side
+    by side, the next chunks prepared (stimulus, model) and the finished ones checked meanwhile."""
 
-    def __init__(self, binary: Path, job: Job, vectors: int, chunk: int, pattern: str):
+    def __init__(self, binary: Path, job: Job, vectors: int, chunk: int, pattern: str, jobs: int = 1):
         self.binary, self.job, self.vectors, self.chunk = binary, job, vectors, chunk
-        self.pattern = PATTERNS[pattern]
+        self.pattern, self.jobs = PATTERNS[pattern], max(1, jobs)
         self.results = Results(job)
         self.stats = {"cycles": 0, "hold_violations": 0, "extra_outputs": 0, "sim_seconds": 0.0,
-                      "model_seconds": 0.0}
+                      "sim_cpu_seconds": 0.0, "model_seconds": 0.0, "jobs": self.jobs}
+        self.random_left, self.seq, self.index = vectors, 0, 0
 
-    def _start(self, chunk: _Chunk) -> subprocess.Popen:
+    def _start(self, chunk: _Chunk) -> None:
         valid, ready, stalls = self.pattern
         cmd = [str(self.binary), str(chunk.in_path), str(chunk.out_path), str(chunk.n),
                str(self.job.seed * 1000003 + chunk.index), str(valid), str(ready), str(int(stalls))]
-        return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        chunk.started = time.perf_counter()
+        chunk.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
-    def _finish(self, proc: subprocess.Popen, chunk: _Chunk, t0: float) -> None:
-        out, err = proc.communicate()
-        self.stats["sim_seconds"] += time.perf_counter() - t0
-        if proc.returncode != 0:
-            raise RuntimeError(f"harness exited {proc.returncode}: {err.strip()}")
+    def _finish(self, chunk: _Chunk) -> None:
+        """Wait for the chunk's simulator; its counts, outputs and CPU time."""
+        out, err = chunk.proc.communicate()
+        self.stats["sim_seconds"] += time.perf_counter() - chunk.started
+        if chunk.proc.returncode != 0:
+            raise RuntimeError(f"harness exited {chunk.proc.returncode}: {err.strip()}")
         words = out.split()
         counts = {words[i]: int(words[i + 1]) for i in range(0, len(words) - 1, 2)}
         for key in ("cycles", "hold_violations", "extra_outputs"):
@@ -152,66 +167,77 @@ class HarnessRun:
     def _check(self, chunk: _Chunk) -> None:
         got = self.job.pm.o.unpack_words(chunk.got)
         compare_chunk(self.job, self.results, got, chunk.inputs, chunk.expected, chunk.seqs,
-                      done_items_first=chunk.first_item)
+                      done_items_first=int(chunk.seqs[0]) if chunk.n else 0, error_sample=ERROR_SAMPLE)
+        chunk.remove_files()
 
-    def _next(self, index: int, done: int, seq: int):
-        """The chunk after ``done`` items (``seq`` tags sent so far), or None at the end."""
-        if index and done >= self.vectors:
+    def _prepare(self):
+        """The next chunk (the edge set in the first), or None after the last."""
+        if self.index and self.random_left <= 0:
             return None
-        return _Chunk(self.job, index, min(self.chunk, self.vectors - done), seq, seq)
+        count = min(self.chunk, self.random_left)
+        chunk = _Chunk(self.job, self.index, count, self.seq)
+        self.random_left -= count
+        self.seq += chunk.n
+        self.index += 1
+        return chunk
 
     def run(self) -> dict:
         t0 = time.perf_counter()
-        current, edges = self._next(0, 0, 0), len(next(iter(self.job.edge_items().values())))
-        done, previous, index = current.n - edges, None, 0
-        while current is not None:
-            ts = time.perf_counter()
-            proc = self._start(current)
-            model = time.perf_counter()
-            if previous is not None:
-                self._check(previous)
-            upcoming = self._next(index + 1, done, current.seqs[-1] + 1 if current.n else 0)
-            self.stats["model_seconds"] += time.perf_counter() - model
-            self._finish(proc, current, ts)
-            if upcoming is not None:
-                done += upcoming.n
-            previous, current, index = current, upcoming, index + 1
-            if self.results.mismatches:
+        cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        running, compared = [], 0
+        while True:
+            tm = time.perf_counter()
+            while len(running) < self.jobs and not self.results.mismatches:
+                chunk = self._prepare()
+                if chunk is None:
+                    break
+                self._start(chunk)
+                running.append(chunk)
+            self.stats["model_seconds"] += time.perf_counter() - tm
+            if not running:
                 break
-        self._check(previous)
+            chunk = running.pop(0)
+            self._finish(chunk)
+            tm = time.perf_counter()
+            self._check(chunk)
+            self.stats["model_seconds"] += time.perf_counter() - tm
+            compared += chunk.n
+        cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        self.stats["sim_cpu_seconds"] = (cpu1.ru_utime + cpu1.ru_stime) - (cpu0.ru_utime + cpu0.ru_stime)
         wall = time.perf_counter() - t0
-        seq = int(previous.seqs[-1]) + 1 if previous.n else 0
-        return {"vectors": seq, "pattern": self.pattern, "wall_seconds": wall, **self.stats,
-                "vectors_per_second": seq / wall if wall else None,
-                "cycles_per_second": self.stats["cycles"] / self.stats["sim_seconds"]}
+        cpu = self.stats["sim_cpu_seconds"]
+        return {"vectors": compared, "pattern": self.pattern, "wall_seconds": wall, **self.stats,
+                "vectors_per_second": compared / wall if wall else None,
+                "cycles_per_cpu_second": self.stats["cycles"] / cpu if cpu else None}
 
 
 def run_harness(block: str, arch: str = "pipelined", config: str = "q32w", *, vectors: int = 100_000,
                 seed: int = 1, pattern: str = "full", chunk: int = 1 << 20, dsp: str = "generic",
-                tag_width: int = DEFAULT_TAG_WIDTH, cflags: str = "-O2") -> dict:
+                tag_width: int = DEFAULT_TAG_WIDTH, cflags: str = "-O2", rotations_per_stage: int = 1,
+                jobs: int | None = None) -> dict:
     """Build (or reuse) the harness of a block and stream ``vectors`` random items plus the
     block's edge set through it in chunks of ``chunk``; the result: the counts of
     :class:`~.job.Results` (``mismatches`` 0 when every bit of every item matched), the
     cycles, and the rates (``vectors_per_second``: items checked per second of wall time, the
-    stimulus, model and comparison included; the build is not)."""
+    stimulus, model and comparison included; the build is not). ``jobs``: simulator processes
+    side by side (default: one per CPU)."""
     from ik5r.hdl.generate import resolve_arch
 
     if pattern not in PATTERNS:
         raise ValueError(f"pattern must be one of {sorted(PATTERNS)}, got {pattern!r}")
     arch = resolve_arch(block, arch)
-    binary, pm, build_seconds = build_harness(block, arch, config, dsp=dsp, tag_width=tag_width, cflags=cflags)
+    binary, pm, build_seconds = build_harness(block, arch, config, dsp=dsp, tag_width=tag_width, cflags=cflags,
+                                              rotations_per_stage=rotations_per_stage)
     work = binary.parent.parent / f"run-{os.getpid()}-{threading.get_ident()}"
     work.mkdir(exist_ok=True)
     doc = {"portmap": str(pm.path), "block": block, "arch": arch, "config": config, "seed": seed,
            "work_dir": str(work)}
     (work / "job.json").write_text(json.dumps(doc, indent=1))
     job = Job(str(work / "job.json"))
-    run = HarnessRun(binary, job, vectors, chunk, pattern)
+    run = HarnessRun(binary, job, vectors, chunk, pattern, jobs or os.cpu_count() or 1)
     stats = run.run()
     counts = run.results.write(work / "result_harness.json", {"harness": stats})
-    for name in ("in0.bin", "in1.bin", "out0.bin", "out1.bin"):
-        (work / name).unlink(missing_ok=True)
     return {"block": block, "arch": arch, "config": load_config(config).name, "simulator": "verilator-harness",
-            "seed": seed, "dsp": dsp, "vectors": counts["compared"], **{k: v for k, v in counts.items() if k != "harness"},
+            "seed": seed, "dsp": dsp, "rotations_per_stage": rotations_per_stage, "vectors": counts["compared"], **{k: v for k, v in counts.items() if k != "harness"},
             "harness": stats, "build_seconds": build_seconds, "latency_cycles_portmap": pm.latency_cycles,
             "cycles_per_result_portmap": pm.cycles_per_result, "vectors_per_second": stats["vectors_per_second"]}

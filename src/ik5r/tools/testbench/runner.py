@@ -60,8 +60,9 @@ def default_simulator() -> str:
 
 
 def build_dir_for(block: str, arch: str, config: str, sim: str, dsp: str = "generic",
-                  serial: int | None = None) -> Path:
-    variant = ("" if dsp == "generic" else f"_dsp{dsp}") + ("" if serial is None else f"_serial{serial}")
+                  serial: int | None = None, rotations_per_stage: int = 1) -> Path:
+    variant = (("" if dsp == "generic" else f"_dsp{dsp}") + ("" if serial is None else f"_serial{serial}")
+               + ("" if rotations_per_stage == 1 else f"_rps{rotations_per_stage}"))
     return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_{sim}"
 
 
@@ -118,14 +119,17 @@ def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> 
 
 def generate_sources(block: str, arch: str, config: str, out_dir: Path, tag_width: int = DEFAULT_TAG_WIDTH,
                      portmap: str | Path | None = None, verilog: str | Path | None = None,
-                     dsp: str = "generic", serial: int | None = None) -> tuple[Path, Path]:
+                     dsp: str = "generic", serial: int | None = None,
+                     rotations_per_stage: int = 1) -> tuple[Path, Path]:
     """Write <block>.v and <block>.json into out_dir (from hdl/generate.py, or given files);
-    ``serial``: the compact IK core's word-serial wrapper with beats of that many bits."""
+    ``serial``: the compact IK core's word-serial wrapper with beats of that many bits;
+    ``rotations_per_stage``: CORDIC micro-rotations (square-root digits) per pipeline stage."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
-        options = ({} if dsp == "generic" else {"dsp": dsp}) | ({} if serial is None else {"serial": serial})
+        options = (({} if dsp == "generic" else {"dsp": dsp}) | ({} if serial is None else {"serial": serial})
+                   | ({} if rotations_per_stage == 1 else {"rotations_per_stage": rotations_per_stage}))
         vtext, pmdoc = generate_cached(block, arch, constants(load_config(config)), tag_width, **options)
     vpath, jpath = out_dir / f"{block}.v", out_dir / f"{block}.json"
     _write_if_changed(vpath, vtext)
@@ -291,10 +295,11 @@ def _serial_check(block: str, arch: str, serial: int | None, bulk_vectors: int) 
         raise ValueError("serial: the word-serial wrapper has no bulk run (bulk_vectors must be 0)")
 
 
-def _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial):
+def _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial, rotations_per_stage=1):
     """(Verilog files, the block's port map file, the testbench's port map file): for the serial
     wrapper the testbench's is the word-level one (:func:`.serial.word_portmap`)."""
-    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp, serial)
+    vpath, jpath = generate_sources(block, arch, config, bdir / "src", tag_width, portmap, verilog, dsp, serial,
+                                    rotations_per_stage)
     pm = load_portmap(jpath)
     wpath = bdir / "src" / "ik5r_tb_top.v"
     _write_if_changed(wpath, wrapper.generate_wrapper(pm))
@@ -313,7 +318,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
               chunk: int = 1 << 18, reset: bool = True, verbose: bool = False,
               portmap: str | Path | None = None, verilog: str | Path | None = None,
               cflags: str = "-O1", dsp: str = "generic", fault: dict | None = None,
-              serial: int | None = None, edge_stride: int = 1, bulk_edge_rest: bool = False) -> dict:
+              serial: int | None = None, edge_stride: int = 1, bulk_edge_rest: bool = False,
+              rotations_per_stage: int = 1) -> dict:
     """Run the stream test (cocotb-driven, ``stream_vectors`` + edge set; 0 to skip) and the bulk
     test (``bulk_vectors`` + edge set; 0 to skip). Returns the merged result (see the keys below).
     ``dsp="ecp5"``: the Verilog with ECP5 ``MULT18X18D`` and ``CCU2C`` instances, simulated
@@ -322,7 +328,8 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
     ``serial=b`` (the compact IK core only): its word-serial wrapper with ``b``-bit beats, in the
     stream test only (:mod:`.serial`). ``edge_stride``: the stream test takes every n-th item of
     the edge set; ``bulk_edge_rest``: the bulk test takes the other items of it (each edge item
-    once in the run), else all of it."""
+    once in the run), else all of it. ``rotations_per_stage``: the pipelined arch's CORDIC
+    micro-rotations (and square-root digits) per stage."""
     from ik5r.hdl.generate import resolve_arch
 
     arch = resolve_arch(block, arch)
@@ -332,10 +339,11 @@ def run_block(block: str, arch: str = "pipelined", config: str = "q32", sim: str
         raise ValueError(f"simulator {sim!r}: one of {SIMULATORS}")
     cfg_name = load_config(config).name
     waves = bool(int(os.environ.get("WAVES", "0") or 0)) if waves is None else waves
-    bdir = build_dir_for(block, arch, cfg_name, sim, dsp, serial)
+    bdir = build_dir_for(block, arch, cfg_name, sim, dsp, serial, rotations_per_stage)
     bdir.mkdir(parents=True, exist_ok=True)
     t_gen = time.perf_counter()
-    sources, pm, tb_map = _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial)
+    sources, pm, tb_map = _sources(block, arch, config, bdir, tag_width, portmap, verilog, dsp, serial,
+                                   rotations_per_stage)
     t_gen = time.perf_counter() - t_gen
     build_seconds = _build(sim, sources, bdir, waves, verbose, cflags)
 
