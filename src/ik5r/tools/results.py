@@ -52,7 +52,8 @@ class VerilogOfCheckout:
 
         dsp = r.get("dsp", "generic")
         serial = r.get("serial")
-        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial)
+        per_stage = r.get("rotations_per_stage", 1)
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, per_stage)
         if key not in self._texts and r["block"] == "cpu":
             from .softcpu import soc_design  # the SoC with the firmware this checkout builds
             self._texts[key] = soc_design(constants(load_config(r["config"])), r["arch"])[0]
@@ -60,6 +61,8 @@ class VerilogOfCheckout:
             options = {} if dsp == "generic" else {"dsp": dsp}
             if serial:
                 options["serial"] = serial
+            if per_stage != 1:
+                options["rotations_per_stage"] = per_stage
             self._texts[key] = generate(r["block"], r["arch"], constants(load_config(r["config"])),
                                         r.get("tag_width", 0), **options)[0]
         return self._texts[key]

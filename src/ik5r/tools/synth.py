@@ -446,7 +446,7 @@ def synthesize(block: str, arch: str, cfg: FixedConfig, opts: SynthOptions | Non
     cpr = pmap["cycles_per_result"]
     result = {
         "block": block, "arch": arch, "dsp": dsp, "tag_width": opts.tag_width, "module": module,
-        "serial": options.get("serial"),
+        "serial": options.get("serial"), "rotations_per_stage": options.get("rotations_per_stage", 1),
         "config": cfg.name,
         "width": cfg.width,
         "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
