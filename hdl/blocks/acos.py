@@ -11,7 +11,7 @@ from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop
 from ..datapath.products import add_products
 from .sqrt import add_isqrt, fit
-from .stream_block import StreamBlock
+from .stream_block import StreamBlock, micro_steps
 
 __all__ = ["Acos"]
 
@@ -51,33 +51,36 @@ class Acos(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic",
+                 rotations_per_stage: int = 1):
         dp = in_fields = out_fields = None
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self.chain(k, adders=adders_for(dsp))
+            dp = self.chain(k, adders=adders_for(dsp), steps_per_stage=micro_steps(arch, rotations_per_stage))
             word = signed(c.width)
             in_fields = {"x": (word, c.frac_unit, "cosine, unit format")}
             out_fields = {"angle": (word, c.frac_angle, "acos(x), radians, in [0, pi]"),
                           "sine": (word, c.frac_unit, "sqrt((1 - x)(1 + x)), unit format"),
                           "saturated": (unsigned(1), 0, "x was outside [-1, 1] and clipped")}
-        super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
+        super().__init__(constants=constants, arch=arch, tag_width=tag_width, in_fields=in_fields,
+                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
 
     @staticmethod
     def chain(k: Constants, products: str = "parallel", radicand_bits: int | None = None, *,
-              adders=None) -> Datapath:
+              adders=None, steps_per_stage: int | None = None) -> Datapath:
         """The arc cosine as a chain: input ``x``; outputs ``angle``, ``sine``, ``saturated``.
         Split points (the IK core composes the parts): ``"factors"`` in front of 1 -+ x (reads
         the clipped ``ac_x``), ``"radicand"`` in front of their product (reads ``ac_a``,
         ``ac_b``, ``ac_x``), ``"atan2"`` in front of the vectoring (reads ``at_y``, ``ac_x``).
         ``radicand_bits``: the square root's (default 2 frac_unit + 2: (1 - x)(1 + x) <= 1;
         the IK core's internal format takes factors up to 2 each, so 2 frac_unit + 4).
-        ``adders``: the add/subtract mapping (generic when None)."""
+        ``adders``: the add/subtract mapping (generic when None); ``steps_per_stage``: square-root
+        digits and micro-rotations per pipeline stage (None: the context's, see
+        :func:`~ik5r.hdl.datapath.stages.steps_per_stage`)."""
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
         dp = Datapath("acos", products=products, adders=adders, inputs=("x",),
-                      outputs=("angle", "sine", "saturated"))
+                      outputs=("angle", "sine", "saturated"), steps_per_stage=steps_per_stage)
         dp.declare(ac_x=signed(width))
 
         def clip(s):

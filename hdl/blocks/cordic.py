@@ -13,7 +13,7 @@ from ik5r.core.fxconfig import Constants
 from ..datapath.stages import Datapath, GenericAdders, SharedStage, adders_for
 from ..datapath.expr import asr, drop, leading_zeros, rshift_round, saturate, table_entry
 from ..datapath.products import add_products
-from .stream_block import StreamBlock
+from .stream_block import StreamBlock, micro_steps
 
 __all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
 
@@ -129,7 +129,7 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     dp.add("at_lzc", byte_counts)
     dp.add("at_norm", normalise_shift_bytes)
     dp.add("at_norm_fine", normalise_shift_fine)
-    dp.add_shared_iter("at_it", cordic_unit(k, rotate=False, adders=dp.adders), c.iterations)
+    dp.add_micro_steps("at_it", None, c.iterations, cordic_unit(k, rotate=False, adders=dp.adders))
     nearest = c.round_nearest
 
     def angle(s):
@@ -306,12 +306,13 @@ class Atan2(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 magnitude: bool = True, dsp: str = "generic"):
+                 magnitude: bool = True, dsp: str = "generic", rotations_per_stage: int = 1):
         if not isinstance(magnitude, bool):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
             c = constants.cfg
             dp = Datapath("atan2", adders=adders_for(dsp), inputs=("y", "x"),
+                          steps_per_stage=micro_steps(arch, rotations_per_stage),
                           outputs=("angle", "magnitude", "zero") if magnitude else ("angle", "zero"))
             add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
             word = signed(c.width)
@@ -326,8 +327,8 @@ class Atan2(StreamBlock):
             dp = in_fields = out_fields = None
         self.magnitude = magnitude
         self.options = {"magnitude": magnitude}
-        super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
+        super().__init__(constants=constants, arch=arch, tag_width=tag_width, in_fields=in_fields,
+                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
 
     def _inputs(self, payload):
         return {"y": payload.y, "x": payload.x}
@@ -380,10 +381,12 @@ class Rotate(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic",
+                 rotations_per_stage: int = 1):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self.chain(k, skewed=arch == "pipelined", adders=adders_for(dsp))
+            dp = self.chain(k, skewed=arch == "pipelined", adders=adders_for(dsp),
+                            steps_per_stage=micro_steps(arch, rotations_per_stage))
             word = signed(c.width)
             in_fields = {"x": (word, None, "abscissa, same format as y"),
                          "y": (word, None, "ordinate, same format as x"),
@@ -393,11 +396,11 @@ class Rotate(StreamBlock):
                           "saturated": (unsigned(1), 0, "x or y clipped to the word range")}
         else:
             dp = in_fields = out_fields = None
-        super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
+        super().__init__(constants=constants, arch=arch, tag_width=tag_width, in_fields=in_fields,
+                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
 
     @staticmethod
-    def chain(k: Constants, *, skewed: bool, adders=None) -> Datapath:
+    def chain(k: Constants, *, skewed: bool, adders=None, steps_per_stage: int | None = None) -> Datapath:
         """The rotation datapath as a chain: inputs ``x``, ``y``, ``angle``; outputs ``x``, ``y``,
         ``saturated``; split point ``"micro_rotations"`` in front of the micro-rotations (which
         read ``cx``, ``cy``, ``cz``: the IK core's constant rotations start there).
@@ -405,7 +408,8 @@ class Rotate(StreamBlock):
         micro-rotations as
         :func:`skewed_rotation` (one stage more, a shorter critical path), else on
         ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in
-        :class:`~ik5r.hdl.pipelined.core.IKCore` compact).
+        :class:`~ik5r.hdl.pipelined.core.IKCore` compact). ``steps_per_stage``: micro-rotations
+        per pipeline stage (None: the context's, :func:`~ik5r.hdl.datapath.stages.steps_per_stage`).
 
         Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
         times 1/K < 0.61 with g guard bits, |xs|, |ys| < 0.61 * 2**(W-1+g) + 1; the
@@ -416,7 +420,7 @@ class Rotate(StreamBlock):
         c = k.cfg
         width, guard, nearest = c.width, c.guard_bits, c.round_nearest
         dp = Datapath("rotate", adders=adders, inputs=("x", "y", "angle"),
-                      outputs=("x", "y", "saturated"))
+                      outputs=("x", "y", "saturated"), steps_per_stage=steps_per_stage)
         z_bound = rotate_z_bound(k)
         dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),
                    cz=signed(z_bound.bit_length() + 1),
@@ -466,9 +470,9 @@ class Rotate(StreamBlock):
         dp.add("ro_gain_round", gain_round)
         dp.mark("micro_rotations")
         if skewed:
-            dp.add_iter("ro_it", *skewed_rotation(k, dp.adders))
+            dp.add_micro_steps("ro_it", *skewed_rotation(k, dp.adders))
         else:
-            dp.add_shared_iter("ro_it", cordic_unit(k, rotate=True, adders=dp.adders), c.iterations)
+            dp.add_micro_steps("ro_it", None, c.iterations, cordic_unit(k, rotate=True, adders=dp.adders))
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)
         return dp

@@ -8,7 +8,7 @@ from ik5r.core.fxconfig import Constants
 
 from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop
-from .stream_block import StreamBlock
+from .stream_block import StreamBlock, micro_steps
 
 __all__ = ["Sqrt", "add_isqrt", "isqrt_root_bits", "fit"]
 
@@ -57,7 +57,7 @@ def add_isqrt(dp: Datapath, *, bits: int, nearest: bool, root: str):
         out["sq_root"] = Cat(take, acc)
         return out
 
-    dp.add_iter("sq_digit", digit, digits)
+    dp.add_micro_steps("sq_digit", digit, digits)
     if nearest:
         def compare(s):
             out = drop(s, "sq_rad", "sq_rem", "sq_root")
@@ -124,14 +124,15 @@ class Sqrt(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = "generic"):
+                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = "generic",
+                 rotations_per_stage: int = 1):
         dp = in_fields = out_fields = None
         if frac is not None and radicand_bits is not None:
             raise ValueError("give frac or radicand_bits, not both")
         if isinstance(constants, Constants):
             c = constants.cfg
             width = c.width
-            dp = Datapath("sqrt", adders=adders_for(dsp))
+            dp = Datapath("sqrt", adders=adders_for(dsp), steps_per_stage=micro_steps(arch, rotations_per_stage))
             if radicand_bits is None:
                 if frac is None:
                     frac = c.frac_length
@@ -155,8 +156,8 @@ class Sqrt(StreamBlock):
             add_isqrt(dp, bits=bits, nearest=c.round_nearest, root="root")
         self.frac = frac
         self.radicand_bits = radicand_bits
-        super().__init__(constants=constants, arch=arch, tag_width=tag_width,
-                         in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
+        super().__init__(constants=constants, arch=arch, tag_width=tag_width, in_fields=in_fields,
+                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
 
     def _inputs(self, payload):
         if self.radicand_bits is not None:

@@ -9,9 +9,16 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
 
+from ..datapath.stages import check_steps_per_stage
 from ..modes import ARCHS, DSPS
 
-__all__ = ["StreamBlock", "check_common"]
+__all__ = ["StreamBlock", "check_common", "micro_steps"]
+
+
+def micro_steps(arch, rotations_per_stage) -> int:
+    """A block's ``rotations_per_stage`` argument, validated for its ``arch`` (see
+    :func:`~ik5r.hdl.datapath.stages.check_steps_per_stage`)."""
+    return check_steps_per_stage(rotations_per_stage, arch if arch in ARCHS else "pipelined")
 
 
 def check_common(constants, arch, tag_width, dsp="generic"):
@@ -44,7 +51,7 @@ class StreamBlock(wiring.Component):
     """
 
     def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath,
-                 dsp="generic"):
+                 dsp="generic", rotations_per_stage=1):
         check_common(constants, arch, tag_width, dsp)
         if datapath.adders.dsp != dsp:
             raise ValueError(f"datapath {datapath.name!r} made with adders for "
@@ -56,6 +63,10 @@ class StreamBlock(wiring.Component):
         self.dsp = dsp
         if dsp != "generic":
             self.options = dict(getattr(self, "options", {}), dsp=dsp)
+        #: CORDIC micro-rotations (and square-root digits) per pipeline stage.
+        self.rotations_per_stage = micro_steps(arch, rotations_per_stage)
+        if rotations_per_stage != 1:
+            self.options = dict(getattr(self, "options", {}), rotations_per_stage=rotations_per_stage)
         if tag_width:
             in_fields = dict(in_fields, tag=(unsigned(tag_width), 0, "carried unchanged to o.tag"))
             out_fields = dict(out_fields, tag=(unsigned(tag_width), 0, "i.tag of the same item"))

@@ -106,13 +106,16 @@ def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
     """
     if dp.products == "sequential":
         return _add_products_sequential(dp, prefix, specs, parallel, drop_keys)
+    # A square (b the same expression as a): one operand register, each cross term once.
+    specs = [(a_of, a_shape, SQUARE if _is_square(a_of, a_shape, b) else b, out_key)
+             for a_of, a_shape, b, out_key in specs]
     trees = [(a_of, out_key, _partial_products(prefix, index, a_shape, b))
              for index, (a_of, a_shape, b, out_key) in enumerate(specs)]
     # Stage 1 registers the operands: a register next to the DSPs, so that the stage holding a
     # DSP has only the DSP's own delay (the DSP registers themselves are not inferred).
     for index, (_, a_shape, b, _) in enumerate(specs):
         dp.declare(**{f"{prefix}{index}_a": a_shape})
-        if not isinstance(b, int):
+        if isinstance(b, tuple):
             dp.declare(**{f"{prefix}{index}_b": b[1]})
     dp.add(f"{prefix}_op", _operands_stage(prefix, [(a_of, b) for a_of, _, b, _ in specs],
                                            parallel, drop_keys))
@@ -120,10 +123,43 @@ def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
     return 2 + _add_adder_tree(dp, prefix, trees)
 
 
+#: The ``b`` of a multiplier that squares its ``a`` (see :func:`_is_square`).
+SQUARE = "square"
+
+
+class _Probe(dict):
+    """A state whose every key reads as a signal of its own (for :func:`_is_square`)."""
+
+    def __missing__(self, key):
+        self[key] = Signal(signed(64), name=f"probe{len(self)}")
+        return self[key]
+
+
+def _is_square(a_of, a_shape, b) -> bool:
+    """Whether ``b`` is ``(b_of, shape)`` with ``b_of`` the same expression of the state as
+    ``a_of``, in the same shape: the product is then a square. Anything that cannot be told
+    (an operand function that fails on the probe) is not a square."""
+    if not isinstance(b, tuple) or Shape.cast(a_shape) != Shape.cast(b[1]):
+        return False
+    probe = _Probe()
+    try:
+        a_value, b_value = a_of(probe), b[0](probe)
+        return a_value is b_value or repr(Value.cast(a_value)) == repr(Value.cast(b_value))
+    except Exception:       # noqa: BLE001 - an operand function that needs a real state
+        return False
+
+
 def _partial_products(prefix, index, a_shape, b) -> list:
-    """The terms ``(key, shift, a_range, b_part)`` of one multiplier."""
+    """The terms ``(key, shift, a_range, b_part)`` of one multiplier. A square's cross terms
+    (limbs i < j, equal to limbs j, i) come once, doubled by one more bit of shift."""
     a_shape, terms = Shape.cast(a_shape), []
-    if isinstance(b, int):
+    if b == SQUARE:
+        limbs = _limbs(a_shape)
+        for i, (a_lo, a_hi, a_signed) in enumerate(limbs):
+            for b_lo, b_hi, b_signed in limbs[i:]:
+                terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo + (b_lo != a_lo),
+                              (a_lo, a_hi, a_signed), (SQUARE, b_lo, b_hi, b_signed)))
+    elif isinstance(b, int):
         if b < 0:
             raise ValueError("constant multiplier must be non-negative")
         for a_lo, a_hi, a_signed in _limbs(a_shape):
@@ -149,7 +185,7 @@ def _operands_stage(prefix, operands, parallel, drop_keys, clear=None):
         out = drop(state, *drop_keys)
         for index, (a_of, b) in enumerate(operands):
             out[f"{prefix}{index}_a"] = a_of(state)
-            if not isinstance(b, int):
+            if isinstance(b, tuple):
                 out[f"{prefix}{index}_b"] = b[0](state)
             if clear is not None:
                 out[clear[index]] = Const(0, 1)
@@ -164,7 +200,7 @@ def _products_stage(prefix, trees):
         out = dict(state)
         for index, (_, out_key, terms) in enumerate(trees):
             a = state[f"{prefix}{index}_a"]
-            b = state.get(f"{prefix}{index}_b")
+            b = state.get(f"{prefix}{index}_b", a)     # a square: a itself
             out = drop(out, f"{prefix}{index}_a", f"{prefix}{index}_b")
             if not terms:
                 out[out_key] = Const(0, 1)

@@ -49,6 +49,8 @@ is an output; a failure names the key and the stage.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import enum
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -59,7 +61,8 @@ from .expr import add_sub
 from ..modes import ARCHS, DSPS, PRODUCTS
 
 __all__ = ["StageKind", "Stage", "SharedStage", "GenericAdders", "Ecp5Adders", "adders_for",
-           "Datapath", "OUTPUT_FIFO_LATENCY", "traced_view", "retraced"]
+           "Datapath", "OUTPUT_FIFO_LATENCY", "traced_view", "retraced", "steps_per_stage",
+           "check_steps_per_stage"]
 
 #: Cycles from the last stage of the pipelined architecture to the item on ``o``: the register
 #: in front of the output FIFO, then the FIFO's (``SyncFIFOBuffered``) RAM write and its RAM
@@ -229,6 +232,49 @@ def retraced(new: dict, old: dict) -> dict:
     return new
 
 
+# --- micro-steps per pipeline stage ------------------------------------------------------------
+
+#: Micro-steps (CORDIC micro-rotations, square-root digits) per register stage of the datapaths
+#: made while :func:`steps_per_stage` is active (1 outside it).
+_STEPS_PER_STAGE = contextvars.ContextVar("ik5r_steps_per_stage", default=1)
+
+
+def check_steps_per_stage(value, arch: str = "pipelined") -> int:
+    """``value`` if it is a valid count of micro-steps per stage for ``arch``, else raises:
+    a positive int; more than 1 only in the pipelined architecture (the iterative one runs one
+    step per clock on one register set)."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"steps per stage must be a positive integer, got {value!r}")
+    if value != 1 and arch != "pipelined":
+        raise ValueError(f"{value} steps per stage apply to the pipelined architecture, not {arch!r}")
+    return value
+
+
+@contextlib.contextmanager
+def steps_per_stage(count: int):
+    """Every :class:`Datapath` made inside (a composer's chains, e.g. the IK core's units built
+    by code that does not pass the option along) puts ``count`` micro-steps in one stage."""
+    token = _STEPS_PER_STAGE.set(check_steps_per_stage(count))
+    try:
+        yield
+    finally:
+        _STEPS_PER_STAGE.reset(token)
+
+
+def _grouped(fn, count: int, per_stage: int):
+    """``fn(state, i)`` for ``i < count`` as ``ceil(count / per_stage)`` steps, step ``j``
+    running ``i = j * per_stage ...`` one after the other in one clock (pipelined: ``j`` an
+    int). The same expressions as one step per stage, so the same bits."""
+    def run(s, j):
+        if not isinstance(j, int):
+            raise TypeError("micro-steps grouped per stage need the pipelined build (an int step)")
+        for i in range(j * per_stage, min(count, (j + 1) * per_stage)):
+            s = retraced(fn(s, i), s)
+        return s
+    run.grouped = True
+    return run, -(-count // per_stage)
+
+
 # --- the datapath ------------------------------------------------------------------------------
 
 class Datapath:
@@ -246,7 +292,7 @@ class Datapath:
     """
 
     def __init__(self, name: str, *, products: str = "parallel", share_units: bool = False,
-                 adders=None, inputs=(), outputs=()):
+                 adders=None, inputs=(), outputs=(), steps_per_stage: int | None = None):
         if products not in PRODUCTS:
             raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
         self.name = name
@@ -258,6 +304,9 @@ class Datapath:
         #: What ``add_sub`` of this datapath's stages builds (:func:`adders_for`).
         self.adders = adders if adders is not None else GenericAdders()
         self.inputs, self.outputs = tuple(inputs), tuple(outputs)
+        #: Micro-steps per register stage of :meth:`add_micro_steps` (the context's by default).
+        self.steps_per_stage = check_steps_per_stage(
+            _STEPS_PER_STAGE.get() if steps_per_stage is None else steps_per_stage)
         self.stages: list[Stage] = []
         self.shapes = {}
         #: Named split points: name -> index of the first stage after the mark.
@@ -285,6 +334,18 @@ class Datapath:
         must be followed by a registered, non-iterated stage, which takes its results."""
         self.append(Stage(name, StageKind.ITERATED, unit.stage_fn(), count, unit))
 
+    def add_micro_steps(self, name, fn, count: int, unit: SharedStage | None = None):
+        """A block's micro-steps (CORDIC micro-rotations, square-root digits): ``count`` steps
+        ``fn(state, i)``, :attr:`steps_per_stage` of them per register stage (the last one
+        fewer), or with one per stage and a ``unit``, :meth:`add_shared_iter` of it."""
+        if self.steps_per_stage == 1:
+            if unit is not None:
+                self.add_shared_iter(name, unit, count)
+            else:
+                self.add_iter(name, fn, count)
+            return
+        self.add_iter(name, *_grouped(unit.stage_fn() if unit is not None else fn, count, self.steps_per_stage))
+
     def add_wiring(self, fn):
         self.append(Stage("wiring", StageKind.WIRING, fn, 0))
 
@@ -304,7 +365,8 @@ class Datapath:
             return self.marks[mark]
         lo, hi = index(start, 0), index(stop, len(self.stages))
         out = Datapath(f"{self.name}[{start}:{stop}]", products=self.products,
-                       share_units=self.share_units, adders=self.adders)
+                       share_units=self.share_units, adders=self.adders,
+                       steps_per_stage=self.steps_per_stage)
         out.shapes = dict(self.shapes)
         out.stages = list(self.stages[lo:hi])
         out.marks = {name: at - lo for name, at in self.marks.items() if lo <= at <= hi}
@@ -343,6 +405,8 @@ class Datapath:
         if dsp == "ecp5" and self.adders.dsp != dsp:
             raise ValueError(f"datapath {self.name!r}: built with dsp={dsp!r}, made with "
                              f"adders for {self.adders.dsp!r} (Datapath(adders=adders_for(dsp)))")
+        if arch != "pipelined" and any(getattr(Stage.of(stage).fn, "grouped", False) for stage in self.stages):
+            raise ValueError(f"datapath {self.name!r}: micro-steps grouped per stage need the pipelined arch")
         if arch == "pipelined":
             build_pipelined(self, m, inputs, payload_of, i, o, dsp)
         elif arch == "iterative":

@@ -17,11 +17,11 @@ from amaranth.hdl import signed, unsigned
 from ik5r.core.fxconfig import Constants
 from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
-from ..datapath.stages import adders_for
+from ..datapath.stages import adders_for, steps_per_stage
 from .graph import STATUS_BITS, graph_datapath
 from ..modes import CORE_ARCHS
 from ..datapath.stash import Stash
-from ..blocks.stream_block import StreamBlock
+from ..blocks.stream_block import StreamBlock, micro_steps
 
 __all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
 
@@ -89,7 +89,9 @@ class IKCore(StreamBlock):
       (or one 17 x 17 partial product) per stage; a compare that selects a value is registered
       a stage ahead of its select. ``dsp="ecp5"`` builds the partial products as
       ``MULT18X18D`` instances with their input and output registers and the CORDIC
-      add/subtracts as ``CCU2C`` chains (same latency, same bits).
+      add/subtracts as ``CCU2C`` chains (same latency, same bits). ``rotations_per_stage`` (1,
+      2 or 4): CORDIC micro-rotations and square-root digits per pipeline stage, the same
+      steps in fewer, longer stages (fewer cycles of latency, a lower Fmax; same bits).
     * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
       (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
       previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
@@ -102,19 +104,22 @@ class IKCore(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 dsp: str = "generic"):
+                 dsp: str = "generic", rotations_per_stage: int = 1):
         if arch not in CORE_ARCHS:
             raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
+        block_arch = "pipelined" if arch == "pipelined" else "iterative"
         dp = in_fields = out_fields = None
         self._stash = Stash()
         if isinstance(constants, Constants):
             in_fields, out_fields = core_fields(constants)
-            dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
-                                serial=arch == "compact")
+            # The blocks' chains the graph's units are made of take the micro-rotations (and
+            # square-root digits) per stage from the context.
+            with steps_per_stage(micro_steps(block_arch, rotations_per_stage)):
+                dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
+                                    serial=arch == "compact")
         self.options = {}
-        super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
-                         tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,
-                         dsp=dsp)
+        super().__init__(constants=constants, arch=block_arch, tag_width=tag_width, in_fields=in_fields,
+                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
         self.arch = arch
         self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
 

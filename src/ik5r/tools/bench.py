@@ -6,8 +6,10 @@ Solvers on the same poses (FK of joint vectors uniform in the limits): the float
 four branches, FK round trip included), the vectorised bit-accurate model and the C solver (batched,
 one branch each), and for comparison roboticstoolbox-python's ``ik_LM`` and ikpy's
 ``inverse_kinematics`` (numerical, one solution per pose, timed on a few poses and extrapolated).
-Ratios compare CPU times (every solver here runs on one core). The cocotb bulk runs of the pipelined atan2 block and IK core on Icarus and Verilator give
-the simulation speed (every output bit checked against the model). The C solver's instruction count per solve comes from ``valgrind --tool=callgrind`` (the basis for
+Ratios compare CPU times (every solver here runs on one core). The bulk runs of the pipelined
+atan2 block and IK core give the simulation speed (every output bit checked against the model,
+stimulus, model and comparison in the wall time): the Verilator C++ harness fed from a file, and
+the cocotb bulk runs on Icarus and Verilator. The C solver's instruction count per solve comes from ``valgrind --tool=callgrind`` (the basis for
 a soft CPU's time per pose), next to the hardware core's cycles per pose. Timings are wall clock and
 CPU time of this process (numpy and the C run on one core), best of ``--repeat``.
 Writes bench.json and bench.md (the table) into the output folder and prints the table.
@@ -118,20 +120,33 @@ def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
 
 
 #: (block, simulator, vectors) of the simulation benchmarks: bulk runs, every output bit checked.
-SIM_RUNS = (("atan2", "verilator", 200_000), ("atan2", "icarus", 5_000),
+#: ``verilator-harness``: the Verilator C++ harness fed from a file (:mod:`.testbench.harness`),
+#: full rate; the others: the cocotb bulk run (random idles and back-pressure).
+SIM_RUNS = (("atan2", "verilator-harness", 2_000_000), ("atan2", "verilator", 200_000),
+            ("atan2", "icarus", 5_000), ("ik", "verilator-harness", 1_000_000),
             ("ik", "verilator", 20_000), ("ik", "icarus", 300))
 
 
-def simulation_speeds(config: str) -> list[dict]:
-    """Vectors/s of the cocotb bulk runs (pipelined) of a block and of the IK core on both simulators."""
+def _simulate(block: str, config: str, sim: str, vectors: int) -> dict:
+    from .testbench.harness import run_harness
     from .testbench.runner import run_block, sim_design
 
+    if sim == "verilator-harness":
+        r = run_harness(block, "pipelined", config, vectors=vectors, seed=3, pattern="full")
+        return dict(r, bulk_vectors_per_second=r["vectors_per_second"], cycles=r["harness"]["cycles"])
+    r = run_block(sim_design(block, "pipelined", config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
+    return dict(r, cycles=(r["bulk"] or {}).get("cycles"))
+
+
+def simulation_speeds(config: str) -> list[dict]:
+    """Vectors/s of the bulk runs (pipelined) of a block and of the IK core: the C++ harness on
+    Verilator, and cocotb on both simulators."""
     rows = []
     for block, sim, vectors in SIM_RUNS:
-        r = run_block(sim_design(block, "pipelined", config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
+        r = _simulate(block, config, sim, vectors)
         rows.append({"block": block, "simulator": sim, "vectors": r["vectors"], "mismatches": r["mismatches"],
                      "vectors_per_second": r["bulk_vectors_per_second"], "build_seconds": r["build_seconds"],
-                     "latency_cycles": r["latency_cycles_portmap"],
+                     "latency_cycles": r["latency_cycles_portmap"], "sim_cycles": r["cycles"],
                      "cycles_per_result": r["cycles_per_result_portmap"]})
     return rows
 
@@ -215,6 +230,11 @@ def run(poses: int = 1_000_000, config: str | None = None, repeat: int = 3, lm_c
     return result
 
 
+#: The simulators of the table, as their rows name them.
+SIMULATOR_NAMES = {"verilator-harness": "Verilator, C++ harness (file in, file out, full rate)",
+                   "verilator": "Verilator, cocotb bulk", "icarus": "Icarus, cocotb bulk"}
+
+
 def table(result: dict) -> str:
     lines = [f"| solver ({result['config']}, {result['poses']:,} poses) | poses/s (CPU) | poses/s (wall) "
              "| x ik_LM | x ikpy |", "| --- | ---: | ---: | ---: | ---: |"]
@@ -231,10 +251,11 @@ def table(result: dict) -> str:
         lines.append(f"C solver: {ci['instructions_per_solve']:,.0f} instructions per solve "
                      f"(callgrind, {ci['solves']:,} solves, {ci['build']}); hardware IK core: "
                      f"{core['cycles_per_result']} cycle(s) per pose, latency {core['latency_cycles']} cycles")
-    lines += ["", "| cocotb simulation (pipelined) | simulator | vectors | mismatches | vectors/s | build (s) |",
+    lines += ["", "| simulation (pipelined, every output bit checked) | simulator | vectors | mismatches | vectors/s | build (s) |",
               "| --- | --- | ---: | ---: | ---: | ---: |"]
     for r in result["simulation"]:
-        lines.append(f"| {r['block']} | {r['simulator']} | {r['vectors']:,} | {r['mismatches']} | "
+        sim = SIMULATOR_NAMES.get(r["simulator"], r["simulator"])
+        lines.append(f"| {r['block']} | {sim} | {r['vectors']:,} | {r['mismatches']} | "
                      f"{r['vectors_per_second']:,.0f} | {r['build_seconds']:.0f} |")
     return "\n".join(lines + cli_table(result.get("cli") or []))
 
@@ -260,15 +281,25 @@ def main(argv=None) -> int:
     parser.add_argument("-o", "--output", default="build/bench")
     parser.add_argument("--only-cli", action="store_true",
                         help="only the `ik5r solve --all` streaming runs (memory and CLI throughput)")
+    parser.add_argument("--only-sim", action="store_true",
+                        help="only the simulation runs, put into the bench.json already in the output "
+                             "folder (its other figures kept, from the run that wrote them)")
     args = parser.parse_args(argv)
+    if args.only_sim:
+        out = Path(args.output)
+        result = json.loads((out / "bench.json").read_text())
+        result["simulation"] = simulation_speeds(result["config"])
+        return _write(out, result)
     if args.only_cli:
         runs = cli_streaming(args.poses, args.config)
         Path(args.output).mkdir(parents=True, exist_ok=True)
         (Path(args.output) / "bench_cli.json").write_text(json.dumps(runs, indent=2) + "\n")
         print("\n".join(cli_table(runs)))
         return 0
-    result = run(args.poses, args.config, args.repeat)
-    out = Path(args.output)
+    return _write(Path(args.output), run(args.poses, args.config, args.repeat))
+
+
+def _write(out: Path, result: dict) -> int:
     out.mkdir(parents=True, exist_ok=True)
     text = table(result)
     (out / "bench.json").write_text(json.dumps(result, indent=2) + "\n")

@@ -99,3 +99,28 @@ def say(args, message: str, level: int = 0) -> None:
     """A note on standard error, shown when the verbosity is at least ``level``."""
     if verbosity(args) >= level:
         print(message, file=sys.stderr, flush=True)
+
+
+#: Micro-rotations per pipeline stage the pipelined blocks and IK core offer.
+ROTATIONS_PER_STAGE = (1, 2, 4)
+
+
+def add_rotations_per_stage(parser) -> None:
+    """``--rotations-per-stage N`` (verilog, sim, synth)."""
+    parser.add_argument("--rotations-per-stage", type=int, choices=ROTATIONS_PER_STAGE, default=1, metavar="N",
+                        help="pipelined arch: CORDIC micro-rotations (and square-root digits) per pipeline "
+                             "stage, 1, 2 or 4: the same steps in fewer, longer stages, so fewer cycles of "
+                             "latency and the same bits (module name ..._rotations_per_stageN_...; default: 1)")
+
+
+def rotations_option(args, arch: str) -> dict:
+    """The generator option of ``--rotations-per-stage`` for ``arch`` (none at 1); exit 2 when it
+    is asked of an architecture that has no pipeline stages to fill."""
+    from ik5r.core.errors import InputError
+
+    per_stage = getattr(args, "rotations_per_stage", 1)
+    if per_stage == 1:
+        return {}
+    if arch != "pipelined":
+        raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {arch}")
+    return {"rotations_per_stage": per_stage}

@@ -60,12 +60,14 @@ class VerilogOfCheckout:
         dsp = r.get("dsp", "generic")
         serial = r.get("serial")
         arm = r.get("arm")
-        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm)
+        per_stage = r.get("rotations_per_stage", 1)
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm, per_stage)
         if key in self._texts:
             return self._texts[key]
         try:
             design = Design.resolve(r["block"], r["arch"], config=r["config"], arm=arm,
-                                    tag_width=r.get("tag_width", 0), dsp=dsp, serial=serial)
+                                    tag_width=r.get("tag_width", 0), dsp=dsp, serial=serial,
+                                    rotations_per_stage=per_stage)
         except InputError:
             self._texts[key] = ""
             return ""

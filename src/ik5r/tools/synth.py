@@ -153,8 +153,11 @@ def _design(design, opts: SynthOptions):
         # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
         # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
         serial = ICE40_BEAT_BITS
+    if opts.rotations_per_stage != 1 and design.arch != "pipelined":
+        raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {design.arch}")
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
-                            tag_width=opts.tag_width, dsp=dsp, serial=serial)
+                            tag_width=opts.tag_width, dsp=dsp, serial=serial,
+                            rotations_per_stage=opts.rotations_per_stage)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
 
@@ -274,7 +277,9 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     (e.g. the sweep's w32 and the shipped q32) give the same Verilog and share one run."""
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
-    flags = {name: value for name, value in asdict(opts).items() if name not in ("threads", "dsp")}
+    flags = {name: value for name, value in asdict(opts).items()
+             if name not in ("threads", "dsp", "rotations_per_stage")}
+    # --rotations-per-stage is in the Verilog and the module name already (old keys stay valid).
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid
     key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))

@@ -57,6 +57,7 @@ class SynthOptions:
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
     dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
+    rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:

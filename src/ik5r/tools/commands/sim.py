@@ -96,6 +96,10 @@ def register(subparsers) -> None:
                              "B-bit beats (16 as placed on the iCE40 UP5K), in the stream run only: "
                              "--stream-vectors random poses (default: min(--vectors, 1000)) plus the "
                              "directed set")
+    cliopts.add_rotations_per_stage(parser)
+    parser.add_argument("--harness", action="store_true",
+                        help="the bulk run on the Verilator C++ harness fed from a file (much faster than "
+                             "cocotb; the cocotb stream run, with its protocol checks, still runs first)")
     cliopts.add_common(parser)
     parser.set_defaults(run=run)
 
@@ -113,15 +117,25 @@ def run(args) -> int:
     if args.serial is not None and not stream_vectors:
         print("ik5r sim: --serial runs the stream run only: --stream-vectors must be > 0", file=sys.stderr)
         return 2
+    from ik5r.hdl.generate import resolve_arch
+
+    per_stage = cliopts.rotations_option(args, resolve_arch(args.block, args.arch)).get("rotations_per_stage", 1)
+    if args.harness and (args.serial is not None or sim != "verilator"):
+        print("ik5r sim: --harness is a Verilator bulk run: use it with --simulator verilator, without --serial",
+              file=sys.stderr)
+        return 2
     waves = True if args.waves else None
     # InputError (exit 2) on a bad config or arm, or an arm the config cannot hold.
     design = Design.resolve(args.block, args.arch, config=args.config, arm=args.arm, tag_width=args.tag_width,
-                            dsp=args.dsp, serial=args.serial)
+                            dsp=args.dsp, serial=args.serial,
+                            rotations_per_stage=per_stage)
     t0 = time.perf_counter()
     result = run_block(design, sim, stream_vectors=stream_vectors, seed=args.seed,
-                       bulk_vectors=0 if args.serial else max(args.vectors, 1),
+                       bulk_vectors=0 if args.serial or args.harness else max(args.vectors, 1),
                        pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
                        chunk=max(50000, args.vectors // 10))
+    if args.harness:
+        result = _with_harness(result, args, design.config.name, per_stage)
     wall = time.perf_counter() - t0
     bulk = result.get("bulk") or {}
     doc = {
@@ -154,6 +168,27 @@ def run(args) -> int:
     if doc["first_mismatch"]:
         print("first mismatch:", json.dumps(doc["first_mismatch"]), file=sys.stderr)
     return 0 if doc["mismatches"] == 0 else 1
+
+
+def _with_harness(result: dict, args, config: str, per_stage: int) -> dict:
+    """The stream run's result with the harness's bulk run merged in as the bulk part."""
+    from ik5r.tools.testbench.harness import run_harness
+
+    bulk = run_harness(args.block, args.arch, config, vectors=args.vectors, seed=args.seed,
+                       pattern=args.pattern, dsp=args.dsp, tag_width=args.tag_width,
+                       rotations_per_stage=per_stage)
+    merged = dict(result)
+    for key in ("vectors", "mismatches", "tag_errors", "stale_outputs", "hold_violations"):
+        merged[key] = (result.get(key) or 0) + (bulk.get(key) or 0)
+    merged["first_mismatch"] = result["first_mismatch"] or bulk["first_mismatch"]
+    merged["field_mismatches"] = {name: result["field_mismatches"].get(name, 0) + count
+                                  for name, count in bulk["field_mismatches"].items()}
+    errors = [v for v in (result["max_error_lsb"], bulk["max_error_lsb"]) if v is not None]
+    merged["max_error_lsb"] = max(errors) if errors else None
+    merged["bulk"] = dict(bulk["harness"], simulator="verilator-harness", error_items=bulk["error_items"],
+                          rms_error_lsb=bulk["rms_error_lsb"])
+    merged["build_seconds"] = result["build_seconds"] + bulk["build_seconds"]
+    return merged
 
 
 def _rate(doc: dict) -> str:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.tools import cliopts
 from ik5r.tools.design import add_arm_argument
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "cpu", "all")
@@ -58,6 +59,7 @@ def register(subparsers) -> None:
                         help="primitives: ECP5 MULT18X18D instances with their input and output "
                              "registers and CCU2C add/sub chains, or generic operators mapped by "
                              "Yosys (default: ecp5 on ECP5, generic on iCE40)")
+    cliopts.add_rotations_per_stage(parser)
     parser.add_argument("--cache", default="build/synth", metavar="DIR",
                         help="cache folder (default: build/synth)")
     parser.add_argument("--force", action="store_true", help="ignore cached results")
@@ -99,7 +101,8 @@ def run(args) -> int:
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
-                        seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp).resolved()
+                        seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp,
+                        rotations_per_stage=args.rotations_per_stage).resolved()
 
     def log(message):
         if not args.quiet:

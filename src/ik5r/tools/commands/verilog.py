@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.tools import cliopts
 from ik5r.tools.design import add_arm_argument
 
 BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
@@ -53,6 +54,7 @@ def register(subparsers) -> None:
                              "add/sub chains (module "
                              "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
                              "(default: generic)")
+    cliopts.add_rotations_per_stage(parser)
     parser.set_defaults(run=run)
 
 
@@ -73,7 +75,11 @@ def run(args) -> int:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
             # With --arch all, the small architectures are generic (they have no primitive mapping).
             dsp = args.dsp if arch == "pipelined" else "generic"
-            design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width, dsp=dsp)
+            per_stage = 1
+            if args.arch != "all" or arch == "pipelined":
+                per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
+            design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
+                                    dsp=dsp, rotations_per_stage=per_stage)
             text, pmap = design.verilog()
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)

@@ -9,4 +9,6 @@
 - :mod:`.serial`     beat driver and monitor of the compact IK core's word-serial wrapper
 - :mod:`.bulk`       the bulk test's chunks through the wrapper's engine
 - :mod:`.runner`     build and run through ``cocotb_tools.runner``
+- :mod:`.harness`    the fast bulk path without cocotb: a Verilator C++ main (``harness.cpp``) fed
+                     from a file of words, outputs compared with the model in numpy
 """

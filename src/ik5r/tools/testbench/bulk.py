@@ -48,6 +48,35 @@ def _read_outputs(path: Path, cols: int) -> np.ndarray:
     return arr.reshape(-1, cols)
 
 
+def compare_chunk(job: Job, results: Results, got: dict, inputs, expected, seqs, *, done_items_first: int,
+                  error_sample: int | None = None) -> None:
+    """Count the differences of a chunk's received outputs ``got`` (field -> array, the first
+    ``m`` items) from the model's ``expected`` (role -> array) and the tags ``seqs``, every field
+    and the tag, item by item; the first one is recorded with its inputs. The float error
+    statistic: of every item, or of the first ``error_sample``."""
+    m = len(next(iter(got.values())))
+    bad = np.zeros(m, dtype=bool)
+    if job.tag:
+        tag_bad = got[job.tag] != seqs[:m] % job.tag_mod
+        results.tag_errors += int(tag_bad.sum())
+        bad |= tag_bad
+    for role, name in job.bind_out.items():
+        field_bad = got[name] != expected[role][:m]
+        results.count_fields(name, field_bad.sum())
+        bad |= field_bad
+    results.compared += m
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        results.mismatches += int(bad.sum()) - 1
+        results.mismatch("value" if not job.tag or got[job.tag][i] == seqs[i] % job.tag_mod else "tag",
+                         {r: int(v[i]) for r, v in inputs.items()},
+                         {job.bind_out[r]: int(v[i]) for r, v in expected.items()} | (
+                             {job.tag: int(seqs[i] % job.tag_mod)} if job.tag else {}),
+                         {name: int(v[i]) for name, v in got.items()}, done_items_first + i)
+    e = m if error_sample is None else min(m, error_sample)
+    results.errors({r: v[:e] for r, v in inputs.items()}, {r: got[job.bind_out[r]][:e] for r in job.bind_out})
+
+
 class BulkRun:
     """One bulk test: chunks of vectors through the wrapper's engine, checked as they come back."""
 
@@ -107,26 +136,7 @@ class BulkRun:
             results.mismatch("lost", None, None, f"{count} of {n} outputs (timed out: {timed_out}, "
                                                  f"in {int(self.dut['bulk_in_count'].value)})")
         m = min(count, n)
-        got = self.received(out, m)
-        bad = np.zeros(m, dtype=bool)
-        if job.tag:
-            tag_bad = got[job.tag] != seqs[:m] % job.tag_mod
-            results.tag_errors += int(tag_bad.sum())
-            bad |= tag_bad
-        for role, name in job.bind_out.items():
-            field_bad = got[name] != expected[role][:m]
-            results.count_fields(name, field_bad.sum())
-            bad |= field_bad
-        results.compared += m
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            results.mismatches += int(bad.sum()) - 1
-            results.mismatch("value" if not job.tag or got[job.tag][i] == seqs[i] % job.tag_mod else "tag",
-                             {r: int(v[i]) for r, v in inputs.items()},
-                             {job.bind_out[r]: int(v[i]) for r, v in expected.items()} | (
-                                 {job.tag: int(seqs[i] % job.tag_mod)} if job.tag else {}),
-                             {name: int(got[name][i]) for name in self.cols}, first_index + i)
-        results.errors({r: v[:m] for r, v in inputs.items()}, {r: got[job.bind_out[r]] for r in job.bind_out})
+        compare_chunk(job, results, self.received(out, m), inputs, expected, seqs, done_items_first=first_index)
 
     async def chunk(self, count: int, salt: int, first: bool, done_items: int) -> int:
         """One chunk (the edge set first); returns how many of ``total`` it counts for."""

@@ -76,11 +76,12 @@ class Stream:
         return {name: f.from_raw(int(word) >> f.lsb) for name, f in self.fields.items()}
 
     # ---- vectorised, for the bulk mode -------------------------------------------------------
-    def pack_hex(self, columns: dict[str, np.ndarray]) -> list[str]:
-        """Pack N items (one int array per field) to N hex lines (exactly ceil(width/4) digits)."""
+    def pack_words(self, columns: dict[str, np.ndarray]) -> np.ndarray:
+        """Pack N items (one int array per field) to an (N, ceil(width/32)) uint32 array of
+        little-endian 32-bit limbs (bits above the width zero)."""
         count = len(next(iter(columns.values())))
         limbs = (self.width + 31) // 32
-        out = np.zeros((count, limbs), dtype=np.uint64)     # little-endian 32-bit limbs
+        out = np.zeros((count, limbs), dtype=np.uint64)
         for name, f in self.fields.items():
             raw = np.asarray(columns[name], dtype=np.int64).astype(np.uint64) & np.uint64(f.mask)
             lo = f.lsb
@@ -90,6 +91,30 @@ class Stream:
                 part = (raw >> np.uint64(lo - f.lsb)) & np.uint64((1 << take) - 1)
                 out[:, limb] |= part << np.uint64(bit)
                 lo += take
+        return out.astype(np.uint32)
+
+    def unpack_words(self, words: np.ndarray) -> dict[str, np.ndarray]:
+        """The fields (int64, signed where the field is) of an (N, limbs) uint32 array of
+        :meth:`pack_words`' layout. Fields up to 63 bits."""
+        wide = np.asarray(words, dtype=np.uint64)
+        out = {}
+        for name, f in self.fields.items():
+            raw = np.zeros(len(wide), dtype=np.uint64)
+            lo = f.lsb
+            while lo < f.lsb + f.width:
+                limb, bit = divmod(lo, 32)
+                take = min(32 - bit, f.lsb + f.width - lo)
+                part = (wide[:, limb] >> np.uint64(bit)) & np.uint64((1 << take) - 1)
+                raw |= part << np.uint64(lo - f.lsb)
+                lo += take
+            value = raw.astype(np.int64)
+            out[name] = value - (1 << f.width) * (value >> (f.width - 1)) if f.signed else value
+        return out
+
+    def pack_hex(self, columns: dict[str, np.ndarray]) -> list[str]:
+        """Pack N items (one int array per field) to N hex lines (exactly ceil(width/4) digits)."""
+        out = self.pack_words(columns)
+        limbs = out.shape[1]
         digits = (self.width + 3) // 4
         text = out[:, ::-1].astype(">u4").tobytes().hex()
         step = limbs * 8

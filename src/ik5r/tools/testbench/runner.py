@@ -59,14 +59,16 @@ def default_simulator() -> str:
 
 
 def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int = DEFAULT_TAG_WIDTH,
-               dsp: str = "generic", serial: int | None = None) -> Design:
+               dsp: str = "generic", serial: int | None = None, rotations_per_stage: int = 1) -> Design:
     """:meth:`Design.resolve` with the testbench's default tag field (8 bits: order and loss)."""
-    return Design.resolve(block, arch, config=config, arm=arm, tag_width=tag_width, dsp=dsp, serial=serial)
+    return Design.resolve(block, arch, config=config, arm=arm, tag_width=tag_width, dsp=dsp, serial=serial,
+                          rotations_per_stage=rotations_per_stage)
 
 
 def build_dir_for(design: Design, sim: str) -> Path:
     o = design.options
-    variant = ("" if o.dsp == "generic" else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
+    variant = (("" if o.dsp == "generic" else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
+               + ("" if o.rotations_per_stage == 1 else f"_rps{o.rotations_per_stage}"))
     return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 

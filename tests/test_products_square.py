@@ -1,0 +1,66 @@
+"""Squares in the multipliers (``hdl/datapath/products.py``, issue 30): each cross term once,
+doubled by a shift, one operand register; the same exact sum, so the same bits.
+
+The sum of a square's terms is checked as integers over every limb split the cores use (the
+terms are what the pipelined build makes partial products of), the detection of a square on the
+operand functions, and the IK core's DSP count. Every bit of the cores is checked by the
+simulations (``tests/test_ik_core.py``, ``tests/test_cocotb_core.py``, ``tests/test_harness.py``).
+"""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+from amaranth.hdl import signed, unsigned
+
+from ik5r.hdl.datapath.products import SQUARE, _is_square, _partial_products
+
+
+def _limb_value(x: int, width: int, lo: int, hi: int, is_signed: bool) -> int:
+    raw = (x & ((1 << width) - 1)) >> lo & ((1 << (hi - lo)) - 1)
+    return raw - (1 << (hi - lo)) if is_signed and raw >> (hi - lo - 1) else raw
+
+
+def _sum_of_terms(terms, x: int, width: int) -> int:
+    total = 0
+    for _, shift, (a_lo, a_hi, a_signed), (_, b_lo, b_hi, b_signed) in terms:
+        total += (_limb_value(x, width, a_lo, a_hi, a_signed)
+                  * _limb_value(x, width, b_lo, b_hi, b_signed)) << shift
+    return total
+
+
+@pytest.mark.parametrize("shape", [signed(18), signed(38), unsigned(38), signed(52), unsigned(35), signed(17)])
+def test_square_terms_sum_to_the_square(shape):
+    terms = _partial_products("p", 0, shape, SQUARE)
+    limbs = -(-shape.width // 17)
+    assert len(terms) == limbs * (limbs + 1) // 2          # n (n + 1) / 2 products, not n * n
+    lo, hi = (-(1 << (shape.width - 1)), (1 << (shape.width - 1)) - 1) if shape.signed else (0, (1 << shape.width) - 1)
+    rng = random.Random(shape.width)
+    values = [lo, hi, 0, 1, -1 if shape.signed else 2, lo + 1, hi - 1] + [rng.randint(lo, hi) for _ in range(2000)]
+    values += [sign * (1 << k) + d for k in range(shape.width - 1) for sign in (1, -1) for d in (-1, 0, 1)
+               if lo <= sign * (1 << k) + d <= hi]
+    for x in values:
+        assert _sum_of_terms(terms, x, shape.width) == x * x, x
+
+
+def test_square_detected_only_for_the_same_expression():
+    word = signed(38)
+    same = (lambda s: s["x"]), word
+    assert _is_square(lambda s: s["x"], word, same)
+    assert _is_square(lambda s: s["x"].shift_right(3), word, ((lambda s: s["x"].shift_right(3)), word))
+    assert not _is_square(lambda s: s["x"], word, ((lambda s: s["y"]), word))
+    assert not _is_square(lambda s: s["x"], word, ((lambda s: s["x"]), signed(37)))
+    assert not _is_square(lambda s: s["x"], word, 12345)
+    assert not _is_square(lambda s: s["x"].shift_right(2), word, ((lambda s: s["x"].shift_right(3)), word))
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
+def test_ik_core_dsps():
+    """The pipelined q32w core's ECP5 variant: 12 fewer MULT18X18D than one per partial product
+    (146: the record before this change)."""
+    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.hdl.generate import generate
+
+    text, _ = generate("ik", "pipelined", constants(load_config("q32w")), 0, dsp="ecp5")
+    assert text.count("MULT18X18D ") == 134
