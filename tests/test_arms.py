@@ -157,3 +157,25 @@ def test_software_bit_exact_and_error_floor(name):
     assert r["software_differing_fields"] == 0, json.dumps(r["software_agreement"])
     assert r["software_agreement"]["poses"] > 500
     assert r["position_err_max_cm"] <= ERROR_FLOOR_PER_REACH * r["reach_cm"], r
+
+
+@pytest.mark.parametrize("solver", ["fixed", "c"])
+def test_fixed_solvers_flag_out_of_limits_and_prefer_in_limit_branches(solver, tmp_path):
+    """The SCORBOT's elbow stops at +-130 deg: a pose of q3 = 150 deg has no in-limit branch of
+    that elbow angle; ``solve --solver fixed|c`` marks the answer out_of_limits. A pose whose first
+    branch (elbow up) needs the wrist pitch at -140 deg gets its in-limit elbow-down branch."""
+    import csv
+
+    arm = load_arm("scorbot-er4u")
+    q = np.array([[0.2, 0.3, np.radians(150), 0.2, 0.1], [0.2, 0.3, np.radians(-100), np.radians(-40), 0.1]])
+    p, n, o, a = ref.fk(arm, q)
+    rows = ["px,py,pz,nx,ny,nz,ox,oy,oz,ax,ay,az"] + [
+        ",".join(repr(float(v)) for v in (*p[i], *n[i], *o[i], *a[i])) for i in range(2)]
+    (tmp_path / "poses.csv").write_text("\n".join(rows) + "\n")
+    out = tmp_path / "out.csv"
+    assert main(["solve", str(tmp_path / "poses.csv"), "--solver", solver, "--arm", "scorbot-er4u",
+                 "-o", str(out)]) == 0
+    got = list(csv.DictReader(open(out)))
+    assert "out_of_limits" in got[0]["status"]
+    assert got[1]["status"] == "ok" and got[1]["branch"] == "1"
+    np.testing.assert_allclose([float(got[1][f"q{j}"]) for j in range(1, 6)], q[1], atol=1e-6)

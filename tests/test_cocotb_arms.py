@@ -30,7 +30,7 @@ CASES = [
 def _sizes(arch: str) -> tuple[int, int]:
     """(stream, bulk) random poses, each plus the directed set (the compact core: one pose per
     `latency` cycles, so few)."""
-    return (200, 1000) if arch == "pipelined" else (4, 16)
+    return (100, 400) if arch == "pipelined" else (4, 16)
 
 
 def run_case(arch, arm, config, sim):
