@@ -11,7 +11,8 @@ is one integer (the scalar model, one pose) or one array element per pose (the v
 where the scalar C branches per pose, the body selects (``fx.select``, ``fx.flag``), which is the
 same value for one pose. The orientation checks (``check_word``, ``beyond``, ``off_plane``,
 ``frame_is_bad``) use only ``>>``, ``*``, ``+``, ``-``, comparisons and ``|``, which Python
-integers and int64 arrays evaluate alike (their products stay below 2**34).
+integers and int64 arrays evaluate alike (their products stay below 2**34; the sign test of
+``_plane_direction``, check words times internal words, below 2**55).
 
 Names follow the C: ``_l`` length Q(frac.length), ``_u`` unit-vector Q(frac.unit), ``_a`` angle
 Q(frac.angle) radians, ``_l2`` squared length Q(2 * frac.length). Every quantity of :func:`solve`

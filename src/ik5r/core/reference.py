@@ -61,6 +61,7 @@ import numpy as np
 
 from . import status as st
 from .arm import Arm
+from .plane import fixed_plane  # noqa: F401  (reference.fixed_plane)
 from .reference_kernel import Kernel
 
 N_BRANCHES = 4
@@ -226,12 +227,6 @@ def _rows(x, dtype, name):
 
 #: Poses solved per pass: the temporaries of a pass stay in the CPU cache.
 CHUNK = 16384
-
-
-def fixed_plane(cfg) -> tuple:
-    """``approach_plane`` of :func:`ik` for a fixed-point config (a FixedConfig): the solver's
-    rule for the arm's plane, on float values that are that config's input words."""
-    return (cfg.frac_length, cfg.frac_unit, cfg.internal_guard_bits, cfg.width, cfg.round_nearest)
 
 
 def ik(arm: Arm, p, a, n=None, o=None, near=None, *, singular_sin_q3=1e-3,

@@ -295,7 +295,8 @@ def conditioning_figures(samples: Samples) -> dict:
     The 2-link inverse Jacobian of the wrist centre w: dq2 = |dw| / (a2 |s3|),
     dq3 = D |dw| / (a2 a3 |s3|) (D = |w - joint 2 axis|); |dw| <= |dp| + hypot(a4, d5) |dphi|
     with |dp| <= sqrt(3)/2 LSB_length and |dphi| <= sqrt(3)/2 LSB_unit, plus hypot(a4, d5) dq1^2 / 4
-    near the base axis. q1 (and q5 through it): dq1 <= (sqrt(2)/2 LSB_length) / rho. The solver's own
+    near the base axis. q1 (and q5 through it): dq1 <= sqrt(2) / (rho / LSB_length + |(ax, ay)| /
+    LSB_unit), the point's and the approach's directions weighed by their lengths in LSBs. The solver's own
     rounding of cos q3 to the unit format adds LSB_unit / 2 / |s3| to q3.
     """
     arm, cfg = samples.arm, samples.cfg
@@ -326,7 +327,11 @@ def conditioning_figures(samples: Samples) -> dict:
     # Per-pose bounds (all poses, including the base-axis term), and the largest fraction of them the
     # measured input effect used (<= 1 where the first-order analysis holds).
     s3 = np.maximum(samples.sin_q3, 1e-300)
-    dq1 = terms["dq1_numerator_cm"] / np.maximum(samples.radius, 1e-300)
+    # q1 from the tool point and the approach together (docs/algorithm.md, "Joint 1 near the base
+    # axis"): each rounded by up to sqrt(2)/2 LSB across the plane, weighed by its length in LSBs.
+    t = samples.q + np.asarray(arm.theta_offset)
+    horizontal = np.abs(np.sin(t[:, 1] + t[:, 2] + t[:, 3]))          # |(ax, ay)| = |sin phi|
+    dq1 = math.sqrt(2) / np.maximum(samples.radius / h_l + horizontal / h_u, 1e-300)
     dw_pose = dp + wrist_offset * (dphi + np.minimum(dq1, np.pi) ** 2 / 4)
     per_pose = {"q1": dq1, "q2": dw_pose / (a2 * s3), "q3": samples.wrist_dist * dw_pose / (a2 * a3 * s3)}
     used = {name: _f(np.max(effect[:, JOINTS.index(name)] / bound)) for name, bound in per_pose.items()}
@@ -344,7 +349,7 @@ def conditioning_figures(samples: Samples) -> dict:
         "min_radius_cm": _f(samples.radius.min()),
         "min_abs_sin_q3": _f(samples.sin_q3.min()),
         "formulae": {
-            "q1": "dq1 <= (sqrt(2)/2 LSB_length) / rho   (rho: tool point to base axis)",
+            "q1": "dq1 <= sqrt(2) / (rho / LSB_length + |(ax, ay)| / LSB_unit)   (rho: tool point to base axis)",
             "q2": "dq2 <= |dw| / (a2 |sin q3|)",
             "q3": "dq3 <= D |dw| / (a2 a3 |sin q3|) <= (a2 + a3) |dw| / (a2 a3 |sin q3|)",
             "q4": "dq4 <= dphi + dq2 + dq3",
