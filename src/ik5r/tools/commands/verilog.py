@@ -62,6 +62,8 @@ def run(args) -> int:
     if args.dsp != "generic" and args.arch not in ("pipelined", "all"):
         raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
                                   f"not to --arch {args.arch}")
+    if args.arch not in ("pipelined", "all"):
+        cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
     k = constants(load_config(args.config))
     blocks = BLOCKS if args.block == "all" else (args.block,)
     out_dir = Path(args.output)
