@@ -4,6 +4,7 @@ files (exit 2, FILE:LINE), NaN rows, --all and --near."""
 from __future__ import annotations
 
 import csv
+import json
 import math
 import shutil
 import subprocess
@@ -301,4 +302,20 @@ def test_verilog_dsp_applies_to_the_pipelined_arch(tmp_path, capsys):
     assert main(["verilog", "--block", "sqrt", "--arch", "iterative", "--dsp", "ecp5", "-o", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("--dsp:") and "pipelined" in err[0]
+    assert not (tmp_path / "w").exists()
+
+
+def test_verilog_rotations_per_stage(tmp_path, capsys):
+    """--rotations-per-stage 2: the pipelined module named with it, its latency shorter; with
+    --arch iterative: one line naming the option, exit 2, nothing written."""
+    assert main(["verilog", "-q", "--block", "sqrt", "--config", "q18", "--rotations-per-stage", "2",
+                 "-o", str(tmp_path / "v")]) == 0
+    maps = {p.stem: json.loads(p.read_text()) for p in (tmp_path / "v").glob("*.json")}
+    assert list(maps) == ["ik5r_sqrt_rotations_per_stage2_pipelined"]
+    assert maps["ik5r_sqrt_rotations_per_stage2_pipelined"]["latency_cycles"] == 12
+    capsys.readouterr()
+    assert main(["verilog", "--block", "sqrt", "--arch", "iterative", "--rotations-per-stage", "2",
+                 "-o", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("--rotations-per-stage:") and "pipelined" in err[0]
     assert not (tmp_path / "w").exists()

@@ -60,7 +60,8 @@ def test_ik_core_dsps():
     """The pipelined q32w core's ECP5 variant: 12 fewer MULT18X18D than one per partial product
     (146: the record before this change)."""
     from ik5r.core.fxconfig import constants, load_config
-    from ik5r.hdl.generate import generate
+    from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, generate_cached
 
-    text, _ = generate("ik", "pipelined", constants(load_config("q32w")), 0, dsp="ecp5")
+    # The conversion the cocotb run of this core shares (tests/test_cocotb_core.py).
+    text, _ = generate_cached("ik", "pipelined", constants(load_config("q32w")), DEFAULT_TAG_WIDTH, dsp="ecp5")
     assert text.count("MULT18X18D ") == 134

@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import shutil
 import subprocess
@@ -133,20 +134,31 @@ def _simulate(block: str, config: str, sim: str, vectors: int) -> dict:
 
     if sim == "verilator-harness":
         r = run_harness(block, "pipelined", config, vectors=vectors, seed=3, pattern="full")
-        return dict(r, bulk_vectors_per_second=r["vectors_per_second"], cycles=r["harness"]["cycles"])
+        h = r["harness"]
+        # Per CPU second of the simulator processes: the machine's other load left out.
+        return dict(r, bulk_vectors_per_second=r["vectors_per_second"], cycles=h["cycles"],
+                    sim_cpu_vectors_per_second=r["vectors"] / h["sim_cpu_seconds"] if h["sim_cpu_seconds"] else None,
+                    jobs=h["jobs"])
     r = run_block(sim_design(block, "pipelined", config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
     return dict(r, cycles=(r["bulk"] or {}).get("cycles"))
 
 
-def simulation_speeds(config: str) -> list[dict]:
+def simulation_speeds(config: str, simulators=None, previous=()) -> list[dict]:
     """Vectors/s of the bulk runs (pipelined) of a block and of the IK core: the C++ harness on
-    Verilator, and cocotb on both simulators."""
+    Verilator, and cocotb on both simulators. ``simulators``: only these run, the rows of the
+    others taken from ``previous``."""
     rows = []
+    kept = {(r["block"], r["simulator"]): r for r in previous}
     for block, sim, vectors in SIM_RUNS:
+        if simulators is not None and sim not in simulators and (block, sim) in kept:
+            rows.append(kept[block, sim])
+            continue
         r = _simulate(block, config, sim, vectors)
         rows.append({"block": block, "simulator": sim, "vectors": r["vectors"], "mismatches": r["mismatches"],
                      "vectors_per_second": r["bulk_vectors_per_second"], "build_seconds": r["build_seconds"],
                      "latency_cycles": r["latency_cycles_portmap"], "sim_cycles": r["cycles"],
+                     "sim_cpu_vectors_per_second": r.get("sim_cpu_vectors_per_second"), "jobs": r.get("jobs"),
+                     "load_average": os.getloadavg()[0],
                      "cycles_per_result": r["cycles_per_result_portmap"]})
     return rows
 
@@ -251,12 +263,15 @@ def table(result: dict) -> str:
         lines.append(f"C solver: {ci['instructions_per_solve']:,.0f} instructions per solve "
                      f"(callgrind, {ci['solves']:,} solves, {ci['build']}); hardware IK core: "
                      f"{core['cycles_per_result']} cycle(s) per pose, latency {core['latency_cycles']} cycles")
-    lines += ["", "| simulation (pipelined, every output bit checked) | simulator | vectors | mismatches | vectors/s | build (s) |",
-              "| --- | --- | ---: | ---: | ---: | ---: |"]
+    lines += ["", "| simulation (pipelined, every output bit checked) | simulator | vectors | mismatches | vectors/s "
+              "(wall) | vectors per simulator CPU second | load average | build (s) |",
+              "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in result["simulation"]:
         sim = SIMULATOR_NAMES.get(r["simulator"], r["simulator"])
+        cpu = f"{r['sim_cpu_vectors_per_second']:,.0f}" if r.get("sim_cpu_vectors_per_second") else "–"
+        load = f"{r['load_average']:.1f}" if r.get("load_average") is not None else "–"
         lines.append(f"| {r['block']} | {sim} | {r['vectors']:,} | {r['mismatches']} | "
-                     f"{r['vectors_per_second']:,.0f} | {r['build_seconds']:.0f} |")
+                     f"{r['vectors_per_second']:,.0f} | {cpu} | {load} | {r['build_seconds']:.0f} |")
     return "\n".join(lines + cli_table(result.get("cli") or []))
 
 
@@ -281,14 +296,16 @@ def main(argv=None) -> int:
     parser.add_argument("-o", "--output", default="build/bench")
     parser.add_argument("--only-cli", action="store_true",
                         help="only the `ik5r solve --all` streaming runs (memory and CLI throughput)")
-    parser.add_argument("--only-sim", action="store_true",
-                        help="only the simulation runs, put into the bench.json already in the output "
-                             "folder (its other figures kept, from the run that wrote them)")
+    parser.add_argument("--only-sim", nargs="?", const="all", default=None, metavar="SIMS",
+                        help="only the simulation runs (SIMS: a comma-separated list of simulators, the "
+                             "other rows kept), put into the bench.json already in the output folder "
+                             "(its other figures kept, from the run that wrote them)")
     args = parser.parse_args(argv)
     if args.only_sim:
         out = Path(args.output)
         result = json.loads((out / "bench.json").read_text())
-        result["simulation"] = simulation_speeds(result["config"])
+        sims = None if args.only_sim == "all" else set(args.only_sim.split(","))
+        result["simulation"] = simulation_speeds(result["config"], sims, result.get("simulation", ()))
         return _write(out, result)
     if args.only_cli:
         runs = cli_streaming(args.poses, args.config)

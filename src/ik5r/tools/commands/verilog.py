@@ -66,6 +66,8 @@ def run(args) -> int:
     if args.dsp != "generic" and args.arch not in ("pipelined", "all"):
         raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
                                   f"not to --arch {args.arch}")
+    if args.arch not in ("pipelined", "all"):
+        cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
     # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
