@@ -6,6 +6,8 @@ reference model of this decoder in the tests.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Cat, Const, Module, Signal, Value
 from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
@@ -76,101 +78,97 @@ class FrameDecoder(wiring.Component):
         m = Module()
         m.submodules.words = mem = Memory(shape=32, depth=16, init=[])
         wr, rd = mem.write_port(), mem.read_port()
-        kind, length, tag = Signal(8), Signal(8), Signal(8)
-        crc = Signal(16)
-        word = Signal(24)             # the bytes of the current word before its last one
-        count = Signal(range(4 * 256 + 1))   # payload bytes received
-        index = Signal(range(16))     # words sent on o
-        idle = Signal(range(self.timeout + 1))
-        lost = Signal()               # a receive overflow not yet reported
-        code = Signal(8)
-        byte = self.i.payload
-        take = self.i.valid & self.i.ready
-        crc_next = Signal(16)      # one CRC network, used in every state that receives
-        m.d.comb += crc_next.eq(crc16_byte(crc, byte))
+        r = SimpleNamespace(
+            kind=Signal(8), length=Signal(8), tag=Signal(8), code=Signal(8), crc=Signal(16),
+            word=Signal(24),                     # the bytes of the current word before its last one
+            count=Signal(range(4 * 256 + 1)),    # payload bytes received
+            index=Signal(range(16)),             # words sent on o
+            idle=Signal(range(self.timeout + 1)),
+            lost=Signal(),                       # a receive overflow not yet reported
+            crc_next=Signal(16),                 # one CRC network, used in every state that receives
+            byte=self.i.payload, take=self.i.valid & self.i.ready, wr=wr)
+        m.d.comb += r.crc_next.eq(crc16_byte(r.crc, r.byte))
         with m.If(self.overflow):
-            m.d.sync += lost.eq(1)
-        last_word = index == L.POSE_WORDS - 1
-        sent = self.o.valid & self.o.ready
-        m.d.comb += [rd.addr.eq(index + sent), wr.addr.eq(count[2:]), wr.data.eq(Cat(word, byte))]
-        flags = Cat(rd.data[:FLAG_BITS], tag)
+            m.d.sync += r.lost.eq(1)
+        r.sent = self.o.valid & self.o.ready
+        r.last_word = r.index == L.POSE_WORDS - 1
+        m.d.comb += [rd.addr.eq(r.index + r.sent), wr.addr.eq(r.count[2:]), wr.data.eq(Cat(r.word, r.byte))]
         m.d.comb += self.o.payload.eq(rd.data)
-        with m.If(last_word):
-            m.d.comb += self.o.payload.eq(flags)
-        m.d.comb += [self.reply.payload.tag.eq(tag), self.reply.payload.code.eq(code)]
-
-        def fail(error):
-            m.d.sync += code.eq(error)
-            m.next = "ERROR"
-
-        def receiving(state_next):
-            """A byte of a frame: the timeout runs while none comes."""
-            m.d.comb += self.i.ready.eq(1)
-            with m.If(take):
-                m.d.sync += [crc.eq(crc_next), idle.eq(0)]
-                m.next = state_next
-            with m.Elif(idle == self.timeout):
-                fail(L.E_TIMEOUT)
-            with m.Else():
-                m.d.sync += idle.eq(idle + 1)
-
+        with m.If(r.last_word):
+            m.d.comb += self.o.payload.eq(Cat(rd.data[:FLAG_BITS], r.tag))
+        m.d.comb += [self.reply.payload.tag.eq(r.tag), self.reply.payload.code.eq(r.code)]
         with m.FSM():
-            with m.State("HUNT"):
-                m.d.sync += [crc.eq(0xFFFF), idle.eq(0), tag.eq(0), count.eq(0), index.eq(0)]
-                with m.If(lost):
-                    m.d.sync += lost.eq(0)
-                    fail(L.E_OVERFLOW)
-                with m.Else():
-                    m.d.comb += self.i.ready.eq(1)
-                    with m.If(take & (byte == L.SYNC)):
-                        m.next = "TYPE"
-            with m.State("TYPE"):
-                receiving("LENGTH")
-                with m.If(take):
-                    m.d.sync += kind.eq(byte)
-            with m.State("LENGTH"):
-                receiving("TAG")
-                with m.If(take):
-                    m.d.sync += length.eq(byte)
-            with m.State("TAG"):
-                receiving("TAG")
-                with m.If(take):
-                    m.d.sync += tag.eq(byte)
-                    self._check_header(m, kind, length, fail)
-            with m.State("PAYLOAD"):
-                receiving("PAYLOAD")
-                with m.If(take):
-                    m.d.sync += [count.eq(count + 1), word.eq(Cat(word[8:], byte))]
-                    m.d.comb += wr.en.eq(count[:2] == 3)
-                    with m.If(count == 4 * length - 1):
-                        m.next = "CRC_HI"
-            with m.State("CRC_HI"):
-                receiving("CRC_LO")
-            with m.State("CRC_LO"):
-                receiving("CHECK")
-            with m.State("CHECK"):
-                with m.If(crc != 0):
-                    fail(L.E_CRC)
-                with m.Elif(kind == L.ID):
-                    m.d.sync += code.eq(0)
-                    m.next = "ID"
-                with m.Else():
-                    m.next = "WORDS"
-            with m.State("WORDS"):
-                m.d.comb += self.o.valid.eq(1)
-                with m.If(sent):
-                    m.d.sync += index.eq(index + 1)
-                    with m.If(last_word):
-                        m.next = "HUNT"
-            with m.State("ERROR"):
-                m.d.comb += [self.reply.valid.eq(1), self.reply.payload.kind.eq(REPLY_ERROR)]
-                with m.If(self.reply.ready):
-                    m.next = "HUNT"
-            with m.State("ID"):
-                m.d.comb += [self.reply.valid.eq(1), self.reply.payload.kind.eq(REPLY_ID)]
-                with m.If(self.reply.ready):
-                    m.next = "HUNT"
+            self._receive_states(m, r)
+            self._answer_states(m, r)
         return m
+
+    def _fail(self, m, r, error):
+        m.d.sync += r.code.eq(error)
+        m.next = "ERROR"
+
+    def _receiving(self, m, r, state_next):
+        """A byte of a frame: the timeout runs while none comes."""
+        m.d.comb += self.i.ready.eq(1)
+        with m.If(r.take):
+            m.d.sync += [r.crc.eq(r.crc_next), r.idle.eq(0)]
+            m.next = state_next
+        with m.Elif(r.idle == self.timeout):
+            self._fail(m, r, L.E_TIMEOUT)
+        with m.Else():
+            m.d.sync += r.idle.eq(r.idle + 1)
+
+    def _receive_states(self, m, r):
+        with m.State("HUNT"):
+            m.d.sync += [r.crc.eq(0xFFFF), r.idle.eq(0), r.tag.eq(0), r.count.eq(0), r.index.eq(0)]
+            with m.If(r.lost):
+                m.d.sync += r.lost.eq(0)
+                self._fail(m, r, L.E_OVERFLOW)
+            with m.Else():
+                m.d.comb += self.i.ready.eq(1)
+                with m.If(r.take & (r.byte == L.SYNC)):
+                    m.next = "TYPE"
+        for state, state_next, field in (("TYPE", "LENGTH", r.kind), ("LENGTH", "TAG", r.length)):
+            with m.State(state):
+                self._receiving(m, r, state_next)
+                with m.If(r.take):
+                    m.d.sync += field.eq(r.byte)
+        with m.State("TAG"):
+            self._receiving(m, r, "TAG")
+            with m.If(r.take):
+                m.d.sync += r.tag.eq(r.byte)
+                self._check_header(m, r.kind, r.length, lambda error: self._fail(m, r, error))
+        with m.State("PAYLOAD"):
+            self._receiving(m, r, "PAYLOAD")
+            with m.If(r.take):
+                m.d.sync += [r.count.eq(r.count + 1), r.word.eq(Cat(r.word[8:], r.byte))]
+                m.d.comb += r.wr.en.eq(r.count[:2] == 3)
+                with m.If(r.count == 4 * r.length - 1):
+                    m.next = "CRC_HI"
+        with m.State("CRC_HI"):
+            self._receiving(m, r, "CRC_LO")
+        with m.State("CRC_LO"):
+            self._receiving(m, r, "CHECK")
+
+    def _answer_states(self, m, r):
+        with m.State("CHECK"):
+            with m.If(r.crc != 0):
+                self._fail(m, r, L.E_CRC)
+            with m.Elif(r.kind == L.ID):
+                m.d.sync += r.code.eq(0)
+                m.next = "ID"
+            with m.Else():
+                m.next = "WORDS"
+        with m.State("WORDS"):
+            m.d.comb += self.o.valid.eq(1)
+            with m.If(r.sent):
+                m.d.sync += r.index.eq(r.index + 1)
+                with m.If(r.last_word):
+                    m.next = "HUNT"
+        for state, kind in (("ERROR", REPLY_ERROR), ("ID", REPLY_ID)):
+            with m.State(state):
+                m.d.comb += [self.reply.valid.eq(1), self.reply.payload.kind.eq(kind)]
+                with m.If(self.reply.ready):
+                    m.next = "HUNT"
 
     @staticmethod
     def _check_header(m, kind, length, fail):

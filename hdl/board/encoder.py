@@ -6,6 +6,8 @@ encoder in the tests.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 from amaranth.hdl import Cat, Const, Module, Mux, Signal
 from amaranth.lib import stream, wiring
 from amaranth.lib.memory import Memory
@@ -66,75 +68,73 @@ class FrameEncoder(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         m.submodules.joints = joints = Memory(shape=32, depth=8, init=[])
-        joint_tag, full, done = Signal(8), Signal(), Signal()
-        self._collect(m, joints, joint_tag, full, done)
-        joint_word = joints.read_port()
-        boot = Signal(init=1)
-        kind, tag, length, code = Signal(8), Signal(8), Signal(8), Signal(8)
-        crc = Signal(16)
-        index = Signal(range(4 * 256))     # payload byte
-        out = Signal(8)
-        id_bytes = [Const((w >> (8 * b)) & 0xFF, 8) for w in self.id_words for b in range(4)]
-        sending = self.o.valid & self.o.ready
-        m.d.comb += self.o.payload.eq(out)
-        # Read a clock ahead: the word of the payload byte after this clock's transfer.
-        advance = Signal()   # a payload byte leaves this clock
-        m.d.comb += joint_word.addr.eq((index + advance)[2:])
-
-        crc_next = Signal(16)      # one CRC network on the byte going out, whatever the state
-        m.d.comb += crc_next.eq(crc16_byte(crc, out))
-
-        def emit(value, state_next, add_crc=True):
-            m.d.comb += [self.o.valid.eq(1), out.eq(value)]
-            with m.If(sending):
-                if add_crc:
-                    m.d.sync += crc.eq(crc_next)
-                m.next = state_next
-
+        r = SimpleNamespace(joint_tag=Signal(8), full=Signal(), done=Signal(), boot=Signal(init=1),
+                            kind=Signal(8), tag=Signal(8), length=Signal(8), code=Signal(8), crc=Signal(16),
+                            index=Signal(range(4 * 256)),   # payload byte
+                            out=Signal(8), crc_next=Signal(16), advance=Signal())
+        self._collect(m, joints, r.joint_tag, r.full, r.done)
+        r.joint_word = joints.read_port()
+        r.sending = self.o.valid & self.o.ready
+        m.d.comb += self.o.payload.eq(r.out)
+        # Read a clock ahead: the word of the payload byte after this clock's transfer
+        # (``advance``: a payload byte leaves this clock).
+        m.d.comb += r.joint_word.addr.eq((r.index + r.advance)[2:])
+        # One CRC network on the byte going out, whatever the state.
+        m.d.comb += r.crc_next.eq(crc16_byte(r.crc, r.out))
         with m.FSM():
             with m.State("IDLE"):
-                m.d.sync += [crc.eq(0xFFFF), index.eq(0)]
-                with m.If(boot):
-                    m.d.sync += [boot.eq(0), kind.eq(L.ID), tag.eq(0), length.eq(len(self.id_words))]
-                    m.next = "SYNC"
-                with m.Elif(self.reply.valid):
-                    m.d.comb += self.reply.ready.eq(1)
-                    is_id = self.reply.payload.kind == REPLY_ID
-                    m.d.sync += [kind.eq(Mux(is_id, L.ID, L.ERROR)), tag.eq(self.reply.payload.tag),
-                                 code.eq(self.reply.payload.code),
-                                 length.eq(Mux(is_id, len(self.id_words), 1))]
-                    m.d.comb += self.sent_error.eq(~is_id)
-                    m.next = "SYNC"
-                with m.Elif(full):
-                    m.d.sync += [kind.eq(L.JOINTS), tag.eq(joint_tag), length.eq(L.JOINT_WORDS)]
-                    m.next = "SYNC"
-            with m.State("SYNC"):
-                emit(L.SYNC, "TYPE", add_crc=False)
-            with m.State("TYPE"):
-                emit(kind, "LENGTH")
-            with m.State("LENGTH"):
-                emit(length, "TAG")
-            with m.State("TAG"):
-                emit(tag, "PAYLOAD")
+                self._start(m, r)
+            for state, value, state_next, add_crc in (("SYNC", L.SYNC, "TYPE", False), ("TYPE", r.kind, "LENGTH", True),
+                                                      ("LENGTH", r.length, "TAG", True), ("TAG", r.tag, "PAYLOAD", True)):
+                with m.State(state):
+                    self._emit(m, r, value, state_next, add_crc)
             with m.State("PAYLOAD"):
-                value = Signal(8)
-                with m.Switch(kind):
-                    with m.Case(L.ID):
-                        m.d.comb += value.eq(select(id_bytes, index))
-                    with m.Case(L.ERROR):
-                        m.d.comb += value.eq(Mux(index == 0, code, 0))
-                    with m.Default():
-                        m.d.comb += value.eq(joint_word.data.word_select(index[:2], 8))
-                emit(value, "PAYLOAD")
-                m.d.comb += advance.eq(sending)
-                with m.If(sending):
-                    m.d.sync += index.eq(index + 1)
-                    with m.If(index == 4 * length - 1):
-                        m.next = "CRC_HI"
+                self._payload(m, r)
             with m.State("CRC_HI"):
-                emit(crc[8:], "CRC_LO", add_crc=False)
+                self._emit(m, r, r.crc[8:], "CRC_LO", False)
             with m.State("CRC_LO"):
-                emit(crc[:8], "IDLE", add_crc=False)
-                with m.If(sending & (kind == L.JOINTS)):
-                    m.d.comb += done.eq(1)
+                self._emit(m, r, r.crc[:8], "IDLE", False)
+                with m.If(r.sending & (r.kind == L.JOINTS)):
+                    m.d.comb += r.done.eq(1)
         return m
+
+    def _emit(self, m, r, value, state_next, add_crc):
+        m.d.comb += [self.o.valid.eq(1), r.out.eq(value)]
+        with m.If(r.sending):
+            if add_crc:
+                m.d.sync += r.crc.eq(r.crc_next)
+            m.next = state_next
+
+    def _start(self, m, r):
+        """Which frame next: the ID after reset, a reply, or the joints of a result."""
+        m.d.sync += [r.crc.eq(0xFFFF), r.index.eq(0)]
+        with m.If(r.boot):
+            m.d.sync += [r.boot.eq(0), r.kind.eq(L.ID), r.tag.eq(0), r.length.eq(len(self.id_words))]
+            m.next = "SYNC"
+        with m.Elif(self.reply.valid):
+            m.d.comb += self.reply.ready.eq(1)
+            is_id = self.reply.payload.kind == REPLY_ID
+            m.d.sync += [r.kind.eq(Mux(is_id, L.ID, L.ERROR)), r.tag.eq(self.reply.payload.tag),
+                         r.code.eq(self.reply.payload.code), r.length.eq(Mux(is_id, len(self.id_words), 1))]
+            m.d.comb += self.sent_error.eq(~is_id)
+            m.next = "SYNC"
+        with m.Elif(r.full):
+            m.d.sync += [r.kind.eq(L.JOINTS), r.tag.eq(r.joint_tag), r.length.eq(L.JOINT_WORDS)]
+            m.next = "SYNC"
+
+    def _payload(self, m, r):
+        id_bytes = [Const((w >> (8 * b)) & 0xFF, 8) for w in self.id_words for b in range(4)]
+        value = Signal(8)
+        with m.Switch(r.kind):
+            with m.Case(L.ID):
+                m.d.comb += value.eq(select(id_bytes, r.index))
+            with m.Case(L.ERROR):
+                m.d.comb += value.eq(Mux(r.index == 0, r.code, 0))
+            with m.Default():
+                m.d.comb += value.eq(r.joint_word.data.word_select(r.index[:2], 8))
+        self._emit(m, r, value, "PAYLOAD", True)
+        m.d.comb += r.advance.eq(r.sending)
+        with m.If(r.sending):
+            m.d.sync += r.index.eq(r.index + 1)
+            with m.If(r.index == 4 * r.length - 1):
+                m.next = "CRC_HI"
