@@ -70,8 +70,8 @@ class IKPeripheral(wiring.Component):
     :data:`ADDR_WIDTH` bits; pose and joint words are the config's signed words (low W bits
     written, joints sign-extended), status bits of :mod:`ik5r.core.status`.
     Latency: a write is acknowledged in the clock of its request, a read in the next (one wait
-    state, its data registered), whatever the core does; ``err`` is never raised; a pose's result is valid ``core.latency``
-    (+ 1 for the input register) clocks after its ``START``.
+    state, its data registered), whatever the core does; ``err`` is never raised. A pose's result
+    is valid ``core.latency`` (+ 1 for the input register) clocks after its ``START``.
     Throughput: the compact core one pose per ``core.cycles_per_result`` clocks (holding up to 3),
     the pipelined core one pose per clock (holding ``core.capacity``, its output FIFO the queue).
     Ports: ``bus`` (:class:`WishboneSignature`, slave side), ``irq`` (level: ``IRQ_ENABLE.DONE``
