@@ -37,6 +37,8 @@ def test_litex_soc_adds_the_core_in_one_line_and_the_driver_compiles(tmp_path):
     soc = _soc()
     periph = add_ik5r(soc, k, build_dir=tmp_path / "ik5r")          # the one line
     paths = litex_soc_sources(soc, tmp_path / "soc")
+    assert not list(Path.cwd().glob("ik5r_litex_*.init"))      # written beside the Verilog instead
+    assert list(paths["verilog"].parent.glob("ik5r_litex_*.init"))
     verilog = paths["verilog"].read_text()
     assert f"{MODULE} {MODULE}(" in verilog
     source = next((tmp_path / "ik5r").glob("*.v")).read_text()

@@ -14,6 +14,7 @@ the interrupt when the SoC has an interrupt controller). Needs ``litex`` (the ``
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 from migen import ClockSignal, Instance, ResetSignal, Signal
@@ -85,13 +86,15 @@ def litex_soc_sources(soc, out: str | Path, name: str = "ik5r_litex") -> dict[st
     headers ``out/generated/{csr,mem,soc}.h`` (no BIOS, no toolchain run); the paths by name."""
     from litex.soc.integration import export
 
-    out = Path(out)
+    out = Path(out).resolve()
     (out / "gateware").mkdir(parents=True, exist_ok=True)
     (out / "generated").mkdir(parents=True, exist_ok=True)
     soc.finalize()
     paths = {"verilog": out / "gateware" / f"{name}.v", "csr.h": out / "generated" / "csr.h",
              "mem.h": out / "generated" / "mem.h", "soc.h": out / "generated" / "soc.h"}
-    soc.platform.get_verilog(soc, name=name).write(str(paths["verilog"]))
+    # LiteX writes the memories' .init files into the working directory: the gateware folder.
+    with contextlib.chdir(out / "gateware"):
+        soc.platform.get_verilog(soc, name=name).write(str(paths["verilog"].resolve()))
     paths["csr.h"].write_text(export.get_csr_header(soc.csr_regions, soc.constants,
                                                     csr_base=soc.mem_regions["csr"].origin))
     paths["mem.h"].write_text(export.get_mem_header(soc.mem_regions))
