@@ -155,7 +155,7 @@ def _compile(directory: Path, headers: dict, sources: tuple, cmd: list, elf: Pat
     try:
         _run([*cmd, "-I", str(directory), *compiled, "-o", tmp, "-lgcc"], what)
     except Rv32BuildError:
-        os.unlink(tmp)
+        Path(tmp).unlink(missing_ok=True)     # gcc removes its output when the link fails
         raise
     os.replace(tmp, elf)
 

@@ -267,15 +267,17 @@ def soc_design(k: Constants, cpu: str) -> tuple[str, dict]:
         raise SoftCpuError(f"cpu must be one of {', '.join(CPUS)}, got {cpu!r}")
     periph = peripheral(k, kind or None)
     isa = CPUS[cpu][1][0]
+    # The peripheral's firmware carries both paths (driver and software solver): twice the RAM.
+    ram_words = SYNTH_RAM_WORDS * (2 if periph is not None else 1)
     try:
-        fw = rv32.build(k, isa, SYNTH_RAM_WORDS, periph=periph is not None)
+        fw = rv32.build(k, isa, ram_words, periph=periph is not None)
     except rv32.Rv32BuildError as exc:
         raise SoftCpuError(str(exc)) from None
     module = f"ik5r_soc_{cpu}" + (f"_{kind}" if kind else "")
-    text = generate_soc(cpu=cpu, ram_words=SYNTH_RAM_WORDS, init=fw.image, host_port=False,
+    text = generate_soc(cpu=cpu, ram_words=ram_words, init=fw.image, host_port=False,
                         name=module, periph=periph)
     pmap = {"module": module, "latency_cycles": None, "cycles_per_result": None,
-            "isa": isa, "ram_bytes": 4 * SYNTH_RAM_WORDS, "code_bytes": fw.code_bytes,
+            "isa": isa, "ram_bytes": 4 * ram_words, "code_bytes": fw.code_bytes,
             "data_bytes": fw.data_bytes}
     if periph is not None:
         pmap.update(peripheral=kind, core_latency_cycles=periph.latency,
