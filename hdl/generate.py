@@ -77,7 +77,7 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
         from .blocks.acos import Acos
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == "ik":
-        if arch == "compact":
+        if arch == CoreArch.COMPACT:
             from .sequenced.engine import SequencedIKCore, SerialIK
             serial = options.pop("serial", None)
             if serial:
@@ -86,7 +86,7 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
         from .pipelined.core import IKCore
         # "staged": the one-register-set-per-stage elaboration of the pipelined core's stage list
         # (IKCore's own "compact" arch), before the sequenced engine.
-        return IKCore(constants=constants, arch="compact" if arch == STAGED else arch,
+        return IKCore(constants=constants, arch=CoreArch.COMPACT if arch == STAGED else arch,
                       tag_width=tag_width, **options)
     raise ValueError(f"block must be one of {BLOCKS}, got {block!r}")
 

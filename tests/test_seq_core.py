@@ -24,7 +24,8 @@ from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware_model import model
 from ik5r.firmware_model.poses import PoseBatch, concat
 from ik5r.firmware_model.vectors import directed_poses, random_poses
-from ik5r.hdl import seq_isa
+from ik5r.hdl.graph.inputs import INPUT_WORDS
+from ik5r.hdl.sequenced import isa as seq_isa
 from ik5r.hdl.generate import generate
 from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore, SerialIK
 from ik5r.hdl.sequenced.program import ik_program
@@ -106,7 +107,7 @@ def test_program_is_traced_from_the_one_ik():
     import inspect
 
     from ik5r.core import ik
-    from ik5r.hdl import seq_trace
+    from ik5r.hdl.graph import trace as seq_trace
 
     used = {(n.value.id, n.attr) for n in ast.walk(ast.parse(inspect.getsource(ik)))
             if isinstance(n, ast.Attribute) and isinstance(n.value, ast.Name) and n.value.id in ("fx", "fw")}
@@ -140,7 +141,7 @@ def test_adder_sources_checked():
     bad = {"alu": seq_isa.A_ADD, "bsel": seq_isa.B_CX}
     prog.code = [bad] + prog.code[1:]
     with pytest.raises(ValueError, match="adding ALU operation"):
-        seq_isa.run(prog, [0] * (len(seq_isa.INPUT_WORDS) + 1))
+        seq_isa.run(prog, [0] * (len(INPUT_WORDS) + 1))
 
 
 @pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))

@@ -6,6 +6,7 @@ from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
 
+from ..modes import Dsp, Products
 from .cordic import add_atan2
 from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop
@@ -51,7 +52,7 @@ class Acos(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic"):
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = Dsp.GENERIC):
         dp = in_fields = out_fields = None
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
@@ -65,7 +66,7 @@ class Acos(StreamBlock):
                          in_fields=in_fields, out_fields=out_fields, datapath=dp, dsp=dsp)
 
     @staticmethod
-    def chain(k: Constants, products: str = "parallel", radicand_bits: int | None = None, *,
+    def chain(k: Constants, products: str = Products.PARALLEL, radicand_bits: int | None = None, *,
               adders=None) -> Datapath:
         """The arc cosine as a chain: input ``x``; outputs ``angle``, ``sine``, ``saturated``.
         Split points (the IK core composes the parts): ``"factors"`` in front of 1 -+ x (reads

@@ -6,6 +6,7 @@ from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
 
+from ..modes import Dsp
 from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop
 from .stream_block import StreamBlock
@@ -124,7 +125,7 @@ class Sqrt(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = "generic"):
+                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = Dsp.GENERIC):
         dp = in_fields = out_fields = None
         if frac is not None and radicand_bits is not None:
             raise ValueError("give frac or radicand_bits, not both")

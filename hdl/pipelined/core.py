@@ -12,36 +12,16 @@ ready; values needed many stages later wait in the stash (:mod:`~ik5r.hdl.datapa
 
 from __future__ import annotations
 
-from amaranth.hdl import signed, unsigned
-
 from ik5r.core.fxconfig import Constants
-from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
 from ..datapath.stages import adders_for
-from .graph import STATUS_BITS, graph_datapath
-from ..modes import CORE_ARCHS
+from ..graph.inputs import core_fields
+from .graph import graph_datapath
+from ..modes import CORE_ARCHS, Arch, CoreArch, Dsp
 from ..datapath.stash import Stash
 from ..blocks.stream_block import StreamBlock
 
 __all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
-
-
-#: The order of the pose fields in the input payload (bit layout of the Verilog port).
-PAYLOAD_ORDER = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
-                 "has_roll", "q5_default", "shoulder_back", "elbow_down")
-
-
-def core_fields(constants: Constants) -> tuple[dict, dict]:
-    """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out:
-    the pose and solution schema of :mod:`ik5r.core.pose_fields`, in the formats of the config."""
-    c = constants.cfg
-    formats = {Format.LENGTH: (signed(c.width), c.frac_length), Format.UNIT: (signed(c.width), c.frac_unit),
-               Format.ANGLE: (signed(c.width), c.frac_angle), Format.BIT: (unsigned(1), 0),
-               Format.STATUS: (unsigned(STATUS_BITS), 0)}
-    pose = {f.name: f for f in POSE_FIELDS}
-    in_fields = {name: (*formats[pose[name].format], pose[name].doc) for name in PAYLOAD_ORDER}
-    out_fields = {f.name: (*formats[f.format], f.doc) for f in SOLUTION_FIELDS}
-    return in_fields, out_fields
 
 
 class IKCore(StreamBlock):
@@ -102,7 +82,7 @@ class IKCore(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 dsp: str = "generic"):
+                 dsp: str = Dsp.GENERIC):
         if arch not in CORE_ARCHS:
             raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
         dp = in_fields = out_fields = None
@@ -110,13 +90,13 @@ class IKCore(StreamBlock):
         if isinstance(constants, Constants):
             in_fields, out_fields = core_fields(constants)
             dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
-                                serial=arch == "compact")
+                                serial=arch == CoreArch.COMPACT)
         self.options = {}
-        super().__init__(constants=constants, arch="pipelined" if arch == "pipelined" else "iterative",
+        super().__init__(constants=constants, arch=Arch.PIPELINED if arch == Arch.PIPELINED else Arch.ITERATIVE,
                          tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,
                          dsp=dsp)
         self.arch = arch
-        self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
+        self.cycles_per_result = 1 if arch == Arch.PIPELINED else dp.latency
 
     def _inputs(self, p):
         # Words to the internal format: exact, ``internal_guard_bits`` more fraction bits.

@@ -18,12 +18,13 @@ from amaranth.hdl import Const, Mux, signed, unsigned
 
 from ik5r.core import fixedpoint
 
+from ..modes import Products
 from ..blocks.chains import compose, namespaced
 from ..blocks.cordic import Rotate, add_atan2
 from ..datapath.stages import Datapath, Stage, StageKind
 from ..datapath.expr import drop, rshift_round
 from ..datapath.products import add_products
-from ..graph.trace import Check, Node, Sop, Zero, bits_of
+from ..graph.nodes import Check, Node, Sop, Zero, bits_of, rotation_outputs
 from ..blocks.sqrt import add_isqrt, fit
 
 __all__ = ["Unit", "Ctx", "Derived", "flatten", "shape_of", "sop_unit", "mulc_unit", "atan2_unit",
@@ -132,7 +133,7 @@ class Ctx:
         self.ki, self.adders, self.key, self.serial = ki, adders, key, serial
         #: One item at a time (``serial``, the staged core): each multiplier stepped over its
         #: partial products, the CORDIC steps on one shared unit.
-        self.products = "sequential" if serial else "parallel"
+        self.products = Products.SEQUENTIAL if serial else Products.PARALLEL
         self.needed: set = set()
         self._derived: dict = {}
 
@@ -347,9 +348,7 @@ def rotate_unit(ctx, name, r) -> Unit:
     """``model.cordic_rotate``: of a constant vector the rotation's constant quadrant step
     (:func:`rotate_const_chain`), else the rotation block's chain; x, y and the saturation."""
     x, y, angle = r.args
-    outs = {node.op[-1]: node for node in r.g.nodes
-            if isinstance(node, Node) and node.op in ("rotx", "roty") and node.args[0] is r}
-    outputs = {"saturated": ctx.derived("flag", r), **outs}
+    outputs = {"saturated": ctx.derived("flag", r), **rotation_outputs(r)}
     angle_of = _reading(lambda s: ctx.word_of(s, angle), angle)
     if isinstance(x, int) and isinstance(y, int):
         chain = rotate_const_chain(ctx.ki, (x, y), skewed=not ctx.serial, adders=ctx.adders)
