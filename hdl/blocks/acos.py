@@ -8,7 +8,8 @@ from ik5r.core.fxconfig import Constants
 
 from ..modes import Dsp, Products
 from .cordic import add_atan2
-from ..datapath.stages import Datapath, adders_for
+from ..datapath.adders import adders_for
+from ..datapath.stages import Datapath
 from ..datapath.expr import drop
 from ..datapath.products import add_products
 from .sqrt import add_isqrt, fit

@@ -7,7 +7,8 @@ from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 from ik5r.core.fxconfig import Constants
 
 from ..modes import Dsp
-from ..datapath.stages import Datapath, adders_for
+from ..datapath.adders import adders_for
+from ..datapath.stages import Datapath
 from ..datapath.expr import drop
 from .stream_block import StreamBlock
 

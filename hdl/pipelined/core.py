@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from ik5r.core.fxconfig import Constants
 
-from ..datapath.stages import adders_for
+from ..datapath.adders import adders_for
 from ..graph.inputs import core_fields
 from .graph import graph_datapath
 from ..modes import CORE_ARCHS, Arch, CoreArch, Dsp
