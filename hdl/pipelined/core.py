@@ -17,11 +17,11 @@ from ik5r.core.fxconfig import Constants
 from ..datapath.adders import adders_for
 from ..graph.inputs import core_fields
 from .graph import graph_datapath
-from ..modes import CORE_ARCHS, Arch, CoreArch, Dsp
+from ..modes import CORE_BUILDS, Arch, CoreBuild, Dsp
 from ..datapath.stash import Stash
 from ..blocks.stream_block import StreamBlock
 
-__all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
+__all__ = ["IKCore"]
 
 
 class IKCore(StreamBlock):
@@ -70,27 +70,27 @@ class IKCore(StreamBlock):
       a stage ahead of its select. ``dsp="ecp5"`` builds the partial products as
       ``MULT18X18D`` instances with their input and output registers and the CORDIC
       add/subtracts as ``CCU2C`` chains (same latency, same bits).
-    * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
+    * ``"staged"`` (:class:`~ik5r.hdl.modes.CoreBuild`): the same steps, sequenced: one pose in flight
       (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
       previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
       other on ONE shared micro-rotation unit (:func:`~ik5r.hdl.blocks.cordic.cordic_unit`, one step per
       clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
       (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
       rounding, saturation) keep their own registers, each used for one clock per pose.
-      ``hdl.generate`` names this elaboration ``staged``: its ``compact`` IK core is the much
-      smaller sequenced engine, :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
+      Not the ``compact`` IK core: that is the much smaller sequenced engine,
+      :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
                  dsp: str = Dsp.GENERIC):
-        if arch not in CORE_ARCHS:
-            raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
+        if arch not in CORE_BUILDS:
+            raise ValueError(f"arch must be one of {CORE_BUILDS}, got {arch!r}")
         dp = in_fields = out_fields = None
         self._stash = Stash()
         if isinstance(constants, Constants):
             in_fields, out_fields = core_fields(constants)
             dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
-                                serial=arch == CoreArch.COMPACT)
+                                serial=arch == CoreBuild.STAGED)
         self.options = {}
         super().__init__(constants=constants, arch=Arch.PIPELINED if arch == Arch.PIPELINED else Arch.ITERATIVE,
                          tag_width=tag_width, in_fields=in_fields, out_fields=out_fields, datapath=dp,
