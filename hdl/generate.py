@@ -22,7 +22,7 @@ from amaranth.lib import wiring
 from ik5r.core.fxconfig import Constants
 
 from .datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
-from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
+from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, Block, CoreArch, CoreBuild
 from .provenance import arm_hash, verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
@@ -44,9 +44,6 @@ def resolve_arch(block: str, arch: str) -> str:
     if arch in (Arch.ITERATIVE, CoreArch.COMPACT):
         return archs[1]
     raise ValueError(f"{block}: arch must be one of {archs}, got {arch!r}")
-
-#: The IK core's former compact arch (one register set per stage), available by name only.
-STAGED = "staged"
 
 #: Version of the port-map JSON layout.
 PORTMAP_VERSION = 1
@@ -77,16 +74,14 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
         from .blocks.acos import Acos
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == "ik":
-        if arch == "compact":
+        if arch == CoreArch.COMPACT:
             from .sequenced.engine import SequencedIKCore, SerialIK
             serial = options.pop("serial", None)
             if serial:
                 return SerialIK(constants=constants, tag_width=tag_width, beat_bits=serial, **options)
             return SequencedIKCore(constants=constants, tag_width=tag_width, **options)
         from .pipelined.core import IKCore
-        # "staged": the one-register-set-per-stage elaboration of the pipelined core's stage list
-        # (IKCore's own "compact" arch), before the sequenced engine.
-        return IKCore(constants=constants, arch="compact" if arch == STAGED else arch,
+        return IKCore(constants=constants, arch=arch,
                       tag_width=tag_width, **options)
     raise ValueError(f"block must be one of {BLOCKS}, got {block!r}")
 
@@ -167,7 +162,7 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     ``options`` go to the block's constructor (``magnitude=False`` for atan2, ``frac=`` or
     ``radicand_bits=`` for sqrt) and into the module name when given.
     """
-    if arch not in archs_of(block) and not (block == "ik" and arch == STAGED):
+    if arch not in archs_of(block) and not (block == Block.IK and arch == CoreBuild.STAGED):
         raise ValueError(f"{block}: arch must be one of {archs_of(block)}, got {arch!r}")
     name = module_name(block, arch, **options)
     header_options = dict(options)

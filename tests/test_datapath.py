@@ -8,7 +8,8 @@ from amaranth.hdl import Signal, signed
 from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.blocks.acos import Acos
 from ik5r.hdl.blocks.cordic import Rotate
-from ik5r.hdl.datapath.stages import Datapath, Ecp5Adders, Stage, StageKind, adders_for
+from ik5r.hdl.datapath.adders import Ecp5Adders, adders_for
+from ik5r.hdl.datapath.stages import Datapath, Stage, StageKind
 from ik5r.hdl.datapath.expr import drop
 from ik5r.hdl.blocks.stream_block import StreamBlock
 
@@ -113,7 +114,7 @@ def test_the_chains_declare_what_they_read_and_leave():
     """Each chain, checked alone from its declared inputs to its declared outputs."""
     from ik5r.hdl.blocks.chains import namespaced
     from ik5r.hdl.blocks.cordic import add_atan2
-    from ik5r.hdl.pipelined.units import rotate_const_chain
+    from ik5r.hdl.pipelined.const_rotate import rotate_const_chain
     k = constants(load_config("q18"))
     word = signed(k.cfg.width)
     for skewed in (True, False):

@@ -27,7 +27,8 @@ from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware_model import model
 from ik5r.hdl.blocks.acos import Acos
 from ik5r.hdl.blocks.cordic import Atan2, Rotate
-from ik5r.hdl.datapath.stages import OUTPUT_FIFO_LATENCY, Ecp5Adders
+from ik5r.hdl.datapath.adders import Ecp5Adders
+from ik5r.hdl.datapath.stages import OUTPUT_FIFO_LATENCY
 from ik5r.hdl.datapath.ecp5 import ecp5_add_sub_verilog
 from ik5r.hdl.datapath.expr import add_sub
 from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name

@@ -7,7 +7,7 @@ degenerate approaches, full-scale and most negative words), for both architectur
 q32. The pipelined core runs at full rate (exact latency, one pose per clock), then with random
 input gaps and output back-pressure (order, no loss, output held stable), then with the output held
 until it is full (exactly its capacity taken, nothing lost, full rate again once released); the
-staged elaboration (``IKCore(arch="compact")``, ``generate`` arch ``staged``; slow set) with
+staged elaboration (``IKCore(arch="staged")``, ``generate`` arch ``staged``; slow set) with
 back-pressure too. The ``compact`` arch of ``generate`` (the sequenced engine) is tested in
 tests/test_seq_core.py.
 """
@@ -110,7 +110,7 @@ def test_staged(cfg):
     poses = poses_for(k, 60, seed=2)
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))
-    dut = IKCore(constants=k, arch="compact", tag_width=TAG_WIDTH)
+    dut = IKCore(constants=k, arch="staged", tag_width=TAG_WIDTH)
     assert dut.cycles_per_result == dut.latency
     outputs, accepted, produced = run_stream(dut, items)
     compare(items, expected, outputs)
@@ -128,7 +128,7 @@ def test_staged_internal_format():
     poses = concat(directed_poses(k)[::8], random_poses(k, 1, seed=4))
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))
-    dut = IKCore(constants=k, arch="compact", tag_width=TAG_WIDTH)
+    dut = IKCore(constants=k, arch="staged", tag_width=TAG_WIDTH)
     outputs, _, _ = run_stream(dut, items, stall_seed=7)
     compare(items, expected, outputs)
 
@@ -161,7 +161,7 @@ def test_constructor_validation():
     with pytest.raises(ValueError):
         IKCore(constants=k, arch="pipelined", dsp="xilinx")
     with pytest.raises(ValueError):         # the DSP mapping is a pipelined option
-        IKCore(constants=k, arch="compact", dsp="ecp5")
+        IKCore(constants=k, arch="staged", dsp="ecp5")
     gc.collect()   # the half-built components warn here (filtered), not in a later test
 
 

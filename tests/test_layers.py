@@ -103,7 +103,7 @@ def test_hardware_choices_are_named_once():
 
     from ik5r.hdl import modes
 
-    lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
+    lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.CORE_BUILDS, modes.ARCH_NAMES,
                                             modes.DSPS, modes.PRODUCTS, modes.BLOCKS)}
     found = []
     for module, path in all_modules().items():
@@ -114,4 +114,117 @@ def test_hardware_choices_are_named_once():
                     isinstance(e, ast.Constant) and isinstance(e.value, str) for e in node.elts):
                 if frozenset(e.value for e in node.elts) in lists:
                     found.append(f"{path}:{node.lineno}")
+    assert found == []
+
+
+#: The subpackages (and top modules) of ``ik5r.hdl`` and what each may import of the others. The
+#: IR (``graph``) imports none: both cores build from it, neither from the other.
+HDL_ALLOWED = {
+    "modes": set(), "provenance": set(), "soc": set(), "graph": set(),
+    "datapath": {"modes"},
+    "blocks": {"datapath", "modes"},
+    "pipelined": {"graph", "blocks", "datapath", "modes"},
+    "sequenced": {"graph", "blocks", "datapath", "modes"},
+    "generate": {"blocks", "datapath", "modes", "pipelined", "provenance", "sequenced"},
+    "formal": {"blocks", "datapath", "generate", "modes", "pipelined", "sequenced"},
+}
+
+
+def hdl_part(module: str) -> str:
+    """The subpackage or top module of ``ik5r.hdl`` a module belongs to."""
+    return module.split(".")[2]
+
+
+def hdl_violations(mods: dict[str, Path]) -> list[str]:
+    bad = []
+    for module, path in sorted(mods.items()):
+        if not module.startswith("ik5r.hdl."):
+            continue
+        for target in sorted(imports_of(module, path)):
+            if target in mods and target.startswith("ik5r.hdl.") and \
+                    hdl_part(target) not in HDL_ALLOWED[hdl_part(module)] | {hdl_part(module)}:
+                bad.append(f"{path}: {module} ({hdl_part(module)}) imports {target}")
+    return bad
+
+
+def import_cycles(mods: dict[str, Path]) -> list[list[str]]:
+    """Every strongly connected set of more than one module in the import graph (imports inside
+    functions count: a circle is a circle whenever it closes)."""
+    graph = {m: sorted(t for t in imports_of(m, p) if t in mods and t != m) for m, p in mods.items()}
+    index, low, stack, on, cycles = {}, {}, [], set(), []
+
+    def visit(v):                               # Tarjan; the graph is small and shallow
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            part = []
+            while not part or part[-1] != v:
+                part.append(stack.pop())
+                on.discard(part[-1])
+            if len(part) > 1:
+                cycles.append(sorted(part))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return cycles
+
+
+def test_hdl_subpackages_import_only_what_the_table_allows():
+    mods = all_modules()
+    assert {hdl_part(m) for m in mods if m.startswith("ik5r.hdl.")} == set(HDL_ALLOWED)
+    assert hdl_violations(mods) == []
+
+
+def test_the_hdl_table_is_a_hierarchy():
+    done: set[str] = set()
+    while len(done) < len(HDL_ALLOWED):
+        ready = {p for p, uses in HDL_ALLOWED.items() if p not in done and uses <= done}
+        assert ready, f"a circle among {set(HDL_ALLOWED) - done}"
+        done |= ready
+
+
+def test_an_hdl_violation_and_a_circle_are_found(tmp_path):
+    trace = tmp_path / "trace.py"
+    trace.write_text("def f():\n    from ..sequenced import isa\n")
+    isa = tmp_path / "isa.py"
+    isa.write_text("from ..graph import trace\n")
+    mods = {**all_modules(), "ik5r.hdl.graph.trace": trace, "ik5r.hdl.sequenced.isa": isa}
+    assert hdl_violations(mods) == [f"{trace}: ik5r.hdl.graph.trace (graph) imports ik5r.hdl.sequenced",
+                                    f"{trace}: ik5r.hdl.graph.trace (graph) imports ik5r.hdl.sequenced.isa"]
+    assert ["ik5r.hdl.graph.trace", "ik5r.hdl.sequenced.isa"] in import_cycles(mods)
+
+
+def test_no_import_circle_in_hdl():
+    hdl = {m: p for m, p in all_modules().items() if m.startswith("ik5r.hdl")}
+    assert len(hdl) > 40 and import_cycles(hdl) == []
+
+
+def test_an_operation_is_spelled_in_one_module():
+    """The IR's operations are named once (``ik5r.hdl.graph.ops.Op``): every module that reads the
+    graph's nodes switches on the members, no string of an operation's name appears in its code
+    (the engine's own unit names, ``sqrt`` and the like, are not the graph's)."""
+    import ast
+
+    from ik5r.hdl.graph.ops import Op
+
+    mods = all_modules()
+    ir = {"ik5r.hdl.graph.trace", "ik5r.hdl.graph.nodes", "ik5r.hdl.graph.ops"}
+    readers = {m for m, p in mods.items() if m.startswith("ik5r.hdl.") and imports_of(m, p) & ir} | ir
+    assert {"ik5r.hdl.sequenced.lower", "ik5r.hdl.pipelined.glue", "ik5r.hdl.graph.trace"} <= readers
+    found = []
+    for module in sorted(readers - {"ik5r.hdl.graph.ops"}):
+        tree = ast.parse(mods[module].read_text())
+        docs = {id(n.body[0].value) for n in ast.walk(tree)
+                if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef)) and n.body
+                and isinstance(n.body[0], ast.Expr)}
+        found += [f"{module}:{n.lineno} {n.value!r}" for n in ast.walk(tree)
+                  if isinstance(n, ast.Constant) and n.value in set(Op) and id(n) not in docs]
     assert found == []

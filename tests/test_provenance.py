@@ -55,7 +55,7 @@ def test_ik_core_header_names_the_internal_format():
 
     # The header of the core as generate() writes it, without converting the core (~30 s).
     k = constants(load_config("q32w"))
-    core = IKCore(constants=k, arch="compact")
+    core = IKCore(constants=k, arch="staged")
     core._MustUse__silence = True      # read for its ports and figures only, never elaborated
     text = verilog_header(portmap(core, "ik", "compact", k), k)
     i = k.cfg.internal()

@@ -24,6 +24,7 @@ from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware_model import model
 from ik5r.firmware_model.poses import PoseBatch, concat
 from ik5r.firmware_model.vectors import directed_poses, random_poses
+from ik5r.hdl.graph.inputs import INPUT_WORDS
 from ik5r.hdl.sequenced import isa as seq_isa
 from ik5r.hdl.generate import generate
 from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore, SerialIK
@@ -141,7 +142,7 @@ def test_adder_sources_checked():
     bad = {"alu": seq_isa.A_ADD, "bsel": seq_isa.B_CX}
     prog.code = [bad] + prog.code[1:]
     with pytest.raises(ValueError, match="adding ALU operation"):
-        seq_isa.run(prog, [0] * (len(seq_isa.INPUT_WORDS) + 1))
+        seq_isa.run(prog, [0] * (len(INPUT_WORDS) + 1))
 
 
 @pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))

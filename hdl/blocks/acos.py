@@ -6,8 +6,10 @@ from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
 
+from ..modes import Dsp, Products
 from .cordic import add_atan2
-from ..datapath.stages import Datapath, adders_for
+from ..datapath.adders import adders_for
+from ..datapath.stages import Datapath
 from ..datapath.expr import drop
 from ..datapath.products import add_products
 from .sqrt import add_isqrt, fit
@@ -51,7 +53,7 @@ class Acos(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic",
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = Dsp.GENERIC,
                  rotations_per_stage: int = 1):
         dp = in_fields = out_fields = None
         if isinstance(constants, Constants):
@@ -66,7 +68,7 @@ class Acos(StreamBlock):
                          out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
 
     @staticmethod
-    def chain(k: Constants, products: str = "parallel", radicand_bits: int | None = None, *,
+    def chain(k: Constants, products: str = Products.PARALLEL, radicand_bits: int | None = None, *,
               adders=None, steps_per_stage: int | None = None) -> Datapath:
         """The arc cosine as a chain: input ``x``; outputs ``angle``, ``sine``, ``saturated``.
         Split points (the IK core composes the parts): ``"factors"`` in front of 1 -+ x (reads

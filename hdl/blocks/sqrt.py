@@ -6,7 +6,9 @@ from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
 
-from ..datapath.stages import Datapath, adders_for
+from ..modes import Dsp
+from ..datapath.adders import adders_for
+from ..datapath.stages import Datapath
 from ..datapath.expr import drop
 from .stream_block import StreamBlock, micro_steps
 
@@ -124,7 +126,7 @@ class Sqrt(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = "generic",
+                 frac: int | None = None, radicand_bits: int | None = None, dsp: str = Dsp.GENERIC,
                  rotations_per_stage: int = 1):
         dp = in_fields = out_fields = None
         if frac is not None and radicand_bits is not None:

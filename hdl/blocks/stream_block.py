@@ -9,8 +9,9 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
 
+from ..datapath.build import build
 from ..datapath.stages import check_steps_per_stage
-from ..modes import ARCHS, DSPS
+from ..modes import ARCHS, DSPS, Arch, Dsp
 
 __all__ = ["StreamBlock", "check_common", "micro_steps"]
 
@@ -21,7 +22,7 @@ def micro_steps(arch, rotations_per_stage) -> int:
     return check_steps_per_stage(rotations_per_stage, arch if arch in ARCHS else "pipelined")
 
 
-def check_common(constants, arch, tag_width, dsp="generic"):
+def check_common(constants, arch, tag_width, dsp=Dsp.GENERIC):
     if not isinstance(constants, Constants):
         raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
     if arch not in ARCHS:
@@ -30,7 +31,7 @@ def check_common(constants, arch, tag_width, dsp="generic"):
         raise ValueError(f"tag_width must be a non-negative integer, got {tag_width!r}")
     if dsp not in DSPS:
         raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
-    if dsp != "generic" and arch != "pipelined":
+    if dsp != Dsp.GENERIC and arch != Arch.PIPELINED:
         raise ValueError(f"dsp={dsp!r} applies to the pipelined architecture, not {arch!r}")
 
 
@@ -51,7 +52,7 @@ class StreamBlock(wiring.Component):
     """
 
     def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath,
-                 dsp="generic", rotations_per_stage=1):
+                 dsp=Dsp.GENERIC, rotations_per_stage=1):
         check_common(constants, arch, tag_width, dsp)
         if datapath.adders.dsp != dsp:
             raise ValueError(f"datapath {datapath.name!r} made with adders for "
@@ -61,7 +62,7 @@ class StreamBlock(wiring.Component):
         self.tag_width = tag_width
         #: Multiplier mapping of the pipelined architecture, one of :data:`DSPS`.
         self.dsp = dsp
-        if dsp != "generic":
+        if dsp != Dsp.GENERIC:
             self.options = dict(getattr(self, "options", {}), dsp=dsp)
         #: CORDIC micro-rotations (and square-root digits) per pipeline stage.
         self.rotations_per_stage = micro_steps(arch, rotations_per_stage)
@@ -79,7 +80,7 @@ class StreamBlock(wiring.Component):
         #: when the output is not held.
         self.latency = datapath.stream_latency(arch)
         #: Clock cycles per result at full rate (1 pipelined; latency iterative).
-        self.cycles_per_result = 1 if arch == "pipelined" else datapath.latency
+        self.cycles_per_result = 1 if arch == Arch.PIPELINED else datapath.latency
         #: Items the block holds at most: while ``o`` is held it accepts this many.
         self.capacity = datapath.capacity(arch)
         super().__init__({
@@ -114,5 +115,5 @@ class StreamBlock(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         state = self._state_of(self.i.payload)
-        self._dp.build(m, self._datapath_arch, state, self._payload, self.i, self.o, self.dsp)
+        build(self._dp, m, self._datapath_arch, state, self._payload, self.i, self.o, self.dsp)
         return m

@@ -8,10 +8,31 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Mux, Signal, Value
 from amaranth.lib.fifo import SyncFIFOBuffered
 
+from ..modes import ARCHS, DSPS, Arch, Dsp
 from .stages import SharedStage, Stage
 from .products import Product
 
-__all__ = ["build_pipelined", "build_iterative"]
+__all__ = ["build", "build_pipelined", "build_iterative"]
+
+
+def build(dp, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = Dsp.GENERIC) -> None:
+    """Elaborate the datapath ``dp`` into ``m`` between the streams ``i`` (its payload already
+    turned into the state ``inputs``) and ``o``, whose payload fields ``payload_of(final_state)
+    -> {field: value}`` gives. ``dsp`` (one of :data:`DSPS`, the datapath's :attr:`adders`' own)
+    applies to the pipelined architecture."""
+    if dsp not in DSPS:
+        raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
+    if dsp == Dsp.ECP5 and dp.adders.dsp != dsp:
+        raise ValueError(f"datapath {dp.name!r}: built with dsp={dsp!r}, made with "
+                         f"adders for {dp.adders.dsp!r} (Datapath(adders=adders_for(dsp)))")
+    if arch != Arch.PIPELINED and any(getattr(Stage.of(stage).fn, "grouped", False) for stage in dp.stages):
+        raise ValueError(f"datapath {dp.name!r}: micro-steps grouped per stage need the pipelined arch")
+    if arch == Arch.PIPELINED:
+        build_pipelined(dp, m, inputs, payload_of, i, o, dsp)
+    elif arch == Arch.ITERATIVE:
+        build_iterative(dp, m, inputs, payload_of, i, o)
+    else:
+        raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
 
 
 def _registers(dp, prefix, values):
@@ -56,7 +77,7 @@ def _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp):
     regs = _registers(dp, prefix, out)
     stage_valid = Signal(name=f"{prefix}_valid")
     plain = list(regs)
-    if dsp == "ecp5":
+    if dsp == Dsp.ECP5:
         for key in regs:
             if isinstance(out[key], Product) and out[key].map_ecp5(
                     m, f"{prefix}_{key}", regs[key], loaded):
@@ -67,7 +88,7 @@ def _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp):
 
 
 def build_pipelined(dp, m, inputs, payload_of, i, o, dsp):
-    fifo, taken_in = _credits(dp, m, i, o, dp.capacity("pipelined"))
+    fifo, taken_in = _credits(dp, m, i, o, dp.capacity(Arch.PIPELINED))
     state, valid = dict(inputs), taken_in
     # What each register of the previous stage is loaded with (for the ECP5 DSP mapping).
     loaded = {}

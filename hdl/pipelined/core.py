@@ -12,36 +12,17 @@ ready; values needed many stages later wait in the stash (:mod:`~ik5r.hdl.datapa
 
 from __future__ import annotations
 
-from amaranth.hdl import signed, unsigned
-
 from ik5r.core.fxconfig import Constants
-from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
-from ..datapath.stages import adders_for, steps_per_stage
-from .graph import STATUS_BITS, graph_datapath
-from ..modes import CORE_ARCHS
+from ..datapath.adders import adders_for
+from ..datapath.stages import steps_per_stage
+from ..graph.inputs import core_fields
+from .graph import graph_datapath
+from ..modes import CORE_BUILDS, Arch, CoreBuild, Dsp
 from ..datapath.stash import Stash
 from ..blocks.stream_block import StreamBlock, micro_steps
 
-__all__ = ["IKCore", "CORE_ARCHS", "core_fields"]
-
-
-#: The order of the pose fields in the input payload (bit layout of the Verilog port).
-PAYLOAD_ORDER = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz",
-                 "has_roll", "q5_default", "shoulder_back", "elbow_down")
-
-
-def core_fields(constants: Constants) -> tuple[dict, dict]:
-    """The IK core's payload fields (name -> (shape, fraction bits, description)), in and out:
-    the pose and solution schema of :mod:`ik5r.core.pose_fields`, in the formats of the config."""
-    c = constants.cfg
-    formats = {Format.LENGTH: (signed(c.width), c.frac_length), Format.UNIT: (signed(c.width), c.frac_unit),
-               Format.ANGLE: (signed(c.width), c.frac_angle), Format.BIT: (unsigned(1), 0),
-               Format.STATUS: (unsigned(STATUS_BITS), 0)}
-    pose = {f.name: f for f in POSE_FIELDS}
-    in_fields = {name: (*formats[pose[name].format], pose[name].doc) for name in PAYLOAD_ORDER}
-    out_fields = {f.name: (*formats[f.format], f.doc) for f in SOLUTION_FIELDS}
-    return in_fields, out_fields
+__all__ = ["IKCore"]
 
 
 class IKCore(StreamBlock):
@@ -92,22 +73,22 @@ class IKCore(StreamBlock):
       add/subtracts as ``CCU2C`` chains (same latency, same bits). ``rotations_per_stage`` (1,
       2 or 4): CORDIC micro-rotations and square-root digits per pipeline stage, the same
       steps in fewer, longer stages (fewer cycles of latency, a lower Fmax; same bits).
-    * ``"compact"``: the same steps, sequenced, for small FPGAs: one pose in flight
+    * ``"staged"`` (:class:`~ik5r.hdl.modes.CoreBuild`): the same steps, sequenced: one pose in flight
       (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
       previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
       other on ONE shared micro-rotation unit (:func:`~ik5r.hdl.blocks.cordic.cordic_unit`, one step per
       clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
       (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
       rounding, saturation) keep their own registers, each used for one clock per pose.
-      ``hdl.generate`` names this elaboration ``staged``: its ``compact`` IK core is the much
-      smaller sequenced engine, :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
+      Not the ``compact`` IK core: that is the much smaller sequenced engine,
+      :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 dsp: str = "generic", rotations_per_stage: int = 1):
-        if arch not in CORE_ARCHS:
-            raise ValueError(f"arch must be one of {CORE_ARCHS}, got {arch!r}")
-        block_arch = "pipelined" if arch == "pipelined" else "iterative"
+                 dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1):
+        if arch not in CORE_BUILDS:
+            raise ValueError(f"arch must be one of {CORE_BUILDS}, got {arch!r}")
+        block_arch = Arch.PIPELINED if arch == Arch.PIPELINED else Arch.ITERATIVE
         dp = in_fields = out_fields = None
         self._stash = Stash()
         if isinstance(constants, Constants):
@@ -116,12 +97,12 @@ class IKCore(StreamBlock):
             # square-root digits) per stage from the context.
             with steps_per_stage(micro_steps(block_arch, rotations_per_stage)):
                 dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
-                                    serial=arch == "compact")
+                                    serial=arch == CoreBuild.STAGED)
         self.options = {}
         super().__init__(constants=constants, arch=block_arch, tag_width=tag_width, in_fields=in_fields,
                          out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
         self.arch = arch
-        self.cycles_per_result = 1 if arch == "pipelined" else dp.latency
+        self.cycles_per_result = 1 if arch == Arch.PIPELINED else dp.latency
 
     def _inputs(self, p):
         # Words to the internal format: exact, ``internal_guard_bits`` more fraction bits.

@@ -6,9 +6,10 @@ from __future__ import annotations
 
 from amaranth.hdl import Cat, Const, Mux
 
+from ..graph.ops import Op
 from ..datapath.expr import rshift_round, saturate
 from .units import Unit, atan2_unit, mulc_unit, rotate_unit, sop_unit, sqrt_unit
-from ..graph.trace import AnyOf, Compare, Not, Sop
+from ..graph.nodes import AnyOf, Compare, Not, Sop
 from ..blocks.sqrt import fit
 
 __all__ = ["unit_of"]
@@ -24,27 +25,27 @@ def glue_unit(ctx, name, n) -> Unit:
     stage; a compare that selects a value is registered a stage ahead of its select."""
     op, args, ki = n.op, n.args, ctx.ki
     nearest = ki.cfg.round_nearest
-    if op == "add":
+    if op == Op.ADD:
         return ctx.glue(name, args, [n], lambda a, b: (a + b,))
-    if op == "sub":
+    if op == Op.SUB:
         return ctx.glue(name, args, [n], lambda a, b: (a - b,))
-    if op == "neg":
+    if op == Op.NEG:
         return ctx.glue(name, args, [n], lambda a: (-a,))
-    if op == "rsr":
+    if op == Op.RSR:
         return ctx.glue(name, args, [n], lambda a: (rshift_round(a, n.params[0], nearest),))
-    if op == "sel":
+    if op == Op.SEL:
         cond = ctx.canon(n.params[0])
         return ctx.glue(name, [cond, *args], [n], lambda c, a, b: (Mux(c, a, b),))
-    if op == "sat":
+    if op == Op.SAT:
         return sat_unit(ctx, name, n)
     pi = ki.pi_a
-    if op == "wrap":
+    if op == Op.WRAP:
         return ctx.selecting(name, args, n, [lambda a: a > pi, lambda a: a < -pi],
                              lambda f, a: Mux(f[0], a - 2 * pi, Mux(f[1], a + 2 * pi, a)))
-    if op == "opp":
+    if op == Op.OPP:
         return ctx.selecting(name, args, n, [lambda a: a > 0],
                              lambda f, a: Mux(f[0], a - pi, a + pi))
-    if op == "clip":
+    if op == Op.CLIP:
         return clip_unit(ctx, name, n)
     raise NotImplementedError(f"no pipelined unit for {n}")
 
@@ -116,5 +117,5 @@ def unit_of(ctx, name, v) -> Unit:
         return sop_unit(ctx, name, v)
     if isinstance(v, (Compare, Not, AnyOf)):
         return cond_unit(ctx, name, v)
-    builders = {"mulc": mulc_unit, "atan2": atan2_unit, "rot": rotate_unit, "sqrt": sqrt_unit}
+    builders = {Op.MULC: mulc_unit, Op.ATAN2: atan2_unit, Op.ROT: rotate_unit, Op.SQRT: sqrt_unit}
     return builders.get(v.op, glue_unit)(ctx, name, v)

@@ -20,20 +20,23 @@ from amaranth.hdl import Const, Mux
 from ik5r.core.fxconfig import Constants
 from ik5r.core.status import FIXED_WIDTH
 
+from ..graph.ops import Op
+from ..modes import Products
 from ..blocks.chains import retraced
 from ..datapath.stages import Datapath
 from ..datapath.expr import drop
 from .glue import unit_of
 from .units import Ctx, Derived
-from ..sequenced.isa import C_BACK, C_DOWN, C_ROLL
-from ..graph.trace import AnyOf, Compare, Flag, Node, Not, Sop, Zero, trace
+from ..graph.inputs import BranchFlag
+from ..graph.nodes import Compare, Flag, Node, Not, Sop, Zero
+from ..graph.trace import trace
 from ..datapath.stash import REGISTER_DELAY_MAX, Stash
 
 __all__ = ["graph_datapath", "STATUS_BITS"]
 
 STATUS_BITS = FIXED_WIDTH
-#: The input keys of the branch flags (the sources of :class:`~ik5r.hdl.graph.trace.Flag`).
-FLAG_KEYS = {C_ROLL: "roll", C_BACK: "back", C_DOWN: "down"}
+#: The state keys of the branch flags.
+FLAG_KEYS = tuple(flag.value for flag in BranchFlag)
 
 
 class _Keys:
@@ -46,8 +49,8 @@ class _Keys:
 
     def __call__(self, v) -> str:
         if isinstance(v, Flag):
-            return FLAG_KEYS[v.source]
-        if isinstance(v, Node) and v.op == "in":
+            return v.flag.value
+        if isinstance(v, Node) and v.op == Op.INPUT:
             return v.params[0]
         if id(v) not in self.names:
             self.objects.append(v)
@@ -62,29 +65,23 @@ class _Keys:
 
 
 def _is_input(v) -> bool:
-    return isinstance(v, Flag) or (isinstance(v, Node) and v.op == "in")
+    return isinstance(v, Flag) or (isinstance(v, Node) and v.op == Op.INPUT)
 
 
 def _leaves(ctx, status) -> list:
     """The status leaves as (bit value object, status bit, gate flag keys): a saturation's or a
     rotation's flag, a compare, an atan2's zero vector."""
     out = []
-
-    def leaf(event, bit, gates):
+    for event, bit, flags in status.flat():
+        if any(level != 0 for _, level in flags):
+            raise NotImplementedError("a status bit gated by a flag being low")
+        gates = tuple(flag.value for flag, _ in flags)
         if isinstance(event, Node):
             out.append((ctx.derived("flag", event), bit, gates))
-        elif isinstance(event, AnyOf):
-            for c in event.conds:
-                leaf(c, bit, gates)
         elif isinstance(event, (Compare, Not, Zero)):
             out.append((ctx.canon(event), bit, gates))
         else:
             raise NotImplementedError(f"status of {event!r}")
-
-    for event, bit, gates in status.leaves:
-        leaf(event, bit, tuple(FLAG_KEYS[source] for source, level in gates if level == 0))
-        if any(level != 0 for _, level in gates):
-            raise NotImplementedError("a status bit gated by a flag being low")
     return out
 
 
@@ -112,7 +109,7 @@ class _Schedule:
     def _producer(self, v):
         if isinstance(v, Derived):
             return v.node
-        if isinstance(v, Node) and v.op in ("rotx", "roty"):
+        if isinstance(v, Node) and v.op in (Op.ROTX, Op.ROTY):
             return v.args[0]
         return v
 
@@ -143,7 +140,7 @@ def graph_datapath(words: Constants, stash: Stash, tag: bool, adders, *, serial:
     keys = _Keys()
     ctx = Ctx(words.internal, adders, keys, serial)
     leaves = _leaves(ctx, status)
-    gates = {key: Flag(source) for source, key in FLAG_KEYS.items()}
+    gates = {flag.value: Flag(flag) for flag in BranchFlag}
     sched = _Schedule(ctx, list(joints) + [v for v, _, _ in leaves] + list(gates.values()))
     # When each value is read: by units (at their start), the status word, the outputs.
     uses = defaultdict(list)
@@ -245,7 +242,7 @@ def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath
 
     def width(key):
         """A value's width (an input word's, a flag's one bit; undeclared: about a word)."""
-        return 1 if key in FLAG_KEYS.values() else dp.shapes[key].width if key in dp.shapes else word
+        return 1 if key in FLAG_KEYS else dp.shapes[key].width if key in dp.shapes else word
     for put, take, key in _grouped(_stash_segments(ready, uses, wired), width):
         puts[put, take].append(key)
     handles = {}
@@ -300,7 +297,7 @@ def _assemble_serial(sched, keys, timing, leaf_at, joints, starts, stash) -> Dat
     each boundary between units the stash takes back what the next unit reads and puts away
     what waits, the status bits known are ORed in and the values read for the last time dropped."""
     ready, uses, boundary = timing
-    dp = Datapath("ik", products="sequential", share_units=True, adders=sched.ctx.adders)
+    dp = Datapath("ik", products=Products.SEQUENTIAL, share_units=True, adders=sched.ctx.adders)
     dp.add("inputs", lambda s: dict(s))
     for unit in sched.units:
         dp.declare(**unit.shapes)

@@ -14,20 +14,22 @@ bounds). The semantics of each op are those of :mod:`.seq_lower` (bit-exact on t
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Mux, signed, unsigned
+from amaranth.hdl import Const, signed, unsigned
 
 from ik5r.core import fixedpoint
 
+from ..modes import Products
 from ..blocks.chains import compose, namespaced
 from ..blocks.cordic import Rotate, add_atan2
 from ..datapath.stages import Datapath, Stage, StageKind
 from ..datapath.expr import drop, rshift_round
+from .const_rotate import rotate_const_chain
 from ..datapath.products import add_products
-from ..graph.trace import Check, Node, Sop, Zero, bits_of
+from ..graph.nodes import Check, Node, Sop, Zero, bits_of, rotation_outputs
 from ..blocks.sqrt import add_isqrt, fit
 
 __all__ = ["Unit", "Ctx", "Derived", "flatten", "shape_of", "sop_unit", "mulc_unit", "atan2_unit",
-           "rotate_unit", "sqrt_unit", "rotate_const_chain"]
+           "rotate_unit", "sqrt_unit"]
 
 
 class Unit:
@@ -132,7 +134,7 @@ class Ctx:
         self.ki, self.adders, self.key, self.serial = ki, adders, key, serial
         #: One item at a time (``serial``, the staged core): each multiplier stepped over its
         #: partial products, the CORDIC steps on one shared unit.
-        self.products = "sequential" if serial else "parallel"
+        self.products = Products.SEQUENTIAL if serial else Products.PARALLEL
         self.needed: set = set()
         self._derived: dict = {}
 
@@ -347,9 +349,7 @@ def rotate_unit(ctx, name, r) -> Unit:
     """``model.cordic_rotate``: of a constant vector the rotation's constant quadrant step
     (:func:`rotate_const_chain`), else the rotation block's chain; x, y and the saturation."""
     x, y, angle = r.args
-    outs = {node.op[-1]: node for node in r.g.nodes
-            if isinstance(node, Node) and node.op in ("rotx", "roty") and node.args[0] is r}
-    outputs = {"saturated": ctx.derived("flag", r), **outs}
+    outputs = {"saturated": ctx.derived("flag", r), **rotation_outputs(r)}
     angle_of = _reading(lambda s: ctx.word_of(s, angle), angle)
     if isinstance(x, int) and isinstance(y, int):
         chain = rotate_const_chain(ctx.ki, (x, y), skewed=not ctx.serial, adders=ctx.adders)
@@ -370,41 +370,3 @@ def sqrt_unit(ctx, name, n) -> Unit:
                           {"root": n})
     unit.shapes[ctx.key(n)] = shape_of(n)
     return unit
-
-
-def rotate_const_chain(k, vector: tuple[int, int], *, skewed: bool, adders) -> Datapath:
-    """``model.cordic_rotate(*vector, angle)`` of a constant vector -> x, y, saturated. The
-    quadrant step and the 1/K gain of a constant vector are constants: two stages (the compares
-    registered first) replace the Rotate block's quadrant, coarse and multiplier stages; the
-    micro-rotations, rounding and clipping are the Rotate block's own stages (``skewed``: see
-    :meth:`Rotate.chain`; else on the shared CORDIC unit)."""
-    c = k.cfg
-    tail = Rotate.chain(k, skewed=skewed, adders=adders).part("micro_rotations")
-    x0, y0 = vector
-    shift = k.inv_gain_frac - c.guard_bits
-
-    def gained(x, y):
-        return (fixedpoint.rshift_round(x * k.inv_gain, shift, c.round_nearest),
-                fixedpoint.rshift_round(y * k.inv_gain, shift, c.round_nearest))
-
-    cases = {"up": gained(-y0, x0), "down": gained(y0, -x0), "none": gained(x0, y0)}
-    h = k.half_pi_z
-
-    def compares(s):
-        z = s["angle"].shift_left(c.angle_guard_bits)
-        return dict(drop(s, "angle"), qz=z, up=z > h, down=z < -h)
-
-    def quadrant(s):
-        z, up, down = s["qz"], s["up"], s["down"]
-        out = drop(s, "qz", "up", "down")
-        out["cx"] = Mux(up, cases["up"][0], Mux(down, cases["down"][0], cases["none"][0]))
-        out["cy"] = Mux(up, cases["up"][1], Mux(down, cases["down"][1], cases["none"][1]))
-        out["cz"] = Mux(up, z - h, Mux(down, z + h, z))
-        return out
-
-    chain = Datapath("rotate_const", adders=adders, inputs=("angle",), outputs=("x", "y", "saturated"))
-    chain.shapes = dict(tail.shapes)
-    chain.add("ro_const_cmp", compares)
-    chain.add("ro_const", quadrant)
-    chain.stages.extend(tail.stages)
-    return chain

@@ -28,7 +28,9 @@ from amaranth.lib.wiring import In, Out
 from ik5r.core import status as S
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
+from ..modes import CoreArch
 from . import isa as X
+from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, core_fields
 from ..datapath.expr import add_sub, asr_radix4, saturate, select
 from .program import ik_program
 
@@ -369,8 +371,6 @@ class SequencedIKCore(wiring.Component):
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0):
-        from ..pipelined.core import core_fields
-
         _check_tag(tag_width, 26)
         self._engine = SeqEngine(constants=constants, tag_width=tag_width)
         self.constants, self.arch, self.tag_width = constants, "sequenced", tag_width
@@ -398,12 +398,12 @@ class SequencedIKCore(wiring.Component):
         m.d.comb += self.i.ready.eq(~full & e.booted)
         with m.If(self.i.valid & self.i.ready):
             m.d.sync += [held.eq(self.i.payload), full.eq(1)]
-        with m.If(e.in_take & (e.in_index == len(X.INPUT_WORDS))):
+        with m.If(e.in_take & (e.in_index == len(INPUT_WORDS))):
             m.d.sync += full.eq(0)
-        names = [("q5_default" if name == "q5d" else name) for name in X.INPUT_WORDS]
-        flags = Cat(held.has_roll, held.shoulder_back, held.elbow_down,
+        flags = Cat(*(getattr(held, field) for field in FLAG_FIELDS.values()),
                     held.tag if self.tag_width else Const(0, 0))
-        words = [Value.cast(getattr(held, name)).as_unsigned() for name in names] + [flags]
+        words = [Value.cast(getattr(held, WORD_FIELDS[name])).as_unsigned()
+                 for name in INPUT_WORDS] + [flags]
         # The word the engine executes next, registered (off the engine's critical paths); valid
         # a clock after the input register is.
         in_q = Signal(e.in_bits)
@@ -445,12 +445,12 @@ class SerialIK(wiring.Component):
             raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
         self._engine = e = SeqEngine(constants=constants, tag_width=tag_width)
         self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
-        self.arch = "compact"
+        self.arch = CoreArch.COMPACT
         self.in_beats = -(-e.in_bits // beat_bits)
         self.out_beats = -(-e.out_bits // beat_bits)
         # Each input word waits for its beats, except the first: its beats arrive while the
         # previous pose is computed. Each output word holds the engine for its beats.
-        self.latency = e.cycles + (len(X.INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
+        self.latency = e.cycles + (len(INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
         self.cycles_per_result = self.latency - (self.in_beats - 1)
         self.capacity = 1
         self.options = {"serial": beat_bits}

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 from ik5r.core.fxconfig import CHECK_BITS
 
+from ..graph.inputs import INPUT_WORDS, BranchFlag
+
 # --- field values --------------------------------------------------------------------------------
 
 #: B-bus sources (``bsel``): memory word, input word (<< guard), CORDIC x / y / z, root,
@@ -43,6 +45,8 @@ ADDER_SOURCES = (B_MEM, B_ROOT, B_ACC)
 #: Condition sources (``ca``, ``cb``; ``cai``, ``cbi`` invert): always, F, shoulder_back,
 #: elbow_down, has_roll, CORDIC zero vector.
 C_ONE, C_F, C_BACK, C_DOWN, C_ROLL, C_ZERO = range(6)
+#: The condition source of each branch flag of the traced graph.
+FLAG_SOURCE = {BranchFlag.ROLL: C_ROLL, BranchFlag.BACK: C_BACK, BranchFlag.DOWN: C_DOWN}
 
 #: CORDIC operations (``cop``): loads from the B bus (x, y; ``G``: shifted up by the CORDIC guard
 #: bits, x also clears z; z shifted up by the angle guard bits), the vectoring coarse rotation
@@ -76,7 +80,6 @@ UNIT_FIELDS = {
 #: instructions at least READ_AHEAD + 1 after it.
 READ_AHEAD = 2
 LIMB = 15          # unsigned limb bits; the top limb of an operand is 16 bits, signed
-INPUT_WORDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "q5d")
 
 
 @dataclass

@@ -17,15 +17,17 @@ from __future__ import annotations
 
 from collections import Counter
 
+from ..graph.ops import Op
 from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_NEG, A_NOP, A_SATI, A_SATW, A_SUB, C_F, C_ZERO,
-                      INPUT_WORDS, IO_FLAGS, IO_IN, IO_OUT, IO_STATUS, B_IN, K_LDXG, K_LDYG, Q_LOAD,
+                      FLAG_SOURCE, IO_FLAGS, IO_IN, IO_OUT, IO_STATUS, B_IN, K_LDXG, K_LDYG, Q_LOAD,
                       Q_STEP)
+from ..graph.inputs import INPUT_WORDS
 from .asm import Asm, Check as CheckOperand, Const, I, alu, operand as _op, sqrt_round, st
-from ..graph.trace import AnyOf, Check, Compare, Flag, Node, Not, Sop, Status, Zero
+from ..graph.nodes import Check, Compare, Flag, Node, Not, Sop, Status, Zero, rotation_outputs
 
 
 #: Operations that occupy a unit for many clocks.
-HEAVY = ("atan2", "sqrt", "mulc", "rot", "rotx", "roty")
+HEAVY = (Op.ATAN2, Op.SQRT, Op.MULC, Op.ROT, Op.ROTX, Op.ROTY)
 
 
 def attach_status(status: Status) -> list:
@@ -33,13 +35,11 @@ def attach_status(status: Status) -> list:
     events (their blocks must run even where no joint needs their value)."""
     carriers = []
 
-    def leaf(event, bit, gates):
+    for event, bit, flags in status.flat():
+        gates = tuple((FLAG_SOURCE[flag], level) for flag, level in flags)
         if isinstance(event, Node):                # a saturation (or a rotation's two)
             event.stat = (bit, gates)
             carriers.append(event)
-        elif isinstance(event, AnyOf):
-            for c in event.conds:
-                leaf(c, bit, gates)
         elif isinstance(event, Compare):
             event.value.events.append((event.op, event.const, bit, gates))
             carriers.append(event.value)
@@ -48,15 +48,12 @@ def attach_status(status: Status) -> list:
             carriers.append(event.atan2)
         else:
             raise NotImplementedError(f"status of {event!r}")
-
-    for ev, bit, gates in status.leaves:
-        leaf(ev, bit, gates)
     return carriers
 
 
 def _cond_sel(v) -> bool:
     """A selection by a comparison (not a branch flag): only the CORDIC's operand loads take it."""
-    return isinstance(v, Node) and v.op == "sel" and not isinstance(v.params[0], Flag)
+    return isinstance(v, Node) and v.op == Op.SEL and not isinstance(v.params[0], Flag)
 
 
 def _compare_of(cond):
@@ -71,17 +68,17 @@ def deps(n) -> list:
     """The values ``n``'s code reads (as the lowering emits it)."""
     if isinstance(n, Sop):
         return [v for a, b, _, _ in n.terms for v in (a, b) if not isinstance(v, int)]
-    if n.op in ("word", "in"):
+    if n.op in (Op.WORD, Op.INPUT):
         return []
-    if n.op == "sel" and isinstance(n.params[0], Flag):
+    if n.op == Op.SEL and isinstance(n.params[0], Flag):
         a, b = n.args
-        if isinstance(a, Node) and a.op in ("neg", "opp") and a.args[0] is b:
+        if isinstance(a, Node) and a.op in (Op.NEG, Op.OPP) and a.args[0] is b:
             return [b]
-        if isinstance(b, Node) and b.op in ("neg", "opp") and b.args[0] is a:
+        if isinstance(b, Node) and b.op in (Op.NEG, Op.OPP) and b.args[0] is a:
             return [a]
         if _add_sub(a, b):
             return list(a.args)
-    if n.op == "atan2":
+    if n.op == Op.ATAN2:
         out = []
         for v in n.args:
             out += list(v.args) + [_compare_of(v.params[0])[0]] if _cond_sel(v) else [v]
@@ -90,7 +87,7 @@ def deps(n) -> list:
 
 
 def _add_sub(a, b) -> bool:
-    return (isinstance(a, Node) and isinstance(b, Node) and a.op == "add" and b.op == "sub"
+    return (isinstance(a, Node) and isinstance(b, Node) and a.op == Op.ADD and b.op == Op.SUB
             and all(x is y for x, y in zip(a.args, b.args)))
 
 
@@ -137,10 +134,10 @@ class Lower:
             return Const(n)
         if isinstance(n, Check):
             return CheckOperand(self.operand(n.args[0]))
-        if n.op == "in":
+        if n.op == Op.INPUT:
             return n.params[0]
         if n not in self.mem:
-            if n.op in ("rotx", "roty"):
+            if n.op in (Op.ROTX, Op.ROTY):
                 self._rotate(n.args[0])
             else:
                 name = f"v{n.id}"
@@ -149,13 +146,13 @@ class Lower:
         return self.mem[n]
 
     def _cheap(self, n) -> bool:
-        return isinstance(n, int) or n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1
+        return isinstance(n, int) or n in self.mem or n.op in (Op.INPUT, Op.ROTX, Op.ROTY) or self.uses[n] > 1
 
     def acc(self, n, alone: bool = True) -> list:
         """Code leaving ``n`` in the accumulator (and raising its status events)."""
         if isinstance(n, int):
             return [alu(A_LD, Const(n))]
-        if isinstance(n, Node) and (n in self.mem or n.op in ("in", "rotx", "roty") or self.uses[n] > 1
+        if isinstance(n, Node) and (n in self.mem or n.op in (Op.INPUT, Op.ROTX, Op.ROTY) or self.uses[n] > 1
                                     or (not alone and self._heavy(n))):
             return [alu(A_LD, self.operand(n))]
         return self._inline(n)
@@ -163,7 +160,7 @@ class Lower:
     def _heavy(self, n) -> bool:
         """``n`` (computed in its consumer's block) runs a CORDIC, a square root or products: a
         consumer that also waits for other blocks' words would hold it back, so it gets its own."""
-        if isinstance(n, int) or (isinstance(n, Node) and (n in self.mem or n.op == "in")):
+        if isinstance(n, int) or (isinstance(n, Node) and (n in self.mem or n.op == Op.INPUT)):
             return False
         if isinstance(n, Sop) or n.op in HEAVY:
             return True
@@ -171,7 +168,7 @@ class Lower:
 
     def _early(self, n) -> bool:
         """``n`` is a constant or an input word (ready when the inputs are in)."""
-        return isinstance(n, int) or n.op == "in"
+        return isinstance(n, int) or n.op == Op.INPUT
 
     def _inline(self, n) -> list:
         self.emitted.add(id(n))
@@ -184,32 +181,32 @@ class Lower:
     # -- values --
     def _code(self, n) -> list:
         a, op, args = self.a, n.op, n.args
-        if op in ("add", "sub"):
+        if op in (Op.ADD, Op.SUB):
             x, y = args
-            if op == "add" and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
+            if op == Op.ADD and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
                 x, y = y, x
-            return self.acc(x, self._early(y)) + [alu(A_ADD if op == "add" else A_SUB, self.operand(y))]
-        if op == "neg":
+            return self.acc(x, self._early(y)) + [alu(A_ADD if op == Op.ADD else A_SUB, self.operand(y))]
+        if op == Op.NEG:
             return self.acc(args[0]) + [alu(A_NEG)]
-        if op == "sat":
+        if op == Op.SAT:
             bit, gates = n.stat or (0, ())
             sat = A_SATI if n.params[0] == self.ki.cfg.width else A_SATW
             return self.acc(args[0]) + [alu(sat, None, *gates, stat=bit)]
-        if op == "rsr":
+        if op == Op.RSR:
             return self.acc(args[0]) + a.round_shift(n.params[0])
-        if op == "mulc":
+        if op == Op.MULC:
             return self.acc(args[0]) + a.mul_const(n.params[0], args[0].bits)
-        if op == "clip":
+        if op == Op.CLIP:
             return self._clip(n)
-        if op == "wrap":
+        if op == Op.WRAP:
             return self.acc(args[0]) + a.wrap()
-        if op == "opp":
+        if op == Op.OPP:
             return self.acc(args[0]) + a.opposite()
-        if op == "sel":
+        if op == Op.SEL:
             return self._select(n)
-        if op == "sqrt":
+        if op == Op.SQRT:
             return self._sqrt(n)
-        if op == "atan2":
+        if op == Op.ATAN2:
             return self._atan2(n)
         raise NotImplementedError(f"no engine code for {n}")
 
@@ -229,11 +226,11 @@ class Lower:
         if not isinstance(flag, Flag):
             raise NotImplementedError("a selection by a comparison feeds a CORDIC load only")
         a, b = n.args
-        yes, no = (flag.source, 0), (flag.source, 1)
+        yes, no = (FLAG_SOURCE[flag.flag], 0), (FLAG_SOURCE[flag.flag], 1)
         for x, f, cond in ((a, b, yes), (b, a, no)):
-            if isinstance(x, Node) and x.op == "neg" and x.args[0] is f:
+            if isinstance(x, Node) and x.op == Op.NEG and x.args[0] is f:
                 return self.acc(f) + [alu(A_NEG, None, cond)]
-            if isinstance(x, Node) and x.op == "opp" and x.args[0] is f:
+            if isinstance(x, Node) and x.op == Op.OPP and x.args[0] is f:
                 return self.acc(f) + self.a.opposite(cond)
         if _add_sub(a, b):
             x, y = a.args
@@ -280,9 +277,8 @@ class Lower:
         names = (f"v{r.id}x", f"v{r.id}y")
         self.blocks.append(self.a.rotate(self.operand(x), self.operand(y), self.operand(angle),
                                          *names, f"v{r.id}g", bit, gates))
-        for node in r.g.nodes:
-            if isinstance(node, Node) and node.op in ("rotx", "roty") and node.args[0] is r:
-                self.mem[node] = names[node.op == "roty"]
+        for axis, node in rotation_outputs(r).items():
+            self.mem[node] = names[axis == "y"]
 
     # -- exact sums --
     def _sop(self, s: Sop, extra: int = 0) -> list:
