@@ -190,7 +190,8 @@ def _base_args(verb, bad_input):
         if not action.option_strings and action.dest != "help":
             args.append(bad_input)
         elif action.required and action.option_strings:
-            args += [action.option_strings[-1], str(action.choices[0]) if action.choices else bad_input]
+            value = str(action.choices[0]) if action.choices else "32" if action.type is int else bad_input
+            args += [action.option_strings[-1], value]
     return args
 
 
@@ -198,7 +199,17 @@ def _options(verb):
     return {a.dest: a.option_strings[-1] for a in _subparser(verb)._actions if a.option_strings}
 
 
-@pytest.mark.parametrize("verb", VERBS)
+#: Verbs that read and write no file (``ik5r arms`` lists the shipped arms).
+PATHLESS_VERBS = ("arms",)
+
+
+def test_only_the_listing_verbs_take_no_path():
+    takes_path = {v for v in VERBS if any(not a.option_strings and a.dest != "help" for a in _subparser(v)._actions)
+                  or set(_options(v)) & {"config", "arm", "output", "json", "cache", "synth_cache"}}
+    assert set(VERBS) - takes_path == set(PATHLESS_VERBS)
+
+
+@pytest.mark.parametrize("verb", [v for v in VERBS if v not in PATHLESS_VERBS])
 def test_every_verb_bad_paths_exit_2(tmp_path, capsys, verb):
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
