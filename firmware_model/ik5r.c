@@ -55,7 +55,8 @@ IK5R_STATIC_ASSERT(word, IK5R_WORD_MAX == (INT64_C(1) << (IK5R_WIDTH - 1)) - 1
                    && IK5R_WORD_MIN == -IK5R_WORD_MAX - 1
                    && IK5R_IK_WORD_MAX == (INT64_C(1) << (IK5R_IK_WIDTH - 1)) - 1
                    && IK5R_IK_WORD_MIN == -IK5R_IK_WORD_MAX - 1);
-IK5R_STATIC_ASSERT(offsets, IK5R_IK_OFFSET_A_LEN == 5);
+IK5R_STATIC_ASSERT(offsets, IK5R_IK_OFFSET_A_LEN == 5 && IK5R_IK_SENSE_LEN == 5 && IK5R_LIMIT_LO_A_LEN == 5
+                   && IK5R_LIMIT_HI_A_LEN == 5);
 
 /* ---- 128-bit integers --------------------------------------------------------------------- */
 
@@ -635,10 +636,16 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
     joints[2] = q3_a;
     joints[3] = q4_a;
     joints[4] = q5_a;
-    for (i = 0; i < 5; i++)
-        q_a[i] = narrow(saturate(rshift_round(wrap_angle(joints[i] - ik5r_ik_offset_a[i], ik),
-                                              IK5R_INTERNAL_GUARD_BITS, nearest),
+    for (i = 0; i < 5; i++) {
+        /* A reversed joint (sense -1) reads offset - theta. */
+        const int64_t turned = ik5r_ik_sense[i] > 0 ? joints[i] - ik5r_ik_offset_a[i]
+                                                    : ik5r_ik_offset_a[i] - joints[i];
+        q_a[i] = narrow(saturate(rshift_round(wrap_angle(turned, ik), IK5R_INTERNAL_GUARD_BITS, nearest),
                                  &word_format, &status));
+        /* Limits in output words; a side at +-pi or beyond holds the word's extreme: never true. */
+        if (q_a[i] < ik5r_limit_lo_a[i] || q_a[i] > ik5r_limit_hi_a[i])
+            status |= IK5R_STATUS_OUT_OF_LIMITS;
+    }
     return status;
 }
 

@@ -2,7 +2,8 @@
 
 The closed-form IK of ik5r needs the structure of the arm of record (Hu et al., Table 1): joint 1
 vertical, joints 2-4 parallel and horizontal, joint 5 along the tool. So ``alpha`` must be
-(-90, 0, 0, -90, 0) degrees, ``d2 = d3 = d4 = 0`` and ``a5 = 0``; every other parameter is free.
+(-90, 0, 0, -90, 0) degrees, ``d2 = d3 = d4 = 0`` and ``a5 = 0``; every other parameter is free. A joint may count the other
+way round (``scale = -1``: theta = theta_offset - q), as the numeric solver's chains do.
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ class Arm:
     d: tuple[float, ...]
     theta_offset: tuple[float, ...]
     limits: tuple[tuple[float, float], ...]
+    #: +1, or -1 for a joint whose positive sense is reversed: theta = theta_offset + sense * q.
+    sense: tuple[int, ...] = (1,) * N_JOINTS
     #: The file it was read from (error messages name it); not part of the arm's numbers.
     source: str = field(default="<arm>", compare=False)
 
@@ -56,7 +59,15 @@ class Arm:
 
         doc = {"a": self.a, "alpha": self.alpha, "d": self.d, "theta_offset": self.theta_offset,
                "limits": self.limits}
+        if any(s < 0 for s in self.sense):
+            # Only where a joint is reversed: the arms without one keep the hashes their records,
+            # caches and Verilog headers were made under.
+            doc["sense"] = self.sense
         return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:16]
+
+    def theta(self, q):
+        """DH joint angles of joint readings ``q`` (..., 5): theta_offset + sense * q."""
+        return np.asarray(self.theta_offset) + np.asarray(self.sense) * np.asarray(q)
 
     @property
     def reach(self) -> float:
@@ -86,18 +97,23 @@ def parse_arm(doc: dict, path: str | Path = "<arm>") -> Arm:
     joints = doc.get("joint")
     if not isinstance(joints, list) or len(joints) != N_JOINTS:
         raise InputError(path, f"need exactly {N_JOINTS} [[joint]] tables", field="joint")
-    a, alpha, d, offset, limits = [], [], [], [], []
+    a, alpha, d, offset, limits, sense = [], [], [], [], [], []
     for i, joint in enumerate(joints):
         where = f"joint[{i + 1}]"
         if not isinstance(joint, dict):
             raise InputError(path, "must be a table", field=where)
-        unknown = set(joint) - {"a", "alpha", "d", "theta_offset", "limits"}
+        unknown = set(joint) - {"a", "alpha", "d", "theta_offset", "limits", "scale"}
         if unknown:
             raise InputError(path, f"unknown key(s) {sorted(unknown)}", field=where)
         a.append(_number(path, where, joint, "a") * ls)
         alpha.append(_number(path, where, joint, "alpha") * an)
         d.append(_number(path, where, joint, "d", 0.0) * ls)
         offset.append(_number(path, where, joint, "theta_offset", 0.0) * an)
+        scale = _number(path, where, joint, "scale", 1.0)
+        if scale not in (1.0, -1.0):
+            raise InputError(path, f"must be 1 or -1 (-1: the joint's positive sense is reversed), got {scale:g}",
+                             field=f"{where}.scale")
+        sense.append(int(scale))
         lim = joint.get("limits", [-180.0, 180.0] if angle_unit == "deg" else [-math.pi, math.pi])
         if (not isinstance(lim, list) or len(lim) != 2
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in lim)):
@@ -117,7 +133,7 @@ def parse_arm(doc: dict, path: str | Path = "<arm>") -> Arm:
     if a[1] <= 0 or a[2] <= 0:
         raise InputError(path, "links 2 and 3 must have positive length", field="joint[2].a" if a[1] <= 0 else "joint[3].a")
     return Arm(str(doc.get("name", Path(str(path)).stem)), tuple(a), tuple(alpha), tuple(d), tuple(offset),
-               tuple(limits), str(path))
+               tuple(limits), tuple(sense), str(path))
 
 
 #: The arm of record's name (``seed_arm.toml``, ``arms/hu-5r.toml``).

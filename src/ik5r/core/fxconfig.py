@@ -19,6 +19,7 @@ from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 
+from . import status as st
 from .arm import Arm, load_arm
 from .armfit import check_fits
 from .errors import InputError, read_toml
@@ -282,6 +283,10 @@ class Constants:
         set_(self, "d1_l", _q(a.d[0], fl))
         set_(self, "d5_l", _q(a.d[4], fl))
         set_(self, "offset_a", tuple(_q(o, fa) for o in a.theta_offset))
+        set_(self, "sense", tuple(a.sense))
+        lo_a, hi_a = _limit_words(a, fa, self.word_min, self.word_max)
+        set_(self, "limit_lo_a", lo_a)
+        set_(self, "limit_hi_a", hi_a)
         # Law of cosines in Q(2*frac_length): c3 = (D^2 - a2^2 - a3^2) / (2 a2 a3).
         set_(self, "links_sq_l2", WideInt(_q(a.a[1] ** 2 + a.a[2] ** 2, 2 * fl)))
         set_(self, "twice_a2a3_l2", WideInt(_q(2 * a.a[1] * a.a[2], 2 * fl)))
@@ -310,6 +315,37 @@ class Constants:
         # The constants of the format the IK runs on (cfg.internal()); these very ones when the
         # config has no internal guard bits.
         set_(self, "internal", self if c.internal_guard_bits == 0 else Constants(c.internal(), a))
+
+
+    @property
+    def limited(self) -> bool:
+        """Some joint's limits leave out part of the turn: the status word has OUT_OF_LIMITS."""
+        return any(lo != self.word_min for lo in self.limit_lo_a) or any(hi != self.word_max for hi in self.limit_hi_a)
+
+    @property
+    def status_width(self) -> int:
+        """Bits of the solvers' status word: 6, or 7 with OUT_OF_LIMITS (an arm with limits)."""
+        return (st.FIXED_BITS | (st.OUT_OF_LIMITS if self.limited else 0)).bit_length()
+
+
+def _limit_words(arm: Arm, frac_angle: int, word_min: int, word_max: int) -> tuple[tuple, tuple]:
+    """Per joint, the smallest and the largest output word within the arm's limits; word_min
+    (word_max) where the limit is at or beyond -pi (pi): that side is not checked, so an arm whose
+    limits are all full turns has no limit check in any layer. A word q is within [lo, hi] exactly
+    when ceil(lo 2^fa) <= q <= floor(hi 2^fa) (the joint the solver reports is q 2^-fa, exact)."""
+    lows, highs = [], []
+    for j, (lo, hi) in enumerate(arm.limits):
+        if lo <= -math.pi and hi >= math.pi:
+            lows.append(word_min)
+            highs.append(word_max)
+            continue
+        if lo < -math.pi or hi > math.pi:
+            raise InputError(arm.source, f"arm {arm.name}: the limits of joint {j + 1} cross +-180 deg "
+                             "without covering the turn; the fixed-point solvers check limits within "
+                             "[-180, 180] deg (their joints' range)", field=f"joint[{j + 1}].limits")
+        lows.append(word_min if lo <= -math.pi else math.ceil(lo * 2.0 ** frac_angle))
+        highs.append(word_max if hi >= math.pi else math.floor(hi * 2.0 ** frac_angle))
+    return tuple(lows), tuple(highs)
 
 
 def constants(cfg: FixedConfig | None = None, arm: Arm | None = None) -> Constants:

@@ -22,7 +22,8 @@ is in the internal format ``ki = k.internal`` (see ``model.py``).
 from __future__ import annotations
 
 from ik5r.core.fxconfig import Constants
-from ik5r.core.status import BAD_ORIENTATION, INVALID, SINGULAR_BASE, SINGULAR_ELBOW, UNREACHABLE
+from ik5r.core.status import (BAD_ORIENTATION, INVALID, OUT_OF_LIMITS, SINGULAR_BASE, SINGULAR_ELBOW,
+                              UNREACHABLE)
 
 # --- orientation checks ---------------------------------------------------------------------------
 
@@ -242,10 +243,24 @@ def solve(fx, fw, k: Constants, p_l, a_u, n_u, o_u, roll, back, down, q5_default
         q5_a = fx.select(roll, q5_roll_a, q5_a)
         status |= sat
 
-    # Joint angles back to words (rounded, saturated: the last overflow check).
+    return _output(fx, (q1_a, q2_a, q3_a, q4_a, q5_a), status, k)
+
+
+def _output(fx, angles, status, k: Constants):
+    """Joint angles to the arm's readings as words: offset removed (and, for a joint whose sense
+    is reversed, the difference taken the other way round: q = offset - theta), rounded and
+    saturated (the last overflow check); then OUT_OF_LIMITS where a reading passes a limit. A
+    side of a limit at +-pi or beyond is no check at all (``Constants.limit_lo_a`` holds
+    word_min there), so an arm with no limits gets no compare in any layer."""
+    ki, guard = k.internal, k.cfg.internal_guard_bits
     joints = []
-    for q, off in zip((q1_a, q2_a, q3_a, q4_a, q5_a), ki.offset_a):
-        joint_a, sat = fx.saturate(fx.rshift_round(fx.wrap_angle(q - off, ki), guard, k.cfg.round_nearest), k)
+    for j, (q, off) in enumerate(zip(angles, ki.offset_a)):
+        turned = q - off if k.sense[j] > 0 else off - q
+        joint_a, sat = fx.saturate(fx.rshift_round(fx.wrap_angle(turned, ki), guard, k.cfg.round_nearest), k)
         joints.append(joint_a)
         status |= sat
+        if k.limit_lo_a[j] != k.word_min:
+            status |= fx.flag(joint_a < k.limit_lo_a[j], OUT_OF_LIMITS)
+        if k.limit_hi_a[j] != k.word_max:
+            status |= fx.flag(joint_a > k.limit_hi_a[j], OUT_OF_LIMITS)
     return joints, status

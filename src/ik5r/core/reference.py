@@ -6,7 +6,7 @@ soft CPU with a single-precision FPU would compute, for the quantisation report)
 Geometry (standard DH, see docs/algorithm.md): joint 1 turns the arm's vertical plane about the base
 axis; in that plane, with x1 radial and y1 pointing down, joints 2-4 form a planar chain
 (a2, a3, a4) and the tool point sits d5 along the approach a = z5. With phi = q2 + q3 + q4
-(joint angles here include the arm's ``theta_offset``):
+(joint angles here are the DH thetas, theta_offset + sense * q of the joint readings q):
 
     r  = a1 + a2 c2 + a3 c23 + a4 c(phi) - d5 s(phi)        p = (r c1, r s1, d1 - y)
     y  =      a2 s2 + a3 s23 + a4 s(phi) + d5 c(phi)        a = (-s(phi) c1, -s(phi) s1, -c(phi))
@@ -108,7 +108,7 @@ def fk_matrix(arm: Arm, q, dtype=np.float64) -> np.ndarray:
     q = np.asarray(q, dtype=dtype)
     t = None
     for i in range(5):
-        ti = _dh(q[..., i] + arm.theta_offset[i], arm.a[i], arm.alpha[i], arm.d[i], dtype)
+        ti = _dh(arm.theta_offset[i] + arm.sense[i] * q[..., i], arm.a[i], arm.alpha[i], arm.d[i], dtype)
         t = ti if t is None else t @ ti
     return t
 
@@ -119,7 +119,8 @@ def fk(arm: Arm, q, dtype=np.float64):
     Equal to :func:`fk_matrix` (the product of the DH matrices) to rounding, and much faster.
     """
     q = np.asarray(q, dtype=dtype)
-    t = q + np.asarray(arm.theta_offset, dtype=dtype)
+    # in ``dtype`` (float32 stays float32 throughout); sense * q is exact
+    t = q * np.asarray(arm.sense, dtype=dtype) + np.asarray(arm.theta_offset, dtype=dtype)
     a1, a2, a3, a4, _ = arm.a
     d1, d5 = arm.d[0], arm.d[4]
     c1, s1 = np.cos(t[..., 0]), np.sin(t[..., 0])

@@ -62,6 +62,7 @@ class Kernel:
         self.tolerances = tolerances
         self.offsets = np.asarray(arm.theta_offset, dtype=np.float64)
         self.has_offset = bool(np.any(self.offsets != 0))
+        self.sense = np.asarray(arm.sense, dtype=np.float64)
         # joints whose limits do not contain all of [-pi, pi]: (j, lo, hi)
         self.limited = [(j, lo, hi) for j, (lo, hi) in enumerate(arm.limits)
                         if not (lo <= -np.pi and hi >= np.pi)]
@@ -77,7 +78,7 @@ class Kernel:
             q5_b = _opposite(q5_f)
             invalid_rows = no_direction | no_roll
         else:
-            q5 = np.asarray(_wrap_scalar(near4 + self.offsets[4]), dtype=self.dt)
+            q5 = np.asarray(_wrap_scalar(self.sense[4] * near4 + self.offsets[4]), dtype=self.dt)
             q5_f = np.broadcast_to(q5, (P.shape[1],))
             q5_b = q5_f
             invalid_rows = no_direction
@@ -160,7 +161,7 @@ class Kernel:
             theta1[on_axis] = _atan2(ayo, axo)
             idx = on_axis[free]
             if idx.size:
-                t = _wrap_scalar(np.broadcast_to(near0, (count,))[idx] + self.offsets[0])
+                t = _wrap_scalar(self.sense[0] * np.broadcast_to(near0, (count,))[idx] + self.offsets[0])
                 theta1[idx] = t
                 c1[idx] = np.cos(t)
                 s1[idx] = np.sin(t)
@@ -261,13 +262,15 @@ class Kernel:
             S[b] = status
 
     def _offsets_and_limits(self, Q, S):
-        """Joint angles of the arm (theta offsets removed) and its joint limits (OUT_OF_LIMITS;
-        a representative beyond +-pi where only that is within them)."""
+        """Joint angles of the arm (theta offsets removed, reversed joints negated) and its joint
+        limits (OUT_OF_LIMITS; a representative beyond +-pi where only that is within them)."""
         if self.has_offset:
             for j in range(5):
                 if self.offsets[j] != 0:
                     Q[:, j] -= self.offsets[j]
                     _wrap_inplace(Q[:, j])
+        for j in np.flatnonzero(self.sense < 0):
+            np.negative(Q[:, j], out=Q[:, j])
         for j, lo, hi in self.limited:
             qj = Q[:, j]
             if hi > np.pi:   # the representative above pi may be the one within the limits
@@ -360,6 +363,9 @@ def _confirm(arm, Q, S, P, cphi, sphi, c1_in, s1_in, offsets, tol_cm, tol_dir):
     X[1:5] = Q[:, 1]
     X[5:9] = Q[:, 2]
     X[9:13] = Q[:, 3]
+    for j, rows in enumerate((slice(0, 1), slice(1, 5), slice(5, 9), slice(9, 13))):
+        if arm.sense[j] < 0:      # the readings of a reversed joint back to its DH angle
+            np.negative(X[rows], out=X[rows])
     if np.any(offsets != 0):
         X[0] += offsets[0]
         X[1:5] += offsets[1]
