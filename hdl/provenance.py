@@ -49,7 +49,7 @@ def body_sha256(text: str) -> str:
 def config_hash(constants: Constants) -> str:
     """16 hex digits of SHA-256 over the config's numbers and the arm (not names or paths)."""
     cfg = {k: v for k, v in asdict(constants.cfg).items() if k not in ("name", "source")}
-    arm = {k: v for k, v in asdict(constants.arm).items() if k not in ("name", "source")}
+    arm = {k: v for k, v in constants.arm.fields().items() if k not in ("name", "source")}
     doc = json.dumps({"config": cfg, "arm": arm}, sort_keys=True)
     return hashlib.sha256(doc.encode()).hexdigest()[:16]
 

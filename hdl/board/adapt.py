@@ -27,7 +27,7 @@ class WordCore(wiring.Component):
     Function: 14 words on ``i`` (px..oz, q5_default, flags = has_roll | shoulder_back << 1 |
     elbow_down << 2 | tag << 3) fill the core's input payload, which is offered once complete;
     each result leaves on ``o`` as 6 words: q1..q5 (the core's words, zero-extended to 32 bits),
-    then status | tag << 6. Formats: 32-bit words. Latency: the core's plus 2 clocks in and
+    then status | tag << S (S status bits: 6, 7 for an arm with limits). Formats: 32-bit words. Latency: the core's plus 2 clocks in and
     one per word out. Throughput: one pose per 14 clocks in and 6 out at most, and the core's.
     """
 
@@ -58,7 +58,7 @@ class WordCore(wiring.Component):
             m.d.sync += full.eq(0)
         out = core.o.payload
         words = [Value.cast(getattr(out, f"q{j + 1}")).as_unsigned() for j in range(5)]
-        words.append(Cat(Value.cast(out.status)[:6], Value.cast(out.tag)[:8]))
+        words.append(Cat(Value.cast(out.status), Value.cast(out.tag)[:8]))
         index = Signal(range(L.JOINT_WORDS))
         last = index == L.JOINT_WORDS - 1
         m.d.comb += [self.o.valid.eq(core.o.valid), self.o.payload.eq(select(words, index)),

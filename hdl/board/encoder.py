@@ -28,7 +28,7 @@ class FrameEncoder(wiring.Component):
     """Frame encoder.
 
     Function: collects the IK core's 6 result words of a pose from ``results`` (q1..q5: the low
-    ``word_bits`` bits, signed; then status | tag << 6) and sends a joints frame (q words sign-
+    ``word_bits`` bits, signed; then status | tag << ``status_bits``) and sends a joints frame (q words sign-
     extended to 32 bits, status word, the tag in the header); sends an ID frame (payload
     ``id_words``) after reset and for each ID reply on ``reply``, an error frame (the code as its
     one word) for each error reply. Priority: ID after reset, replies, then joints. Formats:
@@ -38,13 +38,15 @@ class FrameEncoder(wiring.Component):
     ``sent_error``: a pulse per error frame sent.
     """
 
-    def __init__(self, *, word_bits: int, id_words):
+    def __init__(self, *, word_bits: int, id_words, status_bits: int = STATUS_BITS):
         if isinstance(word_bits, bool) or not isinstance(word_bits, int) or not 8 <= word_bits <= 32:
             raise ValueError(f"word_bits must be an integer in [8, 32], got {word_bits!r}")
         id_words = [int(w) for w in id_words]
         if len(id_words) != len(L.ID_FIELDS) or not all(0 <= w < 1 << 32 for w in id_words):
             raise ValueError(f"id_words: need {len(L.ID_FIELDS)} unsigned 32-bit words, got {id_words!r}")
         self.word_bits, self.id_words = word_bits, id_words
+        # 7 for an arm with limits (OUT_OF_LIMITS, ik5r.core.fxconfig.Constants.status_width)
+        self.status_bits = status_bits
         super().__init__({"results": In(stream.Signature(32)), "reply": In(stream.Signature(REPLY_LAYOUT)),
                           "o": Out(stream.Signature(8)), "sent_error": Out(1)})
 
@@ -56,12 +58,12 @@ class FrameEncoder(wiring.Component):
         extended = Cat(word[:self.word_bits], word[self.word_bits - 1].replicate(32 - self.word_bits))
         write = joints.write_port()
         m.d.comb += [self.results.ready.eq(~full), write.addr.eq(count),
-                     write.data.eq(Mux(last, word[:STATUS_BITS], extended)),
+                     write.data.eq(Mux(last, word[:self.status_bits], extended)),
                      write.en.eq(self.results.valid & ~full)]
         with m.If(self.results.valid & ~full):
             m.d.sync += count.eq(Mux(last, 0, count + 1))
             with m.If(last):
-                m.d.sync += [full.eq(1), tag.eq(word[STATUS_BITS:STATUS_BITS + 8])]
+                m.d.sync += [full.eq(1), tag.eq(word[self.status_bits:self.status_bits + 8])]
         with m.If(done):
             m.d.sync += full.eq(0)
 

@@ -93,7 +93,8 @@ class BoardLink(wiring.Component):
         timeout = max(16, TIMEOUT_BITS * -(-self.clock_hz // self.baud))
         m.submodules.decoder = decoder = FrameDecoder(timeout=timeout)
         m.submodules.core = core = self.core
-        m.submodules.encoder = encoder = FrameEncoder(word_bits=self.constants.cfg.width, id_words=self.id)
+        m.submodules.encoder = encoder = FrameEncoder(word_bits=self.constants.cfg.width, id_words=self.id,
+                                                      status_bits=self.constants.status_width)
         m.d.comb += [rx.rx.eq(self.rx), self.tx.eq(tx.tx)]
         wiring.connect(m, rx.o, fifo.w_stream)
         wiring.connect(m, fifo.r_stream, decoder.i)

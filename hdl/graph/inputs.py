@@ -16,7 +16,6 @@ from amaranth.hdl import signed, unsigned
 
 from ik5r.core.fxconfig import Constants
 from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
-from ik5r.core.status import FIXED_WIDTH
 
 __all__ = ["BranchFlag", "INPUT_WORDS", "WORD_FIELDS", "FLAG_FIELDS", "PAYLOAD_ORDER", "core_fields"]
 
@@ -48,7 +47,7 @@ def core_fields(constants: Constants) -> tuple[dict, dict]:
     c = constants.cfg
     formats = {Format.LENGTH: (signed(c.width), c.frac_length), Format.UNIT: (signed(c.width), c.frac_unit),
                Format.ANGLE: (signed(c.width), c.frac_angle), Format.BIT: (unsigned(1), 0),
-               Format.STATUS: (unsigned(FIXED_WIDTH), 0)}
+               Format.STATUS: (unsigned(constants.status_width), 0)}
     pose = {f.name: f for f in POSE_FIELDS}
     in_fields = {name: (*formats[pose[name].format], pose[name].doc) for name in PAYLOAD_ORDER}
     out_fields = {f.name: (*formats[f.format], f.doc) for f in SOLUTION_FIELDS}

@@ -282,12 +282,14 @@ def _status_fn(items):
     def run(s):
         if not items:
             return s
+        # STATUS_BITS, or 7 where OUT_OF_LIMITS is among the bits (an arm with limits only).
+        width = max([STATUS_BITS] + [bit.bit_length() for _, bit, _ in items])
         st = s["st"] if "st" in s else Const(0, STATUS_BITS)
         for key, bit, gate_keys in items:
             cond = s[key]
             for g in gate_keys:
                 cond = cond & s[g]
-            st = st | Mux(cond, Const(bit, STATUS_BITS), Const(0, STATUS_BITS))
+            st = st | Mux(cond, Const(bit, width), Const(0, width))
         return dict(s, st=st)
     return run
 

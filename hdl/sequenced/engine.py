@@ -80,7 +80,9 @@ class SeqEngine(wiring.Component):
         w.tag = tag_width
         self.cycles = len(self.prog.code)
         self.in_bits = max(w.word, 3 + tag_width)
-        self.out_bits = max(w.word, STATUS_BITS + tag_width)
+        #: STATUS_BITS, or 7 for an arm with limits (OUT_OF_LIMITS): the tag sits above them.
+        self.status_bits = constants.status_width
+        self.out_bits = max(w.word, self.status_bits + tag_width)
         super().__init__({
             "in_index": Out(unsigned(4)), "in_valid": In(1), "in_data": In(unsigned(self.in_bits)),
             "in_take": Out(1), "in_ready": Out(1), "booted": Out(1),
@@ -144,7 +146,7 @@ class SeqEngine(wiring.Component):
         run = ~stall
 
         acc = Signal(signed(w.acc))
-        regs = self._registers(w)
+        regs = self._registers(w, self.status_bits)
         in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
         bus = Signal(signed(w.acc), name="bus")
         options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
@@ -223,11 +225,11 @@ class SeqEngine(wiring.Component):
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
 
     @staticmethod
-    def _registers(w):
+    def _registers(w, status_bits):
         return {
             "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
             "down": Signal(name="down"), "roll": Signal(name="roll"),
-            "status": Signal(STATUS_BITS, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
+            "status": Signal(status_bits, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
             "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
             "cz": Signal(signed(w.z), name="cz"),
             "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
@@ -274,7 +276,7 @@ class SeqEngine(wiring.Component):
             with m.Elif(op == X.A_SETF):
                 m.d.sync += regs["flag"].eq(cond)
             # Status bits reach the register a clock after their event.
-            pending = Signal(STATUS_BITS, name="status_pending")
+            pending = Signal(self.status_bits, name="status_pending")
             m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
                          regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
 
@@ -419,9 +421,9 @@ class SequencedIKCore(wiring.Component):
                 with m.If(e.out_index == j):
                     m.d.sync += getattr(out, f"q{j + 1}").eq(e.out_data[:w.word])
             with m.If(e.out_index == 5):
-                m.d.sync += [out.status.eq(e.out_data[:STATUS_BITS]), valid.eq(1)]
+                m.d.sync += [out.status.eq(e.out_data[:e.status_bits]), valid.eq(1)]
                 if self.tag_width:
-                    m.d.sync += out.tag.eq(e.out_data[STATUS_BITS:STATUS_BITS + self.tag_width])
+                    m.d.sync += out.tag.eq(e.out_data[e.status_bits:e.status_bits + self.tag_width])
         with m.If(valid & self.o.ready):
             m.d.sync += valid.eq(0)
         return m

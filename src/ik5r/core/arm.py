@@ -65,6 +65,16 @@ class Arm:
             doc["sense"] = self.sense
         return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:16]
 
+    def fields(self) -> dict:
+        """The dataclass fields as a dict, ``sense`` only where a joint is reversed: what the
+        hashes of designs are taken over, so arms without one keep their earlier hashes."""
+        from dataclasses import asdict
+
+        doc = asdict(self)
+        if all(s > 0 for s in self.sense):
+            del doc["sense"]
+        return doc
+
     def theta(self, q):
         """DH joint angles of joint readings ``q`` (..., 5): theta_offset + sense * q."""
         return np.asarray(self.theta_offset) + np.asarray(self.sense) * np.asarray(q)

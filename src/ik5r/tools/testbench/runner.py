@@ -290,8 +290,6 @@ def run_block(design: Design, sim: str | None = None, *,
     wrapper with ``b``-bit beats, in the stream test only (:mod:`.serial`). ``edge_stride``: the
     stream test takes every n-th item of the edge set; ``bulk_edge_rest``: the bulk test takes the
     other items of it (each edge item once in the run), else all of it."""
-    from dataclasses import asdict
-
     _serial_check(design, bulk_vectors)
     sim = sim or default_simulator()
     if sim not in SIMULATORS:
@@ -313,7 +311,7 @@ def run_block(design: Design, sim: str | None = None, *,
         (work / name).unlink(missing_ok=True)
     serial = design.options.serial
     job = {"portmap": str(tb_map), "block": block, "arch": arch, "config": cfg.name,
-           "config_toml": cfg.to_toml(), "arm": asdict(design.arm), "seed": seed,
+           "config_toml": cfg.to_toml(), "arm": design.arm.fields(), "seed": seed,
            "work_dir": str(work), "serial": None if serial is None else {"beat_bits": serial},
            "stream": dict({"vectors": stream_vectors, "reset": reset, "edge_stride": edge_stride,
                            "progress": progress and not bulk_vectors},
