@@ -18,11 +18,13 @@ SINGULAR_BASE = 1 << 2    # tool point on the base axis and approach vertical: q
 SATURATED = 1 << 3        # a fixed-point value was clipped to the word range
 INVALID = 1 << 4          # non-finite or out-of-range input, or approach (n/o) with no component in the arm's plane
 BAD_ORIENTATION = 1 << 5  # approach off the arm's plane, or n, o, a not a right-handed orthonormal frame
-OUT_OF_LIMITS = 1 << 6    # float reference only: the branch violates a joint limit
+OUT_OF_LIMITS = 1 << 6    # the branch violates a joint limit (fixed point: only arms with limits)
 
-#: Bits the fixed-point solvers (model, C, HDL) produce: the hardware's status word.
+#: Bits the fixed-point solvers (model, C, HDL) produce for an arm whose limits are all full
+#: turns: the hardware's status word. An arm with limits adds OUT_OF_LIMITS (7 bits,
+#: ``Constants.status_width``); the rule is in docs/algorithm.md, "Joint limits".
 FIXED_BITS = UNREACHABLE | SINGULAR_ELBOW | SINGULAR_BASE | SATURATED | INVALID | BAD_ORIENTATION
-#: Width of that status word.
+#: Width of that status word (without OUT_OF_LIMITS).
 FIXED_WIDTH = FIXED_BITS.bit_length()
 
 NAMES = {
@@ -53,9 +55,9 @@ def describe_all(bits) -> list[str]:
 
 def status_class(bits: int) -> str:
     """What happened, comparable between the float and the fixed-point layers: ``invalid`` when
-    that bit is set (whatever else), else :func:`describe` without ``saturated`` and
-    ``out_of_limits`` (a fixed-point range and a float-only check)."""
+    that bit is set (whatever else), else :func:`describe` without ``saturated`` (a fixed-point
+    range only)."""
     bits = int(bits)
     if bits & INVALID:
         return "invalid"
-    return describe(bits & ~(SATURATED | OUT_OF_LIMITS))
+    return describe(bits & ~SATURATED)

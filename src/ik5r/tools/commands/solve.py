@@ -245,22 +245,10 @@ def _solve_chunk(table, arm, cfg, solve, args) -> list:
         status = res.status[rows, branch]
         return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
                 *_residuals(arm, q, p[rows], a[rows])]
+    # The solvers' own status has OUT_OF_LIMITS (an arm with limits; docs/algorithm.md).
     rows, branch, q, q_raw, status = _fixed_chunk(solve, cfg, res, p, a, n, o, near, args.all)
-    status = _limits(arm, q, status)
     return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
             *_residuals(arm, q, p[rows], a[rows]), *(q_raw[:, j] for j in range(5)), status]
-
-
-def _limits(arm, q, status):
-    """OUT_OF_LIMITS where a fixed-point answer's joints leave the arm's limits (one LSB of slack
-    is not needed: the limits are the arm file's, compared with the answer as it is). The
-    solvers' own status words have no such bit (the cores' status is 6 bits); the branch the
-    solvers are asked for is already the float reference's in-limit choice."""
-    from ik5r.core import status as st
-
-    with np.errstate(invalid="ignore"):
-        outside = ((q < arm.lower) | (q > arm.upper)).any(axis=1)
-    return np.where(outside, status | st.OUT_OF_LIMITS, status)
 
 
 def _fixed_chunk(solve, cfg, res, p, a, n, o, near, all_branches):
