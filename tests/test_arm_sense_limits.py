@@ -8,6 +8,7 @@ The cores' cocotb runs on an arm with limits are in tests/test_cocotb_arms.py (s
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,46 +21,9 @@ from ik5r.core.fxconfig import Constants, load_config
 from ik5r.firmware_model import csolver, model, vector
 from ik5r.firmware_model.poses import PoseBatch
 
-#: The SCORBOT's geometry counted as Kutzer's toolbox counts it (alpha +90 there): joints 2, 3
-#: and 4 reversed against the closed form's pattern, the wrist roll reversed with an offset, and
-#: limits on both senses of joint (the shoulder's +130 / -35 deg, not symmetric).
-REVERSED_TOML = """
-name = "scorbot-reversed"
-length_unit = "mm"
-angle_unit = "deg"
-
-[[joint]]
-a = 16
-alpha = -90
-d = 349
-limits = [-155, 155]
-
-[[joint]]
-a = 221
-alpha = 0
-scale = -1
-limits = [-35, 130]
-
-[[joint]]
-a = 221
-alpha = 0
-scale = -1
-limits = [-130, 130]
-
-[[joint]]
-a = 0
-alpha = -90
-theta_offset = -90
-scale = -1
-limits = [-130, 130]
-
-[[joint]]
-a = 0
-alpha = 0
-d = 145.125
-theta_offset = 30
-scale = -1
-"""
+#: A test arm with reversed joints and limits (its file says which).
+REVERSED_PATH = Path(__file__).parent / "arms" / "scorbot-reversed.toml"
+REVERSED_TOML = REVERSED_PATH.read_text()
 
 
 @functools.cache

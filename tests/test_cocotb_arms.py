@@ -8,6 +8,8 @@ on the pipelined core (q32w, Verilator). Every shipped arm on both cores is in t
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from ik5r.core.arm import shipped_arm_names
@@ -62,3 +64,32 @@ def test_core_of_the_arm_matches_its_model(sim_pool, arch, arm, config, sim):
     assert pmap["arm"] == {"name": arm, "sha256": load_arm(arm).dh_sha256(), "reach_cm": load_arm(arm).reach}
     assert f"// arm: {arm} (DH numbers and limits: sha256 {load_arm(arm).dh_sha256()}" in text
     assert arm in str(r["build_dir"])
+
+
+#: An arm with reversed joints and limits (tests/arms/scorbot-reversed.toml): FK of random joints
+#: within its limits, every branch, through the compact core, every bit against the model, which
+#: gives those joints back (tests/test_arm_sense_limits.py).
+REVERSED = str(Path(__file__).parent / "arms" / "scorbot-reversed.toml")
+
+
+@pytest.mark.parametrize("arch,arm,config,sim", [
+    pytest.param("compact", REVERSED, "q32w", "verilator", id="ik-compact-scorbot-reversed-q32w-verilator"),
+    pytest.param("pipelined", REVERSED, "q32w", "verilator", id="ik-pipelined-scorbot-reversed-q32w-verilator",
+                 marks=pytest.mark.slow)])
+def test_core_of_an_arm_with_reversed_joints_matches_its_model(sim_pool, arch, arm, config, sim):
+    import numpy as np
+
+    from ik5r.core import status as st
+    from ik5r.core.arm import load_arm
+    from ik5r.core.fxconfig import Constants, load_config
+    from ik5r.firmware_model import vector
+    from ik5r.firmware_model.vectors import edge_poses
+
+    r = sim_pool((arch, arm, config, sim))
+    assert r["arm"] == "scorbot-reversed"
+    assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
+    assert r["tag_errors"] == 0 and r["stale_outputs"] == 0
+    assert r["stream"] is not None and r["bulk"] is not None, f"a cocotb test did not finish (log: {r['log']})"
+    # The run takes the whole directed set (stream and bulk together); out_of_limits is in it.
+    k = Constants(load_config(config), load_arm(arm))
+    assert np.any(np.asarray(vector.solve_batch(k, *edge_poses(k).args())[1]) & st.OUT_OF_LIMITS)
