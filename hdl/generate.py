@@ -103,23 +103,37 @@ def _fields(fields: dict) -> list:
     return out
 
 
+_CLOCK_PORTS = ({"name": "clk", "direction": "input", "width": 1, "role": "clock, rising edge"},
+                {"name": "rst", "direction": "input", "width": 1, "role": "synchronous reset, active high"})
+
+
+def _port(path, is_input: bool, width: int) -> dict:
+    return {"name": "__".join(map(str, path)), "direction": "input" if is_input else "output", "width": width,
+            "role": {"payload": "payload (struct, fields below)", "valid": "stream valid",
+                     "ready": "stream ready"}[path[-1]] + f" of stream {path[0]}"}
+
+
+def stream_ports(in_fields: dict, out_fields: dict) -> tuple[list, dict]:
+    """(ports, streams) of the port map of a component with an input stream ``i`` and an output
+    stream ``o`` of these payload fields, as :func:`portmap` lists them, without the component
+    (the word-level view of a wrapper, whose core need not be built for it)."""
+    ports = [dict(p) for p in _CLOCK_PORTS]
+    streams = {}
+    for stream, fields, is_input in (("i", in_fields, True), ("o", out_fields, False)):
+        width = sum(Shape.cast(shape).width for shape, _, _ in fields.values())
+        ports += [_port((stream, "payload"), is_input, width), _port((stream, "valid"), is_input, 1),
+                  _port((stream, "ready"), not is_input, 1)]
+        streams[stream] = {"payload": f"{stream}__payload", "valid": f"{stream}__valid",
+                           "ready": f"{stream}__ready", "fields": _fields(fields)}
+    return ports, streams
+
+
 def portmap(component, block: str, arch: str, constants: Constants, name: str | None = None) -> dict:
     """The port map of a component (see the module docstring); ``name``: its module name."""
     c = constants.cfg
-    ports = [
-        {"name": "clk", "direction": "input", "width": 1, "role": "clock, rising edge"},
-        {"name": "rst", "direction": "input", "width": 1,
-         "role": "synchronous reset, active high"},
-    ]
+    ports = [dict(p) for p in _CLOCK_PORTS]
     for path, member, value in component.signature.flatten(component):
-        port = "__".join(map(str, path))
-        ports.append({
-            "name": port,
-            "direction": "input" if member.flow == wiring.In else "output",
-            "width": Shape.cast(member.shape).width,
-            "role": {"payload": "payload (struct, fields below)", "valid": "stream valid",
-                     "ready": "stream ready"}[path[-1]] + f" of stream {path[0]}",
-        })
+        ports.append(_port(path, member.flow == wiring.In, Shape.cast(member.shape).width))
     doc = {
         "version": PORTMAP_VERSION,
         "module": name or module_name(block, arch),

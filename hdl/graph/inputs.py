@@ -17,7 +17,8 @@ from amaranth.hdl import signed, unsigned
 from ik5r.core.fxconfig import Constants
 from ik5r.core.pose_fields import POSE_FIELDS, SOLUTION_FIELDS, Format
 
-__all__ = ["BranchFlag", "INPUT_WORDS", "WORD_FIELDS", "FLAG_FIELDS", "PAYLOAD_ORDER", "core_fields"]
+__all__ = ["BranchFlag", "INPUT_WORDS", "WORD_FIELDS", "FLAG_FIELDS", "PAYLOAD_ORDER", "core_fields",
+           "tagged_fields"]
 
 
 class BranchFlag(enum.Enum):
@@ -51,4 +52,14 @@ def core_fields(constants: Constants) -> tuple[dict, dict]:
     pose = {f.name: f for f in POSE_FIELDS}
     in_fields = {name: (*formats[pose[name].format], pose[name].doc) for name in PAYLOAD_ORDER}
     out_fields = {f.name: (*formats[f.format], f.doc) for f in SOLUTION_FIELDS}
+    return in_fields, out_fields
+
+
+def tagged_fields(constants: Constants, tag_width: int) -> tuple[dict, dict]:
+    """:func:`core_fields` with the tag field (``tag_width`` bits, none for 0) last in and out:
+    the payloads of the sequenced core, and of its word-level view in the testbench."""
+    in_fields, out_fields = core_fields(constants)
+    if tag_width:
+        in_fields["tag"] = (unsigned(tag_width), 0, "carried unchanged to o.tag")
+        out_fields["tag"] = (unsigned(tag_width), 0, "i.tag of the same item")
     return in_fields, out_fields

@@ -30,7 +30,7 @@ from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from ..modes import CoreArch
 from . import isa as X
-from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, core_fields
+from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, tagged_fields
 from ..datapath.expr import add_sub, asr_radix4, saturate, select
 from .program import ik_program
 
@@ -376,10 +376,7 @@ class SequencedIKCore(wiring.Component):
         _check_tag(tag_width, 26)
         self._engine = SeqEngine(constants=constants, tag_width=tag_width)
         self.constants, self.arch, self.tag_width = constants, "sequenced", tag_width
-        in_fields, out_fields = core_fields(constants)
-        if tag_width:
-            in_fields["tag"] = (unsigned(tag_width), 0, "carried unchanged to o.tag")
-            out_fields["tag"] = (unsigned(tag_width), 0, "i.tag of the same item")
+        in_fields, out_fields = tagged_fields(constants, tag_width)
         self.in_fields, self.out_fields = in_fields, out_fields
         self.cycles_per_result = self._engine.cycles
         self.latency = self._engine.cycles + 2

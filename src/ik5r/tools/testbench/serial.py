@@ -171,15 +171,14 @@ class BeatMonitor(Monitor):
 
 
 def word_portmap(beat_map: dict, k, tag_width: int) -> dict:
-    """The testbench's word-level port map of the serial wrapper: the compact core's (its fields
-    and port names) with the wrapper's module, timing and beat width (``serial``)."""
-    from ik5r.hdl.generate import build, portmap
+    """The testbench's word-level port map of the serial wrapper: the wrapper's own (``beat_map``:
+    module, timing, arm, config) with the compact core's streams and ports, from the core's payload
+    fields alone (no core is built: that would compile its program, a schedule search), and the
+    beat width (``serial``)."""
+    from ik5r.hdl.generate import stream_ports
+    from ik5r.hdl.graph.inputs import tagged_fields
 
-    core = build("ik", "compact", k, tag_width)
-    for component in (core, core._engine):
-        component._MustUse__silence = True         # built for its port map only, never elaborated
-    doc = portmap(core, "ik", "compact", k)
-    doc.update(module=beat_map["module"], latency_cycles=beat_map["latency_cycles"],
-               cycles_per_result=beat_map["cycles_per_result"],
-               serial={"beat_bits": beat_map["options"]["serial"]})
+    ports, streams = stream_ports(*tagged_fields(k, tag_width))
+    doc = dict(beat_map, ports=ports, streams=streams, options={})
+    doc["serial"] = {"beat_bits": beat_map["options"]["serial"]}
     return doc
