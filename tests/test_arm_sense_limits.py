@@ -206,3 +206,26 @@ def test_traced_graph_checks_only_limited_sides():
     leaves, shape = limit_leaves(load_arm("scorbot-er4u"))
     assert len(leaves) == 6 and shape.width == 7
     assert len(limit_leaves(reversed_arm())[0]) == 8
+
+
+@pytest.mark.parametrize("name", ["scorbot-er4u", "reversed"])
+def test_c_clean_with_limits_and_reversed_joints(name):
+    """The C with the limit tables and senses in its header: strict warnings clean, the
+    ASan + UBSan test driver bit-exact to the vectorised model (out_of_limits among its bits), and
+    it builds for rv32im."""
+    from ik5r.firmware_model import rv32
+    from ik5r.firmware_model.poses import concat
+    from ik5r.firmware_model.vectors import edge_poses, random_poses
+
+    arm = reversed_arm() if name == "reversed" else load_arm(name)
+    k = Constants(load_config("q32w"), arm)
+    result = csolver.warnings_check(k)
+    assert result.returncode == 0 and not result.stderr, result.stderr
+    poses = concat(random_poses(k, 100, seed=3), edge_poses(k))
+    out = csolver.run_test_driver(csolver.build_test_driver(k, sanitize=True), poses.driver_lines())
+    rows = np.array([list(map(int, line.split())) for line in out], dtype=np.int64)
+    q, status = (np.asarray(v, dtype=np.int64) for v in vector.solve_batch(k, *poses.args()))
+    np.testing.assert_array_equal(rows[:, :5], q)
+    np.testing.assert_array_equal(rows[:, 5], status)
+    assert np.any(status & st.OUT_OF_LIMITS)
+    assert rv32.build(k, "rv32im").elf.is_file()
