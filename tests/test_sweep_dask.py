@@ -16,13 +16,14 @@ from pathlib import Path
 import pytest
 
 from ik5r.tools.cli import main
+from ik5r.tools.sweep_record import SweepRecord
 
 #: Figures that depend on the run, not on the point.
 RUN_FIELDS = ("error_seconds", "error_cpu_seconds", "error_from_cache", "synth_from_cache")
 
 
 def _figures(out: Path) -> list[dict]:
-    points = json.loads((out / "sweep.json").read_text())["points"]
+    points = SweepRecord.read(out).points
     return [{k: v for k, v in p.items() if k not in RUN_FIELDS} for p in points]
 
 
@@ -30,6 +31,7 @@ def test_worker_killed_mid_sweep_loses_no_point(tmp_path):
     from dask.distributed import Client, LocalCluster
 
     from ik5r.tools.sweep import run_sweep
+    from ik5r.tools.sweep_record import SweepOptions
 
     widths = list(range(12, 20))
     killed = {}
@@ -47,24 +49,24 @@ def test_worker_killed_mid_sweep_loses_no_point(tmp_path):
                     os.kill(pids[address], signal.SIGKILL)
                     return
 
-        result = run_sweep(widths, blocks=(), archs=(), out_dir=tmp_path / "sweep", poses=40_000,
-                           synth=False, client=client, progress=False, log=lambda m: None,
+        result = run_sweep(SweepOptions(widths=widths, blocks=(), archs=(), poses=40_000, synth=False),
+                           out_dir=tmp_path / "sweep", client=client, progress=False, log=lambda m: None,
                            on_done=kill_a_busy_worker)
         assert killed, "no worker was busy when the first point came back"
         # The nanny restarted the killed worker under a new process id.
         client.wait_for_workers(2, timeout=30)
         assert set(client.run(os.getpid).values()) != set(pids.values())
 
-    points = result["points"]
+    points = result.points
     assert [p["name"] for p in points] == [f"w{w}" for w in widths]          # each once, in order
-    assert result["meta"]["failures"] == [] and result["meta"]["tasks_run"] == len(widths)
+    assert result.failures == [] and result.meta["tasks_run"] == len(widths)
     for p in points:
         assert p["position_err_max_cm"] >= p["position_err_rms_cm"] > 0 and p["poses"] == 40_000
     assert len(list((tmp_path / "sweep" / "cache").glob("error_*.json"))) == len(widths)
     # Every point the killed worker held came back, with the figures of an undisturbed run.
-    again = run_sweep(widths[:2], blocks=(), archs=(), out_dir=tmp_path / "calm", poses=40_000,
-                      synth=False, jobs=1, progress=False, log=lambda m: None)
-    assert [{k: v for k, v in p.items() if k not in RUN_FIELDS} for p in again["points"]] == \
+    again = run_sweep(SweepOptions(widths=widths[:2], blocks=(), archs=(), poses=40_000, synth=False),
+                      out_dir=tmp_path / "calm", jobs=1, progress=False, log=lambda m: None)
+    assert [{k: v for k, v in p.items() if k not in RUN_FIELDS} for p in again.points] == \
         [{k: v for k, v in p.items() if k not in RUN_FIELDS} for p in points[:2]]
 
 
@@ -111,7 +113,7 @@ def test_scheduler_and_two_workers_match_local_run(tmp_path):
         assert len(worker_pids) == 2 and os.getpid() not in worker_pids
         axes = ["--no-synth", "--widths", "12,20", "--guard-bits", "0,3", "--poses", "5000", "-q"]
         assert main(["sweep", *axes, "--scheduler", address, "-o", str(tmp_path / "cluster")]) == 0
-        meta = json.loads((tmp_path / "cluster" / "sweep.json").read_text())["meta"]
+        meta = SweepRecord.read(tmp_path / "cluster").meta
         assert meta["cluster"] == address and meta["tasks_run"] == 4
     finally:
         for proc in reversed(procs):

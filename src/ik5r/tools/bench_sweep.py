@@ -27,14 +27,15 @@ def _cpu_seconds() -> float:
 
 def sweep_floor(jobs: int, work: Path) -> dict:
     from .sweep import run_sweep
+    from .sweep_record import SweepOptions
 
     start = time.perf_counter()
-    result = run_sweep(range(12, 33), blocks=(), archs=(), out_dir=work / "sweep", jobs=jobs,
-                       synth=False, guard_bits=range(0, 9), progress=False, log=lambda m: None)
+    options = SweepOptions(widths=range(12, 33), blocks=(), archs=(), synth=False, guard_bits=range(0, 9))
+    result = run_sweep(options, out_dir=work / "sweep", jobs=jobs, progress=False, log=lambda m: None)
     wall = time.perf_counter() - start
-    points = result["points"]
+    points = result.points
     return {"command": f"ik5r sweep --no-synth --widths 12..32 --guard-bits 0..8 --jobs {jobs}",
-            "points": len(points), "failures": len(result["meta"]["failures"]), "wall_s": round(wall, 1),
+            "points": len(points), "failures": len(result.failures), "wall_s": round(wall, 1),
             "worker_cpu_s": round(sum(p.get("error_cpu_seconds") or 0 for p in points), 1),
             "floor_s": 300, "met": wall <= 300 and len(points) >= 100}
 

@@ -252,14 +252,16 @@ def arms_part(records: Path) -> list[str]:
 
 
 def sweep_part(records: Path) -> list[str]:
-    path = records / "sweep.json"
+    from .sweep_record import RECORD_FILE, SweepRecord
+
+    path = records / RECORD_FILE
     if not path.exists():
         return ["No sweep yet: run `ik5r sweep -o build/sweep`."]
-    sweep = json.loads(path.read_text())
-    points = sweep["points"]
+    sweep = SweepRecord.read(path)
+    points = sweep.points
     lines = [f"![{plot}](docs/results/{plot})" for plot in PLOTS if (records.parent / plot).exists()]
-    if sweep["meta"].get("note"):      # a caveat kept with the record (e.g. points of an older core)
-        lines += ["", f"**{sweep['meta']['note']}**"]
+    if sweep.meta.get("note"):      # a caveat kept with the record (e.g. points of an older core)
+        lines += ["", f"**{sweep.meta['note']}**"]
     lines += ["", "| block | arch | width | LUTs | DSPs | Fmax (MHz) | max position error (cm) | "
               "RMS position error (cm) | Pareto |", "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |"]
     for p in sorted(points, key=lambda p: (p["block"], p["arch"], p["width"])):

@@ -49,12 +49,11 @@ from ik5r.core.fxconfig import FixedConfig, parse_config
 from ik5r.hdl.generate import resolve_arch
 
 from .sweep_outputs import CSV_FIELDS, pareto_flags, write_outputs  # noqa: F401 (the API of old)
-from .synth import DEFAULT_CACHE, SynthOptions, synthesize, tool_versions
+from .sweep_record import DEFAULT_POSES, DEFAULT_WIDTHS, SweepOptions, SweepRecord  # noqa: F401
+from .synth import SynthOptions, synthesize, tool_versions
 
-DEFAULT_WIDTHS = (16, 18, 20, 24, 28, 32)
 #: LFE5U-25F capacities (nextpnr's device utilisation): would a point fit the small ECP5?
 ECP5_25K = {"luts": 24288, "ffs": 24288, "dsps": 28, "brams": 56}
-DEFAULT_POSES = 100_000
 ANGLE_GUARD_BITS = 3
 SYNTH_FIELDS = ("luts", "lut4", "carry", "ffs", "dsps", "brams", "lutram", "fits_device", "fmax_mhz",
                 "latency_cycles", "cycles_per_result", "results_per_second", "latency_ns", "target",
@@ -311,24 +310,25 @@ def _point(cfg: FixedConfig, block, arch, err: dict, syn: dict) -> dict:
     return p
 
 
-def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=("pipelined",),
-              out_dir="build/sweep", jobs: int | None = None, poses: int = DEFAULT_POSES,
-              seed: int = 0, opts: SynthOptions | None = None, synth_cache=DEFAULT_CACHE,
-              timeout: float | None = None, progress: bool = True, log=print, *,
-              guard_bits=None, synth: bool = True, scheduler: str | None = None, client=None,
-              note=None, on_done=None, arm=None) -> dict:
-    """Run (or resume) a sweep on Dask; writes DIR/sweep.csv, sweep.json, the plots and index.html.
+def run_sweep(options: SweepOptions = SweepOptions(), *, arm=None, out_dir="build/sweep",
+              jobs: int | None = None, scheduler: str | None = None, client=None, progress: bool = True,
+              log=print, note=None, on_done=None) -> SweepRecord:
+    """Run (or resume) the sweep of ``options`` for ``arm`` (None: the arm of record) on Dask;
+    writes DIR/sweep.csv, sweep.json (:meth:`SweepRecord.write`), the plots and index.html.
 
-    ``client``: an open Dask client to use (else one of ``scheduler``, else a LocalCluster).
+    ``client``: an open Dask client to use (else one of ``scheduler``, else a LocalCluster of
+    ``jobs`` processes). ``note``: called with a line per finished task; ``on_done``: with each
+    finished task and its result.
     """
     start = time.perf_counter()
+    o = options
     out_dir = Path(out_dir)
-    blocks = list(blocks) if synth else []
-    archs = list(dict.fromkeys(archs)) if synth else []
-    opts = (opts or SynthOptions()).resolved()
-    configs = sweep_configs(widths, iterations, guard_bits, arm)
-    errors, synths, pending, opts_key, tools = _plan(configs, blocks, archs, poses, seed, opts,
-                                                     synth_cache, timeout, out_dir / "cache", arm)
+    blocks = list(o.blocks) if o.synth else []
+    archs = list(dict.fromkeys(o.archs)) if o.synth else []
+    opts = o.synth_options.resolved()
+    configs = sweep_configs(o.widths, o.iterations, o.guard_bits, arm)
+    errors, synths, pending, opts_key, tools = _plan(configs, blocks, archs, o.poses, o.seed, opts,
+                                                     o.synth_cache, o.timeout, out_dir / "cache", arm)
     cached_count = len(errors) + len(synths)
     where = f"the Dask cluster at {scheduler}" if scheduler else \
         "the given Dask client" if client else f"a LocalCluster of {jobs or os.cpu_count()} process(es)"
@@ -346,6 +346,30 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
         (errors if task.kind == "error" else synths)[task.ident] = doc
         if "error" in doc:
             failures.append((task.ident if task.kind == "synth" else (task.ident,), doc["error"]))
+    points = _points(configs, blocks, archs, errors, synths, o.synth)
+    meta = {
+        "rule": "frac.length = w-8, frac.unit = w-2, frac.angle = w-3, iterations = w (or "
+                "--iterations), guard_bits = round(log2 w)-1, angle_guard_bits = 3, nearest, "
+                "ik.internal_guard_bits = --guard-bits (0)",
+        "arm": "hu-5r" if arm is None else arm.name, "arm_sha256": None if arm is None else arm.dh_sha256(),
+        "widths": list(o.widths), "iterations": list(o.iterations) if o.iterations else "auto",
+        "internal_guard_bits": list(o.guard_bits) if o.guard_bits else [0],
+        "blocks": blocks, "archs": archs, "synth": o.synth, "poses": o.poses, "seed": o.seed,
+        "synth_options": opts_key if o.synth else None, "tools": tools,
+        "cluster": scheduler or ("client" if client else f"LocalCluster({jobs or os.cpu_count()})"),
+        "tasks_run": len(pending), "tasks_cached": cached_count,
+        "failures": [{"point": list(i), "error": e} for i, e in failures],
+    }
+    meta["elapsed_s"] = round(time.perf_counter() - start, 2)
+    record = SweepRecord(meta, tuple(points))
+    write_outputs(record, out_dir, freq_floor=150.0 if "pipelined" in archs else None)
+    log(f"sweep: {len(points)} point(s) in {meta['elapsed_s']:.1f} s -> {out_dir}/sweep.csv, "
+        f"sweep.json, index.html and plots")
+    return record
+
+
+def _points(configs, blocks, archs, errors: dict, synths: dict, synth: bool) -> list[dict]:
+    """The points in sweep order: per config, its blocks x archs (or one point without synthesis)."""
     points = []
     for cfg in configs:
         err = errors.get(cfg.name, {})
@@ -354,21 +378,4 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
         for block in blocks:
             for arch in dict.fromkeys(resolve_arch(block, a) for a in archs):
                 points.append(_point(cfg, block, arch, err, synths.get((cfg.name, block, arch), {})))
-    meta = {
-        "rule": "frac.length = w-8, frac.unit = w-2, frac.angle = w-3, iterations = w (or "
-                "--iterations), guard_bits = round(log2 w)-1, angle_guard_bits = 3, nearest, "
-                "ik.internal_guard_bits = --guard-bits (0)",
-        "arm": "hu-5r" if arm is None else arm.name, "arm_sha256": None if arm is None else arm.dh_sha256(),
-        "widths": list(widths), "iterations": list(iterations) if iterations else "auto",
-        "internal_guard_bits": list(guard_bits) if guard_bits else [0],
-        "blocks": blocks, "archs": archs, "synth": synth, "poses": poses, "seed": seed,
-        "synth_options": opts_key if synth else None, "tools": tools,
-        "cluster": scheduler or ("client" if client else f"LocalCluster({jobs or os.cpu_count()})"),
-        "tasks_run": len(pending), "tasks_cached": cached_count,
-        "failures": [{"point": list(i), "error": e} for i, e in failures],
-    }
-    meta["elapsed_s"] = round(time.perf_counter() - start, 2)
-    write_outputs(points, meta, out_dir, freq_floor=150.0 if "pipelined" in archs else None)
-    log(f"sweep: {len(points)} point(s) in {meta['elapsed_s']:.1f} s -> {out_dir}/sweep.csv, "
-        f"sweep.json, index.html and plots")
-    return {"meta": meta, "points": points}
+    return points

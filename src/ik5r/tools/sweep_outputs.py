@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import csv
-import json
 from pathlib import Path
 
 CSV_FIELDS = (
@@ -161,9 +160,11 @@ def _html(points: list[dict], meta: dict, out_dir: Path, images: list[str]) -> N
                                                      if isinstance(v, (str, int, float))}))
 
 
-def write_outputs(points: list[dict], meta: dict, out_dir: Path, freq_floor: float | None = 150.0):
-    from .report.html import jsonable
-
+def write_outputs(record, out_dir: Path, freq_floor: float | None = 150.0):
+    """DIR/sweep.csv, the record (:meth:`~ik5r.tools.sweep_record.SweepRecord.write`), the plots
+    and index.html of a sweep's :class:`~ik5r.tools.sweep_record.SweepRecord` (its points get
+    their ``pareto`` flag first)."""
+    points, meta = list(record.points), record.meta
     out_dir.mkdir(parents=True, exist_ok=True)
     for p, flag in zip(points, pareto_flags(points)):
         p["pareto"] = flag
@@ -172,8 +173,7 @@ def write_outputs(points: list[dict], meta: dict, out_dir: Path, freq_floor: flo
         writer.writeheader()
         for p in points:
             writer.writerow({k: ("" if p.get(k) is None else p.get(k)) for k in CSV_FIELDS})
-    doc = jsonable({"meta": meta, "points": points})
-    (out_dir / "sweep.json").write_text(json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    record.write(out_dir)
     if any(p.get("luts") is not None for p in points):
         images = _plots(points, out_dir, freq_floor)
     else:   # an error-only sweep (--no-synth): no area or Fmax to plot

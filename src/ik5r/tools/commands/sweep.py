@@ -97,7 +97,7 @@ def _check(args) -> tuple[list[str], list[str], list[int]]:
     from ik5r.core.errors import InputError
     from ik5r.hdl.generate import BLOCKS
     from ik5r.hdl.modes import ARCH_NAMES, ARCHS
-    from ik5r.tools.sweep import DEFAULT_WIDTHS
+    from ik5r.tools.sweep_record import DEFAULT_WIDTHS
 
     blocks = args.blocks or (["ik"] if "ik" in BLOCKS else ["atan2"])
     for block in blocks:
@@ -134,6 +134,7 @@ def _print_table(points: list[dict]) -> None:
 
 def run(args) -> int:
     from ik5r.tools.sweep import run_sweep
+    from ik5r.tools.sweep_record import SweepOptions
     from ik5r.tools.synth import SynthOptions
 
     from ik5r.core.arm import is_seed_arm, load_arm
@@ -143,17 +144,18 @@ def run(args) -> int:
     arm = None if is_seed_arm(arm) else arm
     opts = SynthOptions(target=args.target, device=args.device, speed=args.speed,
                         freq_mhz=args.freq, placer=args.placer, pnr=not args.no_pnr)
-    result = run_sweep(widths, args.iterations, blocks, archs, args.output, args.jobs, args.poses,
-                       args.seed, opts, args.synth_cache, args.timeout,
+    options = SweepOptions(widths=widths, iterations=args.iterations, guard_bits=args.guard_bits,
+                           blocks=blocks, archs=archs, synth=not args.no_synth, poses=args.poses,
+                           seed=args.seed, synth_options=opts, synth_cache=str(args.synth_cache),
+                           timeout=args.timeout)
+    result = run_sweep(options, arm=arm, out_dir=args.output, jobs=args.jobs, scheduler=args.scheduler,
                        progress=cliopts.show_progress(args), log=lambda m: cliopts.say(args, m),
-                       guard_bits=args.guard_bits, synth=not args.no_synth, scheduler=args.scheduler,
-                       note=(lambda m: cliopts.say(args, m)) if cliopts.verbosity(args) >= 1 else None,
-                       arm=arm)
-    _print_table(result["points"])
+                       note=(lambda m: cliopts.say(args, m)) if cliopts.verbosity(args) >= 1 else None)
+    _print_table(result.points)
     if not args.no_synth:
-        front = [p for p in result["points"] if p.get("pareto")]
+        front = [p for p in result.points if p.get("pareto")]
         names = ", ".join(f"{p['name']} {p['block']} {p['arch']}" for p in front)
         print(f"Pareto front (position error max vs LUTs): {names or 'none'}")
-    for failure in result["meta"]["failures"]:
+    for failure in result.failures:
         print(f"failed: {' '.join(failure['point'])}: {failure['error'].splitlines()[0]}", file=sys.stderr)
-    return 1 if result["meta"]["failures"] else 0
+    return 1 if result.failures else 0
