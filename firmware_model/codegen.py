@@ -169,6 +169,11 @@ def generate_header(k: Constants) -> str:
         out.append(f"#define IK5R_IK_{name.upper()} {int(getattr(k.internal.cfg, name))}")
     _emit_constants(k.internal, "IK_", out, tables)
     out.append("")
+    out.append("/* 0 when every joint counts the DH way and every limit is a full turn: the output loop's")
+    out.append(" * sense and limit tests then fold away (the arms of record cost nothing for them). */")
+    out.append(f"#define IK5R_HAS_REVERSED {1 if any(s < 0 for s in k.sense) else 0}")
+    out.append(f"#define IK5R_HAS_LIMITS {1 if k.limited else 0}")
+    out.append("")
     out.append("/* Status bits (ik5r.core.status), one set per pose. */")
     out.append(f"#define IK5R_STATUS_OK {st.OK}u")
     for bit, name in st.NAMES.items():

@@ -638,12 +638,13 @@ static uint32_t ik_solve(const int32_t p_l[3], const int32_t a_u[3], const int32
     joints[4] = q5_a;
     for (i = 0; i < 5; i++) {
         /* A reversed joint (sense -1) reads offset - theta. */
-        const int64_t turned = ik5r_ik_sense[i] > 0 ? joints[i] - ik5r_ik_offset_a[i]
-                                                    : ik5r_ik_offset_a[i] - joints[i];
+        const int64_t turned = (!IK5R_HAS_REVERSED || ik5r_ik_sense[i] > 0)
+                                   ? joints[i] - ik5r_ik_offset_a[i]
+                                   : ik5r_ik_offset_a[i] - joints[i];
         q_a[i] = narrow(saturate(rshift_round(wrap_angle(turned, ik), IK5R_INTERNAL_GUARD_BITS, nearest),
                                  &word_format, &status));
         /* Limits in output words; a side at +-pi or beyond holds the word's extreme: never true. */
-        if (q_a[i] < ik5r_limit_lo_a[i] || q_a[i] > ik5r_limit_hi_a[i])
+        if (IK5R_HAS_LIMITS && (q_a[i] < ik5r_limit_lo_a[i] || q_a[i] > ik5r_limit_hi_a[i]))
             status |= IK5R_STATUS_OUT_OF_LIMITS;
     }
     return status;
