@@ -229,3 +229,25 @@ def test_c_clean_with_limits_and_reversed_joints(name):
     np.testing.assert_array_equal(rows[:, 5], status)
     assert np.any(status & st.OUT_OF_LIMITS)
     assert rv32.build(k, "rv32im").elf.is_file()
+
+
+@pytest.mark.parametrize("solver", ["float", "fixed", "c"])
+def test_solve_without_roll_reads_q5_from_near(solver, tmp_path):
+    """Poses without n, o: every solver answers q5 = --near's q5 on an arm whose joint 5 is
+    reversed and offset (the solvers' q5 input word is the DH angle the reading makes)."""
+    import csv
+
+    from ik5r.tools.cli import main
+
+    arm = reversed_arm()
+    q = np.array([[0.2, 0.3, 0.5, -0.4, 0.0], [-0.3, 0.1, 0.8, 0.2, 0.0]])
+    p, _, _, a = ref.fk(arm, q)
+    rows = ["px,py,pz,ax,ay,az"] + [",".join(repr(float(v)) for v in (*p[i], *a[i])) for i in range(2)]
+    (tmp_path / "poses.csv").write_text("\n".join(rows) + "\n")
+    out = tmp_path / "out.csv"
+    assert main(["solve", str(tmp_path / "poses.csv"), "--solver", solver, "--arm", str(REVERSED_PATH),
+                 "--near=0.2,0.3,0.5,-0.4,0.7", "-o", str(out)]) == 0
+    got = list(csv.DictReader(open(out)))
+    assert [r["status"] for r in got] == ["ok", "ok"]
+    np.testing.assert_allclose([float(r["q5"]) for r in got], [0.7, 0.7], atol=1e-8)
+    np.testing.assert_allclose([float(got[0][f"q{j}"]) for j in range(1, 5)], q[0, :4], atol=1e-6)

@@ -246,20 +246,24 @@ def _solve_chunk(table, arm, cfg, solve, args) -> list:
         return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
                 *_residuals(arm, q, p[rows], a[rows])]
     # The solvers' own status has OUT_OF_LIMITS (an arm with limits; docs/algorithm.md).
-    rows, branch, q, q_raw, status = _fixed_chunk(solve, cfg, res, p, a, n, o, near, args.all)
+    rows, branch, q, q_raw, status = _fixed_chunk(solve, cfg, arm, res, p, a, n, o, near, args.all)
     return [table.records[rows], branch, *(q[:, j] for j in range(5)), st.describe_all(status),
             *_residuals(arm, q, p[rows], a[rows]), *(q_raw[:, j] for j in range(5)), status]
 
 
-def _fixed_chunk(solve, cfg, res, p, a, n, o, near, all_branches):
+def _fixed_chunk(solve, cfg, arm, res, p, a, n, o, near, all_branches):
     """(rows, branch, q, q_raw, status) of the fixed-point solver on one chunk."""
+    from ik5r.core import reference
     from ik5r.core import status as st
     from ik5r.core.fxconfig import quantize
     from ik5r.firmware_model.poses import PoseBatch
 
     count = len(p)
     harmless = st.SINGULAR_ELBOW | st.SINGULAR_BASE
-    q5_raw, q5_sat = quantize(0.0 if near is None else near[4], cfg.frac_angle, cfg)
+    # The solvers' q5 input word is joint 5's DH angle (theta = offset + sense q), as the float
+    # reference's near[4] becomes one: the answer then reads q5 = near[4].
+    theta5 = reference.wrap(arm.theta_offset[4] + arm.sense[4] * (0.0 if near is None else near[4]))
+    q5_raw, q5_sat = quantize(theta5, cfg.frac_angle, cfg)
     if bool(q5_sat):
         print("ik5r solve: --near q5 saturates the angle format", file=sys.stderr)
     poses, input_status = PoseBatch.quantise(cfg, p, a, n, o, q5=int(q5_raw))
