@@ -75,10 +75,14 @@ def _lut_cases():
             (signed(21), (17, 21, True), ("b", signed(2), (0, 2, True))),
             (unsigned(34), (17, 34, False), 5),
             (signed(21), (17, 21, True), 0x1ABCD),
-            (signed(20), (17, 20, True), 3)]
+            (signed(20), (17, 20, True), 3),
+            # Wide: what --max-dsp puts in LUTs beyond its cap.
+            (signed(34), (17, 34, True), ("b", signed(34), (17, 34, True))),
+            (signed(38), (17, 34, False), 0x1ABCD),
+            (unsigned(38), (17, 34, False), ("b", signed(38), (17, 34, False)))]
 
 
-@pytest.mark.parametrize("case", range(7))
+@pytest.mark.parametrize("case", range(10))
 def test_lut_product_equals_the_product(case):
     """A narrow partial product built in LUTs (:meth:`Product.lut_value`, the pipelined ECP5
     build's shift-and-add rows) is the exact product, on the limbs' extremes and random words."""
@@ -95,7 +99,7 @@ def test_lut_product_equals_the_product(case):
         b_signal = Signal(b[1])
         b_part = (b_signal,) + b[2]
     product = Product(a, a_range, b_part, shift=3)
-    assert product.rows() <= NARROW_ROWS
+    assert (product.rows() <= NARROW_ROWS) == (case < 7)
     exact, lut = Signal(signed(80)), Signal(signed(80))
     m = Module()
     m.d.comb += [exact.eq(product.as_value()), lut.eq(product.lut_value())]
@@ -119,3 +123,21 @@ def test_lut_product_equals_the_product(case):
     sim = Simulator(m)
     sim.add_testbench(bench)
     sim.run()
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
+def test_max_dsp_caps_the_dsp_count(tmp_path):
+    """``ik5r verilog --max-dsp N``: exactly N MULT18X18D (the q18 core has more partial
+    products than that), the module named for it; refused (exit 2, one line) without ECP5 DSPs."""
+    import subprocess
+    import sys
+
+    def run(*extra):
+        return subprocess.run([sys.executable, "-m", "ik5r", "verilog", "--block", "ik", "--arch", "pipelined",
+                               "--config", "q18", "-o", str(tmp_path), *extra], capture_output=True, text=True)
+
+    assert run("--dsp", "ecp5", "--max-dsp", "3").returncode == 0
+    capped = (tmp_path / "ik5r_ik_dspecp5_max_dsp3_pipelined.v").read_text()
+    assert capped.count("MULT18X18D ") == 3
+    refused = run("--max-dsp", "3")
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "--max-dsp" in refused.stderr
