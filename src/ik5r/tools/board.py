@@ -123,7 +123,10 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
         divider(clock_hz, baud)
     except ValueError as exc:
         raise InputError("--baud", str(exc)) from None
-    link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud)
+    # On ECP5 the pipelined core's products map to MULT18X18D by hand (narrow ones in LUTs): the
+    # generic ones take a DSP each, more than the 85k has at q32w.
+    dsp = "ecp5" if b["target"] == "ecp5" and core == "pipelined" else "generic"
+    link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud, dsp=dsp)
     out.mkdir(parents=True, exist_ok=True)
     seconds = {}
     start = time.perf_counter()
@@ -146,7 +149,7 @@ def _record(board, constants, core, link, clock_hz, baud, report, bitstream, see
     fmax = _fmax(report, clock_mhz)
     cycles = link.cycles_per_result
     return {
-        "board": board, "device": BOARDS[board]["device"].lstrip("-"), "core": core,
+        "board": board, "device": BOARDS[board]["device"].lstrip("-"), "core": core, "dsp": str(link.dsp),
         "config": constants.cfg.name, "clock_mhz": clock_mhz, "baud": baud,
         "fmax_mhz": None if fmax is None else round(fmax, 2),
         "timing_met": fmax is not None and fmax >= clock_mhz,
