@@ -131,6 +131,9 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     seconds = {}
     start = time.perf_counter()
     synth_opts = "-dsp" if b["target"] == "ice40" else ""
+    if dsp == "ecp5":   # the CCU2C add/sub module the ECP5 datapath instantiates
+        from ik5r.hdl.datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+        platform.add_file(f"{ECP5_ADD_SUB_MODULE}.v", ecp5_add_sub_verilog())
     plan = platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts)
     plan.extract(str(out))
     seconds["elaborate"] = round(time.perf_counter() - start, 1)
