@@ -51,3 +51,20 @@ def test_board_table_is_rendered_from_the_records(tmp_path):
     lines = board_part(tmp_path)
     assert "| icebreaker | serial | q32w | 12 | 3,000,000 | 17.2 | met | 4,524 | 22 | – | 104,090 | 4,839 | 16,238 |" in lines
     assert any("5,000 q32w poses, 0 differing words, 4,800 poses/s" in line and "99.2%" in line for line in lines)
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
+def test_ulx3s_85f_plan_maps_the_pipelined_core_to_ecp5_primitives():
+    """The ULX3S-85F's pipelined core is built with ECP5 DSPs and CCU2C chains (the generic
+    products would each take a MULT18X18D, narrow ones included: more than the 85k has at
+    q32w); the add/sub module is in the plan."""
+    from ik5r.core.arm import load_arm
+    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.hdl.datapath.ecp5 import ECP5_ADD_SUB_MODULE
+    from ik5r.tools.board import NAME, plan
+
+    build_plan, link = plan("ulx3s-85f", constants(load_config("q18"), load_arm(None)))
+    assert link.dsp == "ecp5" and link.core_name == "pipelined"
+    assert f"{ECP5_ADD_SUB_MODULE}.v" in build_plan.files
+    top = build_plan.files[f"{NAME}.il"] if f"{NAME}.il" in build_plan.files else build_plan.files[f"{NAME}.v"]
+    assert "MULT18X18D" in top and ECP5_ADD_SUB_MODULE in top

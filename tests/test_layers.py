@@ -127,7 +127,7 @@ HDL_ALLOWED = {
     "sequenced": {"graph", "blocks", "datapath", "modes"},
     "generate": {"blocks", "datapath", "modes", "pipelined", "provenance", "sequenced"},
     "soc": {"pipelined", "provenance", "sequenced"},               # the IK peripheral wraps a core
-    "board": {"datapath", "pipelined", "sequenced"},               # a core behind the UART link
+    "board": {"datapath", "modes", "pipelined", "sequenced"},      # a core behind the UART link
     "formal": {"blocks", "datapath", "generate", "modes", "pipelined", "sequenced", "soc"},
 }
 

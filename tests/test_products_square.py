@@ -64,4 +64,80 @@ def test_ik_core_dsps():
 
     # The conversion the cocotb run of this core shares (tests/test_cocotb_core.py).
     text, _ = generate_cached("ik", "pipelined", constants(load_config("q32w")), DEFAULT_TAG_WIDTH, dsp="ecp5")
-    assert text.count("MULT18X18D ") == 164
+    assert text.count("MULT18X18D ") == 73
+
+
+def _lut_cases():
+    """(a shape, a limb range, b_part) of narrow partial products as the IK cores make them."""
+    return [(signed(38), (34, 38, True), ("b", unsigned(17), (0, 17, False))),
+            (unsigned(38), (0, 17, False), ("b", signed(38), (34, 38, True))),
+            (signed(38), (34, 38, True), ("b", signed(38), (34, 38, True))),
+            (signed(21), (17, 21, True), ("b", signed(2), (0, 2, True))),
+            (unsigned(34), (17, 34, False), 5),
+            (signed(21), (17, 21, True), 0x1ABCD),
+            (signed(20), (17, 20, True), 3),
+            # Wide: what --max-dsp puts in LUTs beyond its cap.
+            (signed(34), (17, 34, True), ("b", signed(34), (17, 34, True))),
+            (signed(38), (17, 34, False), 0x1ABCD),
+            (unsigned(38), (17, 34, False), ("b", signed(38), (17, 34, False)))]
+
+
+@pytest.mark.parametrize("case", range(10))
+def test_lut_product_equals_the_product(case):
+    """A narrow partial product built in LUTs (:meth:`Product.lut_value`, the pipelined ECP5
+    build's shift-and-add rows) is the exact product, on the limbs' extremes and random words."""
+    from amaranth.hdl import Module, Signal
+    from amaranth.sim import Simulator
+
+    from ik5r.hdl.datapath.products import NARROW_ROWS, Product
+
+    a_shape, a_range, b = _lut_cases()[case]
+    a = Signal(a_shape)
+    if isinstance(b, int):
+        b_signal, b_part = None, b
+    else:
+        b_signal = Signal(b[1])
+        b_part = (b_signal,) + b[2]
+    product = Product(a, a_range, b_part, shift=3)
+    assert (product.rows() <= NARROW_ROWS) == (case < 7)
+    exact, lut = Signal(signed(80)), Signal(signed(80))
+    m = Module()
+    m.d.comb += [exact.eq(product.as_value()), lut.eq(product.lut_value())]
+    rng = random.Random(case)
+
+    def words(shape):
+        lo, hi = (-(1 << (shape.width - 1)), (1 << (shape.width - 1)) - 1) if shape.signed else (0, (1 << shape.width) - 1)
+        return [lo, hi, 0, 1, lo + 1, hi - 1] + [rng.randint(lo, hi) for _ in range(200)]
+
+    async def bench(ctx):
+        pairs = [(x, y) for x in words(a_shape) for y in (words(b_signal.shape()) if b_signal is not None else [0])]
+        for x, y in rng.sample(pairs, min(600, len(pairs))) + pairs[:36]:
+            ctx.set(a, x)
+            if b_signal is not None:
+                ctx.set(b_signal, y)
+            a_limb = _limb_value(x, a_shape.width, *a_range)
+            b_limb = b if b_signal is None else _limb_value(y, b[1].width, *b[2])
+            assert ctx.get(exact) == a_limb * b_limb << 3, (x, y)
+            assert ctx.get(lut) == a_limb * b_limb << 3, (x, y)
+
+    sim = Simulator(m)
+    sim.add_testbench(bench)
+    sim.run()
+
+
+@pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
+def test_max_dsp_caps_the_dsp_count(tmp_path):
+    """``ik5r verilog --max-dsp N``: exactly N MULT18X18D (the q18 core has more partial
+    products than that), the module named for it; refused (exit 2, one line) without ECP5 DSPs."""
+    import subprocess
+    import sys
+
+    def run(*extra):
+        return subprocess.run([sys.executable, "-m", "ik5r", "verilog", "--block", "ik", "--arch", "pipelined",
+                               "--config", "q18", "-o", str(tmp_path), *extra], capture_output=True, text=True)
+
+    assert run("--dsp", "ecp5", "--max-dsp", "3").returncode == 0
+    capped = (tmp_path / "ik5r_ik_dspecp5_max_dsp3_pipelined.v").read_text()
+    assert capped.count("MULT18X18D ") == 3
+    refused = run("--max-dsp", "3")
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "--max-dsp" in refused.stderr

@@ -52,8 +52,11 @@ class StreamBlock(wiring.Component):
     """
 
     def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath,
-                 dsp=Dsp.GENERIC, rotations_per_stage=1):
+                 dsp=Dsp.GENERIC, rotations_per_stage=1, max_dsp=None):
         check_common(constants, arch, tag_width, dsp)
+        if max_dsp is not None and (dsp != Dsp.ECP5 or not isinstance(max_dsp, int) or max_dsp < 0):
+            raise ValueError(f"max_dsp (a non-negative int) applies to dsp={Dsp.ECP5.value!r}, "
+                             f"got max_dsp={max_dsp!r} with dsp={dsp!r}")
         if datapath.adders.dsp != dsp:
             raise ValueError(f"datapath {datapath.name!r} made with adders for "
                              f"{datapath.adders.dsp!r}, block built with dsp={dsp!r}")
@@ -68,6 +71,10 @@ class StreamBlock(wiring.Component):
         self.rotations_per_stage = micro_steps(arch, rotations_per_stage)
         if rotations_per_stage != 1:
             self.options = dict(getattr(self, "options", {}), rotations_per_stage=rotations_per_stage)
+        #: Cap on the MULT18X18D count of ``dsp="ecp5"`` (None: no cap; the rest in LUTs).
+        self.max_dsp = max_dsp
+        if max_dsp is not None:
+            self.options = dict(getattr(self, "options", {}), max_dsp=max_dsp)
         if tag_width:
             in_fields = dict(in_fields, tag=(unsigned(tag_width), 0, "carried unchanged to o.tag"))
             out_fields = dict(out_fields, tag=(unsigned(tag_width), 0, "i.tag of the same item"))
@@ -115,5 +122,6 @@ class StreamBlock(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         state = self._state_of(self.i.payload)
-        build(self._dp, m, self._datapath_arch, state, self._payload, self.i, self.o, self.dsp)
+        build(self._dp, m, self._datapath_arch, state, self._payload, self.i, self.o, self.dsp,
+              self.max_dsp)
         return m

@@ -15,6 +15,7 @@ from amaranth.lib.wiring import In, Out
 from ik5r.core import link as L
 from ik5r.core.fxconfig import Constants
 
+from ..modes import Dsp
 from .decoder import FrameDecoder
 from .encoder import FrameEncoder
 from .uart import UartRx, UartTx, divider
@@ -41,8 +42,9 @@ def id_words(constants: Constants, core: str, clock_hz: int, baud: int, fifo_byt
             L.CORES[core], clock_hz, baud, credits(fifo_bytes)]
 
 
-def _core(constants: Constants, core: str):
-    """The IK core with 32-bit word streams (``SerialIK`` takes them as 32-bit beats)."""
+def _core(constants: Constants, core: str, dsp: str):
+    """The IK core with 32-bit word streams (``SerialIK`` takes them as 32-bit beats); ``dsp``
+    maps the pipelined core's multipliers and adders (the others multiply sequentially)."""
     if core == "serial":
         from ..sequenced.engine import SerialIK
         return SerialIK(constants=constants, tag_width=TAG_BITS, beat_bits=32)
@@ -51,7 +53,7 @@ def _core(constants: Constants, core: str):
         from ..sequenced.engine import SequencedIKCore
         return WordCore(core=SequencedIKCore(constants=constants, tag_width=TAG_BITS))
     from ..pipelined.core import IKCore
-    return WordCore(core=IKCore(constants=constants, arch="pipelined", tag_width=TAG_BITS))
+    return WordCore(core=IKCore(constants=constants, arch="pipelined", tag_width=TAG_BITS, dsp=dsp))
 
 
 class BoardLink(wiring.Component):
@@ -62,12 +64,15 @@ class BoardLink(wiring.Component):
     decoder's replies to the frame encoder and out on ``tx``; an ID frame leaves after reset.
     ``led_activity`` is lit while bytes come or go (stretched), ``led_error`` after an error
     frame or a UART framing error. Formats: 8N1 at ``baud`` with a ``clock_hz`` clock.
+    ``dsp`` (:class:`~ik5r.hdl.modes.Dsp`) maps a pipelined core's multipliers: ``"ecp5"`` on an
+    ECP5 board, where the generic products would each take a DSP, narrow ones included.
     Latency: the core's plus the frames' time on the line. Throughput: the line's (a pose frame
     is 62 bytes, a joints frame 30) unless the core is slower; the ID frame's credits bound the
     poses in flight so that the FIFO never overflows.
     """
 
-    def __init__(self, *, constants: Constants, core: str, clock_hz: int, baud: int, fifo_bytes: int = 512):
+    def __init__(self, *, constants: Constants, core: str, clock_hz: int, baud: int, fifo_bytes: int = 512,
+                 dsp: str = Dsp.GENERIC):
         if core not in CORES:
             raise ValueError(f"core must be one of {CORES}, got {core!r}")
         if isinstance(fifo_bytes, bool) or not isinstance(fifo_bytes, int) or credits(fifo_bytes) < 1:
@@ -75,7 +80,8 @@ class BoardLink(wiring.Component):
         self.constants, self.core_name, self.clock_hz, self.baud = constants, core, clock_hz, baud
         self.fifo_bytes = fifo_bytes
         divider(clock_hz, baud)   # a ValueError before any component is made
-        self.core = _core(constants, core)
+        self.dsp = Dsp(dsp)
+        self.core = _core(constants, core, self.dsp)
         inner = getattr(self.core, "core", self.core)
         #: Clocks per pose of the IK core.
         self.cycles_per_result = inner.cycles_per_result

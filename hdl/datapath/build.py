@@ -10,16 +10,17 @@ from amaranth.lib.fifo import SyncFIFOBuffered
 
 from ..modes import ARCHS, DSPS, Arch, Dsp
 from .stages import SharedStage, Stage
-from .products import Product
+from .products import DspBudget, Product
 
 __all__ = ["build", "build_pipelined", "build_iterative"]
 
 
-def build(dp, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = Dsp.GENERIC) -> None:
+def build(dp, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = Dsp.GENERIC,
+          max_dsp: int | None = None) -> None:
     """Elaborate the datapath ``dp`` into ``m`` between the streams ``i`` (its payload already
     turned into the state ``inputs``) and ``o``, whose payload fields ``payload_of(final_state)
     -> {field: value}`` gives. ``dsp`` (one of :data:`DSPS`, the datapath's :attr:`adders`' own)
-    applies to the pipelined architecture."""
+    and ``max_dsp`` (:class:`DspBudget`) apply to the pipelined architecture."""
     if dsp not in DSPS:
         raise ValueError(f"dsp must be one of {DSPS}, got {dsp!r}")
     if dsp == Dsp.ECP5 and dp.adders.dsp != dsp:
@@ -28,7 +29,7 @@ def build(dp, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = Dsp.GENER
     if arch != Arch.PIPELINED and any(getattr(Stage.of(stage).fn, "grouped", False) for stage in dp.stages):
         raise ValueError(f"datapath {dp.name!r}: micro-steps grouped per stage need the pipelined arch")
     if arch == Arch.PIPELINED:
-        build_pipelined(dp, m, inputs, payload_of, i, o, dsp)
+        build_pipelined(dp, m, inputs, payload_of, i, o, dsp, DspBudget(max_dsp))
     elif arch == Arch.ITERATIVE:
         build_iterative(dp, m, inputs, payload_of, i, o)
     else:
@@ -67,7 +68,7 @@ def _credits(dp, m, i, o, depth):
     return fifo, taken_in
 
 
-def _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp):
+def _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp, budget):
     """One register set of ``stage`` (its ``step``-th for an iterated one); returns (registers,
     valid, what each register is loaded with)."""
     prefix = f"{stage.name}{step}" if stage.iterated else stage.name
@@ -76,18 +77,21 @@ def _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp):
         m.submodules[f"{prefix}_add_sub{index}"] = cell
     regs = _registers(dp, prefix, out)
     stage_valid = Signal(name=f"{prefix}_valid")
-    plain = list(regs)
+    plain, loads = list(regs), dict(out)
     if dsp == Dsp.ECP5:
         for key in regs:
-            if isinstance(out[key], Product) and out[key].map_ecp5(
-                    m, f"{prefix}_{key}", regs[key], loaded):
+            if not isinstance(out[key], Product):
+                continue
+            if not budget.wants_dsp(out[key]):
+                loads[key] = out[key].lut_value()
+            elif out[key].map_ecp5(m, f"{prefix}_{key}", regs[key], loaded):
                 plain.remove(key)
-    m.d.sync += [regs[key].eq(out[key]) for key in plain]
+    m.d.sync += [regs[key].eq(loads[key]) for key in plain]
     m.d.sync += stage_valid.eq(valid)
-    return regs, stage_valid, {id(regs[key]): (regs[key], out[key]) for key in regs}
+    return regs, stage_valid, {id(regs[key]): (regs[key], loads[key]) for key in regs}
 
 
-def build_pipelined(dp, m, inputs, payload_of, i, o, dsp):
+def build_pipelined(dp, m, inputs, payload_of, i, o, dsp, budget: DspBudget):
     fifo, taken_in = _credits(dp, m, i, o, dp.capacity(Arch.PIPELINED))
     state, valid = dict(inputs), taken_in
     # What each register of the previous stage is loaded with (for the ECP5 DSP mapping).
@@ -97,7 +101,7 @@ def build_pipelined(dp, m, inputs, payload_of, i, o, dsp):
             state = stage.fn(state)
             continue
         for step in range(stage.count):
-            state, valid, loaded = _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp)
+            state, valid, loaded = _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp, budget)
 
     payload = Signal(o.payload.shape(), name=f"{dp.name}_result")
     for field, value in payload_of(state).items():

@@ -7,12 +7,12 @@ which the pipelined build with ``dsp="ecp5"`` maps to a ``MULT18X18D``."""
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Shape, Signal, Value, ValueCastable, signed, unsigned
+from amaranth.hdl import Const, Mux, Shape, Signal, Value, ValueCastable, signed, unsigned
 
 from .ecp5 import MULT_BITS, mult18x18d
 from .expr import drop, extend, select
 
-__all__ = ["LIMB_BITS", "Product", "add_products"]
+__all__ = ["LIMB_BITS", "NARROW_ROWS", "DspBudget", "Product", "add_products"]
 
 #: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
 #: fits one ECP5 MULT18X18D.
@@ -48,18 +48,42 @@ class Product(ValueCastable):
 
     def __init__(self, a, a_range, b_part, shift):
         self.a, self.a_range, self.b_part, self.shift = a, a_range, b_part, shift
-        a_part = _slice(a, *a_range)
-        if isinstance(b_part, int):
-            b_value = Const(b_part, unsigned(max(b_part.bit_length(), 1)))
-        else:
-            b_value = _slice(b_part[0], *b_part[1:])
-        self._value = (a_part * b_value).shift_left(shift)
+        self._value = (_slice(a, *a_range) * self._b_value()).shift_left(shift)
 
     def as_value(self):
         return self._value
 
     def shape(self):
         return self._value.shape()
+
+    def _b_value(self):
+        if isinstance(self.b_part, int):
+            return Const(self.b_part, unsigned(max(self.b_part.bit_length(), 1)))
+        return _slice(self.b_part[0], *self.b_part[1:])
+
+    def rows(self) -> int:
+        """Rows of its shift-and-add form: the narrower operand's bits (a constant's set bits)."""
+        a_bits = self.a_range[1] - self.a_range[0]
+        if isinstance(self.b_part, int):
+            return min(a_bits, bin(self.b_part).count("1"))
+        return min(a_bits, self.b_part[2] - self.b_part[1])
+
+    def lut_value(self) -> Value:
+        """The same product as a balanced sum of :meth:`rows` shifted rows: logic with no
+        multiplier cell, so Yosys cannot map it to a DSP."""
+        a_part = _slice(self.a, *self.a_range)
+        b = self.b_part
+        if isinstance(b, int) and bin(b).count("1") <= len(a_part):
+            rows = [a_part.shift_left(bit) for bit in range(b.bit_length()) if b >> bit & 1]
+        else:
+            b_value = self._b_value()
+            narrow, wide = (b_value, a_part) if len(b_value) <= len(a_part) else (a_part, b_value)
+            rows = [Mux(narrow[bit], wide, 0).shift_left(bit) for bit in range(len(narrow))]
+            if narrow.shape().signed:      # two's complement: the top bit weighs -2**(n-1)
+                rows[-1] = -rows[-1]
+        while len(rows) > 1:
+            rows = [rows[i] + rows[i + 1] if i + 1 < len(rows) else rows[i] for i in range(0, len(rows), 2)]
+        return rows[0].shift_left(self.shift) if rows else Const(0, 1)
 
     def map_ecp5(self, m, name, target, loaded) -> bool:
         """Drive ``target`` from a ``MULT18X18D`` with input and output registers (always
@@ -83,6 +107,31 @@ class Product(ValueCastable):
         a18 = _limb18(a_src, *self.a_range)
         product = mult18x18d(m, name, a18, b18)
         m.d.comb += target.eq(product.shift_left(self.shift))
+        return True
+
+
+#: A partial product of at most this many shift-and-add rows (a top limb of a few bits, a
+#: constant of a few set bits) is built in LUTs: two adder levels, less delay than a DSP and no
+#: DSP spent on 4 of its 18 x 18 bits.
+NARROW_ROWS = 4
+
+
+class DspBudget:
+    """Which partial products of a pipelined ECP5 build get a ``MULT18X18D``, in build order:
+    never a narrow one (:data:`NARROW_ROWS`); the others while fewer than ``max_dsp`` (no cap:
+    None) are taken, the rest in LUTs (:meth:`Product.lut_value`, one stage of shift-and-add)."""
+
+    def __init__(self, max_dsp: int | None = None):
+        if max_dsp is not None and (not isinstance(max_dsp, int) or max_dsp < 0):
+            raise ValueError(f"max_dsp must be a non-negative int or None, got {max_dsp!r}")
+        self.max_dsp, self.used = max_dsp, 0
+
+    def wants_dsp(self, product: Product) -> bool:
+        if product.rows() <= NARROW_ROWS:
+            return False
+        if self.max_dsp is not None and self.used >= self.max_dsp:
+            return False
+        self.used += 1
         return True
 
 

@@ -85,7 +85,7 @@ class IKCore(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1):
+                 dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1, max_dsp: int | None = None):
         if arch not in CORE_BUILDS:
             raise ValueError(f"arch must be one of {CORE_BUILDS}, got {arch!r}")
         block_arch = Arch.PIPELINED if arch == Arch.PIPELINED else Arch.ITERATIVE
@@ -100,7 +100,8 @@ class IKCore(StreamBlock):
                                     serial=arch == CoreBuild.STAGED)
         self.options = {}
         super().__init__(constants=constants, arch=block_arch, tag_width=tag_width, in_fields=in_fields,
-                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
+                         out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage,
+                         max_dsp=max_dsp)
         self.arch = arch
         self.cycles_per_result = 1 if arch == Arch.PIPELINED else dp.latency
 

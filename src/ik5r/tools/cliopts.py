@@ -113,6 +113,29 @@ def add_rotations_per_stage(parser) -> None:
                              "latency and the same bits (module name ..._rotations_per_stageN_...; default: 1)")
 
 
+def add_max_dsp(parser) -> None:
+    """``--max-dsp N`` (verilog, synth)."""
+    parser.add_argument("--max-dsp", type=int, default=None, metavar="N",
+                        help="pipelined arch with ECP5 DSPs: at most N MULT18X18D; the partial products "
+                             "beyond the cap are built in LUTs (shift-and-add, one stage, same latency, "
+                             "same bits; narrow ones always are). Default: no cap")
+
+
+def max_dsp_option(args, arch: str, dsp: str) -> dict:
+    """The generator option of ``--max-dsp`` (none when not given); exit 2 when it is asked of a
+    design without ECP5 DSPs to count, or is negative."""
+    from ik5r.core.errors import InputError
+
+    cap = getattr(args, "max_dsp", None)
+    if cap is None:
+        return {}
+    if cap < 0:
+        raise InputError("--max-dsp", f"must be >= 0, got {cap}")
+    if arch != "pipelined" or dsp != "ecp5":
+        raise InputError("--max-dsp", f"applies to the pipelined architecture with --dsp ecp5, not to {arch} with {dsp}")
+    return {"max_dsp": cap}
+
+
 def rotations_option(args, arch: str) -> dict:
     """The generator option of ``--rotations-per-stage`` for ``arch`` (none at 1); exit 2 when it
     is asked of an architecture that has no pipeline stages to fill."""

@@ -157,7 +157,8 @@ def _design(design, opts: SynthOptions):
         raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {design.arch}")
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
                             tag_width=opts.tag_width, dsp=dsp, serial=serial,
-                            rotations_per_stage=opts.rotations_per_stage)
+                            rotations_per_stage=opts.rotations_per_stage,
+                            max_dsp=opts.max_dsp if dsp == "ecp5" else None)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
 
@@ -278,8 +279,9 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items()
-             if name not in ("threads", "dsp", "rotations_per_stage")}
-    # --rotations-per-stage is in the Verilog and the module name already (old keys stay valid).
+             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp")}
+    # --rotations-per-stage and --max-dsp are in the Verilog and the module name already (old keys
+    # stay valid).
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid
     key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))

@@ -58,6 +58,7 @@ class SynthOptions:
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
     dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
     rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
+    max_dsp: int | None = None      # pipelined, ECP5 DSPs: at most this many MULT18X18D (the rest in LUTs)
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
@@ -80,4 +81,6 @@ class SynthOptions:
         dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
         if dsp not in ("generic", self.target):
             raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
+        if self.max_dsp is not None and (self.max_dsp < 0 or dsp != "ecp5"):
+            raise InputError("--max-dsp", f"a cap >= 0 on ECP5 DSPs (--dsp ecp5), got {self.max_dsp} with {dsp}")
         return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)

@@ -55,6 +55,7 @@ def register(subparsers) -> None:
                              "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
                              "(default: generic)")
     cliopts.add_rotations_per_stage(parser)
+    cliopts.add_max_dsp(parser)
     parser.set_defaults(run=run)
 
 
@@ -68,6 +69,7 @@ def run(args) -> int:
                                   f"not to --arch {args.arch}")
     if args.arch not in ("pipelined", "all"):
         cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
+    cliopts.max_dsp_option(args, "pipelined" if args.arch == "all" else args.arch, args.dsp)
     # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
@@ -81,7 +83,8 @@ def run(args) -> int:
             if args.arch != "all" or arch == "pipelined":
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
-                                    dsp=dsp, rotations_per_stage=per_stage)
+                                    dsp=dsp, rotations_per_stage=per_stage,
+                                    **(cliopts.max_dsp_option(args, arch, dsp) if dsp == "ecp5" else {}))
             text, pmap = design.verilog()
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)
