@@ -40,7 +40,7 @@ def _float_side(poses: int, seed: int, arm=None) -> dict:
     position32, _ = qz._task_errors(arm, r32.q[np.arange(poses), branch].astype(np.float64), p, a)
     return {"p": p, "n": n, "o": o, "a": a, "branch": branch, "q64": q64,
             "float32_position_err_max_cm": float(position32.max()),
-            "sin_q3": np.abs(np.sin(q64[:, 2] + arm.theta_offset[2])), "radius": np.hypot(p[:, 0], p[:, 1])}
+            "sin_q3": np.abs(np.sin(arm.theta(q64)[:, 2])), "radius": np.hypot(p[:, 0], p[:, 1])}
 
 
 def error_figures(cfg: FixedConfig, poses: int, seed: int, arm=None) -> dict:

@@ -109,11 +109,11 @@ def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
     out = {
         "q": q, "branch": branch,
         "branch_match_rad": np.max(np.abs(diff[np.arange(count), branch]), axis=-1),
-        "sin_q3": np.abs(np.sin(q64[:, 2] + arm.theta_offset[2])),
+        "sin_q3": np.abs(np.sin(arm.theta(q64)[:, 2])),
         "radius": np.hypot(p[:, 0], p[:, 1]), "height": p[:, 2].copy(),
         "status_float64": r64.status[np.arange(count), branch],
     }
-    t = q64 + np.asarray(arm.theta_offset)
+    t = arm.theta(q64)
     out["wrist_dist"] = np.sqrt(arm.a[1] ** 2 + arm.a[2] ** 2 + 2 * arm.a[1] * arm.a[2] * np.cos(t[:, 2]))
     pe, ae = _task_errors(arm, q64, p, a)
     out["position_float64"], out["approach_float64"] = pe, ae
@@ -329,7 +329,7 @@ def conditioning_figures(samples: Samples) -> dict:
     s3 = np.maximum(samples.sin_q3, 1e-300)
     # q1 from the tool point and the approach together (docs/algorithm.md, "Joint 1 near the base
     # axis"): each rounded by up to sqrt(2)/2 LSB across the plane, weighed by its length in LSBs.
-    t = samples.q + np.asarray(arm.theta_offset)
+    t = arm.theta(samples.q)
     horizontal = np.abs(np.sin(t[:, 1] + t[:, 2] + t[:, 3]))          # |(ax, ay)| = |sin phi|
     dq1 = math.sqrt(2) / np.maximum(samples.radius / h_l + horizontal / h_u, 1e-300)
     dw_pose = dp + wrist_offset * (dphi + np.minimum(dq1, np.pi) ** 2 / 4)
