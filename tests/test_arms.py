@@ -179,3 +179,26 @@ def test_fixed_solvers_flag_out_of_limits_and_prefer_in_limit_branches(solver, t
     assert "out_of_limits" in got[0]["status"]
     assert got[1]["status"] == "ok" and got[1]["branch"] == "1"
     np.testing.assert_allclose([float(got[1][f"q{j}"]) for j in range(1, 6)], q[1], atol=1e-6)
+
+
+def test_build_id_hashes_do_not_depend_on_where_the_arm_file_lives(tmp_path):
+    """The board's ID-frame arm hash and the peripheral's ARM_HASH of an arm read by name, by
+    its path, and from a copy elsewhere are equal: a board built in one clone is accepted by the
+    host of another."""
+    import shutil
+
+    from ik5r.core import link, regmap
+    from ik5r.core.arm import load_arm
+    from ik5r.core.fxconfig import constants, load_config
+
+    by_name = load_arm("al5d")
+    copy = tmp_path / "elsewhere" / "al5d.toml"
+    copy.parent.mkdir()
+    shutil.copy(by_name.source, copy)
+    arms = [by_name, load_arm(str(copy))]
+    assert str(arms[0].source) != str(arms[1].source)
+    ks = [constants(load_config("q32w"), arm) for arm in arms]
+    assert link.arm_hash(ks[0]) == link.arm_hash(ks[1])
+    ids = [regmap.id_values(k, "1.2.3", "compact", 1)["ARM_HASH"] for k in ks]
+    assert ids[0] == ids[1]
+    assert link.arm_hash(constants(load_config("q32w"), load_arm("px150"))) != link.arm_hash(ks[0])

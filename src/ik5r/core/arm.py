@@ -75,6 +75,15 @@ class Arm:
             del doc["sense"]
         return doc
 
+    def id_fields(self) -> dict:
+        """What the ID words of a build (the board's ID frame, the peripheral's ARM_HASH) hash:
+        :meth:`fields` but the name, with the file's name for its path, so that the ID of a
+        build does not depend on where the clone lives (the file name stays: the ID words of the
+        recorded builds of the default arm were made with it)."""
+        doc = {k: v for k, v in self.fields().items() if k != "name"}
+        doc["source"] = Path(str(self.source)).name
+        return doc
+
     def theta(self, q):
         """DH joint angles of joint readings ``q`` (..., 5): theta_offset + sense * q."""
         return np.asarray(self.theta_offset) + np.asarray(self.sense) * np.asarray(q)

@@ -139,8 +139,7 @@ def config_hash(constants) -> int:
 def arm_hash(constants) -> int:
     """The ID frame's arm hash: the arm's numbers (not its name); a board built with --arm
     differs here."""
-    arm = {k: v for k, v in constants.arm.fields().items() if k != "name"}
-    return short_hash(repr(sorted(arm.items())))
+    return short_hash(repr(sorted(constants.arm.id_fields().items())))
 
 
 def version_word(version: str) -> int:

@@ -161,7 +161,7 @@ def id_values(constants, version: str, kind: str, capacity: int) -> dict[str, in
         raise ValueError(f"kind must be one of {tuple(CORE_KINDS)}, got {kind!r}")
     major, minor, patch = (int(part) for part in (version.split(".") + ["0", "0"])[:3])
     cfg = {k: v for k, v in asdict(constants.cfg).items() if k not in ("name", "source")}
-    arm = {k: v for k, v in constants.arm.fields().items() if k != "name"}
+    arm = constants.arm.id_fields()
     return {"ID": ID_MAGIC, "VERSION": (major & 255) << 16 | (minor & 255) << 8 | (patch & 255),
             "CONFIG_HASH": _hash32(cfg), "ARM_HASH": _hash32(arm),
             "CORE": CORE_KINDS[kind] | constants.cfg.width << 8 | min(capacity, 0xFFFF) << 16}
