@@ -311,6 +311,20 @@ def _point(cfg: FixedConfig, block, arch, err: dict, syn: dict) -> dict:
     return p
 
 
+def _points(configs, blocks, archs, errors: dict, synths: dict, synth: bool) -> list[dict]:
+    """The sweep's rows: per config its error figures, with each block and arch synthesised (one
+    row of error figures only without synthesis)."""
+    points = []
+    for cfg in configs:
+        err = errors.get(cfg.name, {})
+        if not synth:
+            points.append(_point(cfg, "", "", err, {}))
+        for block in blocks:
+            for arch in dict.fromkeys(resolve_arch(block, a) for a in archs):
+                points.append(_point(cfg, block, arch, err, synths.get((cfg.name, block, arch), {})))
+    return points
+
+
 def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=("pipelined",),
               out_dir="build/sweep", jobs: int | None = None, poses: int = DEFAULT_POSES,
               seed: int = 0, opts: SynthOptions | None = None, synth_cache=DEFAULT_CACHE,
@@ -346,14 +360,7 @@ def run_sweep(widths=DEFAULT_WIDTHS, iterations=None, blocks=("atan2",), archs=(
         (errors if task.kind == "error" else synths)[task.ident] = doc
         if "error" in doc:
             failures.append((task.ident if task.kind == "synth" else (task.ident,), doc["error"]))
-    points = []
-    for cfg in configs:
-        err = errors.get(cfg.name, {})
-        if not synth:
-            points.append(_point(cfg, "", "", err, {}))
-        for block in blocks:
-            for arch in dict.fromkeys(resolve_arch(block, a) for a in archs):
-                points.append(_point(cfg, block, arch, err, synths.get((cfg.name, block, arch), {})))
+    points = _points(configs, blocks, archs, errors, synths, synth)
     meta = {
         "rule": "frac.length = w-8, frac.unit = w-2, frac.angle = w-3, iterations = w (or "
                 "--iterations), guard_bits = round(log2 w)-1, angle_guard_bits = 3, nearest, "
