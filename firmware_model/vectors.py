@@ -53,8 +53,7 @@ def directed_poses(k: Constants) -> PoseBatch:
     (invalid); the directed status cases of :mod:`ik5r.core.status_cases`; q5 defaults at the word
     limits; full-scale and most negative words."""
     c = k.cfg
-    lo, hi, one = k.word_min, k.word_max, k.one_u
-    real, words = [], []    # (p, a, n, o, q5): cm / unit vectors / radians, and words
+    real = []    # (p, a, n, o, q5): cm / unit vectors / radians
 
     def joints(q):
         p, n, o, a = reference.fk(k.arm, np.asarray(q, dtype=float))
@@ -82,21 +81,7 @@ def directed_poses(k: Constants) -> PoseBatch:
     # The directed status cases (ik5r.core.status_cases): every status class, compared with the float.
     for _, _, (p, a, n, o) in status_cases(k.arm):
         add(p, a, (0, 0, 0) if n is None else n, (0, 0, 0) if o is None else o)
-    p1 = (1 << c.frac_length, 2 << c.frac_length, 3 << c.frac_length)
-    words += [((0, 0, 0),) * 4 + (0,), (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), hi),
-              (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), lo),
-              ((lo,) * 3,) * 4 + (lo,), ((hi,) * 3,) * 4 + (hi,),
-              ((lo, hi, lo), (hi, lo, hi), (lo, hi, 0), (hi, lo, 0), lo),
-              ((hi, lo, 0), (lo, 0, hi), (0, lo, lo), (lo, 0, hi), 1),
-              ((lo, 0, hi), (0, lo, 0), (hi, hi, 0), (0, 0, lo), -1),
-              ((0, lo, 0), (0, 0, lo), (lo, 0, 0), (0, lo, 0), 0),
-              ((lo, lo, 0), (1, -1, 0), (1, 0, 0), (0, 1, 0), 0),
-              ((1, 0, 0), (0, 0, 1), (0, 1, 0), (1, 0, 0), 0),
-              ((-1, -1, -1),) * 4 + (-1,)]
-    rng = np.random.default_rng(99)
-    for _ in range(6):
-        w = [int(rng.choice([lo, hi, 0, 1, -1, int(rng.integers(lo, hi, endpoint=True))])) for _ in range(13)]
-        words.append((w[0:3], w[3:6], w[6:9], w[9:12], w[12]))
+    words = _directed_words(k)
     cols = [np.array([r[i] for r in real], dtype=float) for i in range(4)]
     p_w, a_w, n_w, o_w = pose_words(k.cfg, *cols)[:4]
     q5 = quantize(np.array([r[4] for r in real]), c.frac_angle, c)[0]
@@ -106,6 +91,29 @@ def directed_poses(k: Constants) -> PoseBatch:
                           np.concatenate([q5, wcols[4]]))
     # A few of the near-axis poses (the whole set is in edge_poses).
     return concat(listed, near_axis_poses(k, (0.0, 1e-7, 1e-6), (0.1, math.pi / 2, -1.5)))
+
+
+def _directed_words(k: Constants) -> list:
+    """The word-level poses of :func:`directed_poses` (p, a, n, o, q5 as words): nothing at all,
+    q5 defaults at the word limits, full-scale and most negative words, mixed extremes and a few
+    seeded random picks of them."""
+    lo, hi, one = k.word_min, k.word_max, k.one_u
+    p1 = (1 << k.cfg.frac_length, 2 << k.cfg.frac_length, 3 << k.cfg.frac_length)
+    words = [((0, 0, 0),) * 4 + (0,), (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), hi),
+             (p1, (0, 0, -one), (0, 0, 0), (0, 0, 0), lo),
+             ((lo,) * 3,) * 4 + (lo,), ((hi,) * 3,) * 4 + (hi,),
+             ((lo, hi, lo), (hi, lo, hi), (lo, hi, 0), (hi, lo, 0), lo),
+             ((hi, lo, 0), (lo, 0, hi), (0, lo, lo), (lo, 0, hi), 1),
+             ((lo, 0, hi), (0, lo, 0), (hi, hi, 0), (0, 0, lo), -1),
+             ((0, lo, 0), (0, 0, lo), (lo, 0, 0), (0, lo, 0), 0),
+             ((lo, lo, 0), (1, -1, 0), (1, 0, 0), (0, 1, 0), 0),
+             ((1, 0, 0), (0, 0, 1), (0, 1, 0), (1, 0, 0), 0),
+             ((-1, -1, -1),) * 4 + (-1,)]
+    rng = np.random.default_rng(99)
+    for _ in range(6):
+        w = [int(rng.choice([lo, hi, 0, 1, -1, int(rng.integers(lo, hi, endpoint=True))])) for _ in range(13)]
+        words.append((w[0:3], w[3:6], w[6:9], w[9:12], w[12]))
+    return words
 
 
 def edge_poses(k: Constants) -> PoseBatch:

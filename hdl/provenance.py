@@ -25,8 +25,8 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import Constants
 
-__all__ = ["HEADER_END", "verilog_header", "strip_header", "body_sha256", "config_hash", "arm_hash",
-           "tool_versions", "source_commit"]
+__all__ = ["HEADER_END", "verilog_header", "board_header", "strip_header", "body_sha256", "config_hash",
+           "arm_hash", "tool_versions", "source_commit"]
 
 #: The last line of the header; everything after it is the body Amaranth wrote.
 HEADER_END = "// ik5r-header-end\n"
@@ -151,3 +151,30 @@ def verilog_header(portmap: dict, constants: Constants, options: dict | None = N
         f"source: {source_commit()}",
     ]
     return "".join(f"// {line}\n" for line in lines) + HEADER_END
+
+
+def board_header(link, name: str, comment: str = "//") -> str:
+    """The header of the board's top level (:class:`ik5r.hdl.board.top.BoardLink` ``link``, module
+    ``name``): what it is, the ik5r version, the config, the arm and their hashes, the core, the
+    clock and baud it was built for, the ID frame's words, the tools and the source commit.
+    ``comment``: ``//`` for Verilog, ``#`` for the RTLIL ``ik5r board`` gives Yosys. Ends in
+    :data:`HEADER_END` (with ``comment`` in front of its text)."""
+    from ik5r import __version__
+
+    constants = link.constants
+    c, arm = constants.cfg, constants.arm
+    tools = tool_versions()
+    lines = [
+        f"{name}: ik5r generated {'Verilog' if comment == '//' else 'RTLIL'}, do not edit: the IK core "
+        "on a framed UART link (UART, frame "
+        "decoder, core, frame encoder; ik5r.hdl.board.top.BoardLink, docs/protocol.md)",
+        f"ik5r {__version__}; core {link.core_name}, clock {link.clock_hz} Hz, baud {link.baud}",
+        f"config: {c.name} (numbers and arm: sha256 {config_hash(constants)})",
+        f"arm: {arm.name} (DH numbers and limits: sha256 {arm_hash(constants)}; reach {arm.reach:.6g} cm)",
+        *_format_lines("ik", constants),
+        f"ID frame words: {', '.join(str(word) for word in link.id)}",
+        f"tools: amaranth {tools['amaranth']}; yosys {tools['yosys']}",
+        f"source: {source_commit()}",
+    ]
+    end = HEADER_END if comment == "//" else comment + HEADER_END[2:]
+    return "".join(f"{comment} {line}\n" for line in lines) + end

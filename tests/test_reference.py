@@ -12,7 +12,7 @@ from ik5r.core import reference as ref
 from ik5r.core import status as st
 from ik5r.core.arm import load_arm
 from ik5r.core.errors import InputError
-from ik5r.core.reference_kernel import sincos
+from ik5r.core.reference_check import sincos
 
 ARM = load_arm()
 HARMLESS = st.SINGULAR_ELBOW | st.SINGULAR_BASE

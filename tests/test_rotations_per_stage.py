@@ -24,8 +24,15 @@ K = constants(load_config("q18"))
 
 
 #: The default run: each block once, both choices among them; the rest in the slow set.
-# rotate at 4 per stage crashed its pytest-xdist worker in the merged suite (not yet understood:
-# see the stop note); it runs with the slow set until it is.
+# The CORDIC blocks at 4 per stage cost minutes of CPU and gigabytes before the first clock (what
+# crashed the xdist worker that ran rotate-4): each micro-rotation's direction is the sign of the
+# previous one's result, and add_sub replicates it across the adder's width, so the expression of
+# a stage of 4 re-references the first step's value about width^4 times. Amaranth 0.5 walks such
+# trees without memo twice: Module's statement check (_dsl._check_rhs, at elaboration, so also
+# ik5r verilog) and the simulator's compiler. Measured at q18 (generate, rotate, pipelined, one
+# process): 1 per stage 0.6 s CPU, 2 per stage 2.9 s, 4 per stage over 100 s in _check_rhs. A
+# cure changes the Verilog (a wire between grouped steps, or another form of add_sub's operand
+# inversion): a design change with re-simulation and re-placed records, not done here.
 DEFAULT = {("atan2", 2), ("sqrt", 4), ("acos", 2)}
 
 

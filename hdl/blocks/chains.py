@@ -18,7 +18,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Mux
 
-from ..datapath.stages import Datapath, retraced, traced_view
+from ..datapath.stages import Datapath
+from ..datapath.tracing import retraced, traced_view
 from ..datapath.expr import drop
 
 __all__ = ["namespaced", "concat", "compose", "append_chains", "add_selecting"]

@@ -55,10 +55,11 @@ import enum
 from dataclasses import dataclass, replace
 from typing import Callable
 
-from amaranth.hdl import Shape, Signal, Value
+from amaranth.hdl import Shape, Signal
 
 from .adders import Ecp5Adders, GenericAdders, adders_for   # noqa: F401 (cordic.py imports them here)
 from ..modes import PRODUCTS, Arch, Products
+from .tracing import MissingValue, Traced, retraced, trace_stages
 
 __all__ = ["StageKind", "Stage", "SharedStage", "GenericAdders", "Ecp5Adders", "adders_for",
            "Datapath", "OUTPUT_FIFO_LATENCY", "traced_view", "retraced", "steps_per_stage",
@@ -142,56 +143,6 @@ class SharedStage:
             return out
         run.shared = self
         return run
-
-
-# --- the construction check's traced state ------------------------------------------------------
-
-class MissingValue(LookupError):
-    """A stage read a key the state does not hold."""
-
-    def __init__(self, key):
-        super().__init__(key)
-        self.key = key
-
-
-class _Traced(dict):
-    """A state seen by :meth:`Datapath.check`: records the (outer) names of the keys read."""
-
-    def __init__(self, values, reads: set, names: dict | None = None):
-        super().__init__(values)
-        self.reads = reads
-        self.names = names or {}
-
-    def __getitem__(self, key):
-        name = self.names.get(key, key)
-        if not dict.__contains__(self, key):
-            raise MissingValue(name)
-        self.reads.add(name)
-        return dict.__getitem__(self, key)
-
-    def get(self, key, default=None):
-        return self[key] if key in self else default
-
-    def derive(self, values: dict) -> "_Traced":
-        """A new state (e.g. :func:`~ik5r.hdl.datapath.expr.drop` of this one) recording into the same log."""
-        return _Traced(values, self.reads, self.names)
-
-
-def traced_view(state, names: dict):
-    """``{inner: state[outer]}`` for ``names`` (inner -> outer) without reading the values; a
-    traced state's view records reads under the outer names (for stage wrappers)."""
-    values = {inner: dict.__getitem__(state, outer) for inner, outer in names.items()}
-    if isinstance(state, _Traced):
-        return _Traced(values, state.reads, {inner: state.names.get(outer, outer)
-                                             for inner, outer in names.items()})
-    return values
-
-
-def retraced(new: dict, old: dict) -> dict:
-    """``new`` (a stage's result) traced like ``old`` (its input), for the next composed function."""
-    if isinstance(old, _Traced) and not isinstance(new, _Traced):
-        return old.derive(new)
-    return new
 
 
 # --- micro-steps per pipeline stage ------------------------------------------------------------
@@ -372,10 +323,10 @@ class Datapath:
         if tracing is not None:
             self.adders.tracing = True
         try:
-            state = _trace_stages(self, dict(inputs))
+            state = trace_stages(self.name, map(Stage.of, self.stages), dict(inputs))
             reads = set()
             try:
-                outputs_of(_Traced(state.values, reads))
+                outputs_of(Traced(state.values, reads))
             except MissingValue as error:
                 raise ValueError(f"{self.name}: the outputs read {error.key!r}, which no stage "
                                  f"produces") from None
@@ -384,59 +335,3 @@ class Datapath:
         finally:
             if tracing is not None:
                 self.adders.tracing = tracing
-
-
-class _TraceState:
-    """The values of a trace, who produced each and whether it has been read."""
-
-    def __init__(self, name, values):
-        self.name, self.values = name, values
-        self.producer = {key: "the inputs" for key in values}
-        self.used = {key: False for key in values}
-
-    def read(self, reads):
-        for key in reads:
-            self.used[key] = True
-
-    def _unread(self, key, by):
-        raise ValueError(f"{self.name}: {key!r} produced by stage {self.producer[key]!r} is never "
-                         f"read ({by} drops or replaces it)")
-
-    def advance(self, out: dict, stage_name: str):
-        """Take a stage's result; each value it produced becomes a fresh signal of its shape
-        (as a register does: a trace through hundreds of stages must not build one expression)."""
-        for key, value in self.values.items():
-            if (key not in out or out[key] is not value) and not self.used[key]:
-                self._unread(key, f"stage {stage_name!r}")
-        for key, value in out.items():
-            if key not in self.values or self.values[key] is not value:
-                self.producer[key], self.used[key] = stage_name, False
-                out[key] = Signal(Value.cast(value).shape(), name=f"trace_{key}")
-        self.values = out
-
-    def consume_all(self, by):
-        for key in self.values:
-            if not self.used[key]:
-                raise ValueError(f"{self.name}: {key!r} produced by stage {self.producer[key]!r} "
-                                 f"is never read (not an output)")
-
-
-def _trace_stages(dp: Datapath, values: dict) -> _TraceState:
-    state = _TraceState(dp.name, values)
-    for stage in map(Stage.of, dp.stages):
-        for step in range(max(stage.count, 1) if stage.iterated else 1):
-            reads = set()
-            traced = _Traced(state.values, reads)
-            try:
-                out = stage.fn(traced, step) if stage.iterated else stage.fn(traced)
-            except MissingValue as error:
-                raise ValueError(f"{dp.name}: stage {stage.name!r} reads {error.key!r}, which no "
-                                 f"earlier stage produces") from None
-            state.read(reads)
-            state.advance(dict(out), stage.name)
-            if stage.iterated:
-                # An iterated stage's values feed its next step (the iterative build's feedback):
-                # the last step's values of the keys it reads count as read (e.g. the y of a
-                # vectoring CORDIC, driven to 0 and not used after).
-                state.read(reads & set(out))
-    return state

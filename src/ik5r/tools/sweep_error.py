@@ -27,7 +27,7 @@ JOINTS = ("q1", "q2", "q3", "q4", "q5")
 def _float_side(poses: int, seed: int, arm=None) -> dict:
     """Target poses, their float64 branch (``arm``; None: the arm of record), as the report draws
     them, and the float32 solver's largest position error on that branch."""
-    from .report import quantisation as qz
+    from .report import sampling
 
     arm = arm or load_arm()
     q = ref.random_joints(arm, poses, np.random.default_rng(seed))
@@ -37,7 +37,7 @@ def _float_side(poses: int, seed: int, arm=None) -> dict:
     branch = np.argmin(np.sum(diff**2, axis=-1), axis=1)
     q64 = r64.q[np.arange(poses), branch].astype(np.float64)
     r32 = ref.ik(arm, *(v.astype(np.float32) for v in (p, a, n, o)), dtype=np.float32, confirm_tolerance_cm=None)
-    position32, _ = qz._task_errors(arm, r32.q[np.arange(poses), branch].astype(np.float64), p, a)
+    position32, _ = sampling._task_errors(arm, r32.q[np.arange(poses), branch].astype(np.float64), p, a)
     return {"p": p, "n": n, "o": o, "a": a, "branch": branch, "q64": q64,
             "float32_position_err_max_cm": float(position32.max()),
             "sin_q3": np.abs(np.sin(arm.theta(q64)[:, 2])), "radius": np.hypot(p[:, 0], p[:, 1])}
@@ -49,6 +49,7 @@ def error_figures(cfg: FixedConfig, poses: int, seed: int, arm=None) -> dict:
     from ik5r.firmware_model.vector import solve_batch
 
     from .report import quantisation as qz
+    from .report import sampling
 
     arm = arm or load_arm()
     f = _float_side(poses, seed, arm)
@@ -59,7 +60,7 @@ def error_figures(cfg: FixedConfig, poses: int, seed: int, arm=None) -> dict:
                                 branch >= 2, (branch & 1).astype(bool), np.zeros(poses, dtype=np.int64))
     q_fx = np.asarray(q_raw, dtype=np.float64) * 2.0**-cfg.frac_angle
     err = np.abs(ref.wrap(q_fx - f["q64"]))
-    position, approach = qz._task_errors(arm, q_fx, f["p"], f["a"])
+    position, approach = sampling._task_errors(arm, q_fx, f["p"], f["a"])
     pos, app = qz._distribution(position), qz._distribution(approach)
     per_joint = {name: qz._max_rms(err[:, j]) for j, name in enumerate(JOINTS)}
     off_axis = f["radius"] >= qz._input_terms(arm, cfg)["axis_radius_cm"]

@@ -37,11 +37,16 @@ def _plots(points: list[dict], out_dir: Path, freq_floor: float | None) -> list[
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = []
-    markers = {"pipelined": "o", "iterative": "s"}
     groups = sorted({(p["block"], p["arch"]) for p in points})
-    colours = {g: f"C{i}" for i, g in enumerate(groups)}
+    style = {"markers": {"pipelined": "o", "iterative": "s"},
+             "colours": {g: f"C{i}" for i, g in enumerate(groups)}, "groups": groups}
+    return [_error_vs_luts(points, out_dir, plt, style), _fmax_vs_width(points, out_dir, plt, style, freq_floor),
+            _error_vs_width(points, out_dir, plt)]
 
+
+def _error_vs_luts(points: list[dict], out_dir: Path, plt, style: dict) -> str:
+    """Position error (max and RMS) against LUTs per block and arch, with each block's Pareto front."""
+    markers, colours, groups = style["markers"], style["colours"], style["groups"]
     fig, ax = plt.subplots(figsize=(8, 5.5))
     for g in groups:
         pts = [p for p in points if (p["block"], p["arch"]) == g
@@ -79,8 +84,12 @@ def _plots(points: list[dict], out_dir: Path, freq_floor: float | None) -> list[
     fig.tight_layout()
     fig.savefig(out_dir / "error_vs_luts.png", dpi=120)
     plt.close(fig)
-    names.append("error_vs_luts.png")
+    return "error_vs_luts.png"
 
+
+def _fmax_vs_width(points: list[dict], out_dir: Path, plt, style: dict, freq_floor: float | None) -> str:
+    """Fmax against word width per block and arch."""
+    markers, colours, groups = style["markers"], style["colours"], style["groups"]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for g in groups:
         pts = sorted((p for p in points if (p["block"], p["arch"]) == g and p.get("fmax_mhz")),
@@ -101,9 +110,7 @@ def _plots(points: list[dict], out_dir: Path, freq_floor: float | None) -> list[
     fig.tight_layout()
     fig.savefig(out_dir / "fmax_vs_width.png", dpi=120)
     plt.close(fig)
-    names.append("fmax_vs_width.png")
-    names.append(_error_vs_width(points, out_dir, plt))
-    return names
+    return "fmax_vs_width.png"
 
 
 def _error_vs_width(points: list[dict], out_dir: Path, plt) -> str:

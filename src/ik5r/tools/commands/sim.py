@@ -137,8 +137,26 @@ def run(args) -> int:
     if args.harness:
         result = _with_harness(result, args, design.config.name, per_stage)
     wall = time.perf_counter() - t0
+    doc = _record(result, args, wall)
+    text = json.dumps(doc, indent=2)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(text + "\n")
+    verdict = "OK" if doc["mismatches"] == 0 else "MISMATCH"
+    print(f"{verdict}: {doc['block']} {doc['arch']} {doc['config']} arm {doc['arm']} on {sim}: {doc['vectors']} vectors, "
+          f"{doc['mismatches']} mismatches, max error {doc['max_error_lsb']} LSB, "
+          f"rms {doc['rms_error_lsb']} LSB, latency {doc['latency_cycles']}, "
+          f"cycles/result {doc['cycles_per_result']}, {_rate(doc)}, wall {wall:.1f} s")
+    if doc["first_mismatch"]:
+        print("first mismatch:", json.dumps(doc["first_mismatch"]), file=sys.stderr)
+    return 0 if doc["mismatches"] == 0 else 1
+
+
+def _record(result: dict, args, wall: float) -> dict:
+    """The JSON record of one ``ik5r sim`` run: ``run_block``'s result, the options and the wall
+    time of the whole run."""
     bulk = result.get("bulk") or {}
-    doc = {
+    return {
         "block": result["block"], "arch": result["arch"], "config": result["config"], "arm": result["arm"],
         "simulator": result["simulator"], "seed": args.seed, "dsp": args.dsp, "serial": args.serial,
         "vectors": result["vectors"], "mismatches": result["mismatches"],
@@ -156,18 +174,6 @@ def run(args) -> int:
         "build_seconds": result["build_seconds"], "stream": result["stream"], "bulk": result["bulk"],
         "build_dir": result["build_dir"], "waves": result["waves"], "log": result["log"],
     }
-    text = json.dumps(doc, indent=2)
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(text + "\n")
-    verdict = "OK" if doc["mismatches"] == 0 else "MISMATCH"
-    print(f"{verdict}: {doc['block']} {doc['arch']} {doc['config']} arm {doc['arm']} on {sim}: {doc['vectors']} vectors, "
-          f"{doc['mismatches']} mismatches, max error {doc['max_error_lsb']} LSB, "
-          f"rms {doc['rms_error_lsb']} LSB, latency {doc['latency_cycles']}, "
-          f"cycles/result {doc['cycles_per_result']}, {_rate(doc)}, wall {wall:.1f} s")
-    if doc["first_mismatch"]:
-        print("first mismatch:", json.dumps(doc["first_mismatch"]), file=sys.stderr)
-    return 0 if doc["mismatches"] == 0 else 1
 
 
 def _with_harness(result: dict, args, config: str, per_stage: int) -> dict:

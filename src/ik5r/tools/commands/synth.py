@@ -76,28 +76,33 @@ def _available_blocks() -> tuple[str, ...]:
     return tuple(BLOCKS)
 
 
-def run(args) -> int:
+def _blocks_and_cpus(args) -> tuple[tuple, tuple]:
+    """The blocks ``--block`` names (``cpu``: the soft CPU) and the CPUs ``--cpu`` names (all when
+    not given); InputError (exit 2) on a block ``ik5r.hdl.generate`` does not have or an unknown
+    CPU."""
     from ik5r.core.errors import InputError
-    from ik5r.hdl.generate import archs_of
-    from ik5r.tools.design import Design
-    from ik5r.tools.synth import SynthOptions, format_table, synthesize
 
     available = _available_blocks()
     if args.block == "all":
-        blocks = available
-    elif args.block == "cpu":
-        blocks = ("cpu",)
-    elif args.block not in available:
-        raise InputError("--block", f"block {args.block!r} is not available in ik5r.hdl.generate "
-                                    f"(have {', '.join(available)})")
-    else:
-        blocks = (args.block,)
+        return available, ()
     if args.block == "cpu":
         from ik5r.hdl.soc.system import CPUS
         if args.cpu is not None and args.cpu.partition("+")[0] not in CPUS:
             raise InputError("--cpu", f"must be one of {', '.join(CPUS)} (+compact or +pipelined: with "
                                       f"the IK peripheral), got {args.cpu!r}")
-        cpus = (args.cpu,) if args.cpu else tuple(CPUS)
+        return ("cpu",), (args.cpu,) if args.cpu else tuple(CPUS)
+    if args.block not in available:
+        raise InputError("--block", f"block {args.block!r} is not available in ik5r.hdl.generate "
+                                    f"(have {', '.join(available)})")
+    return (args.block,), ()
+
+
+def run(args) -> int:
+    from ik5r.hdl.generate import archs_of
+    from ik5r.tools.design import Design
+    from ik5r.tools.synth import SynthOptions, format_table, synthesize
+
+    blocks, cpus = _blocks_and_cpus(args)
     # The config and the arm, loaded once; an arm the config cannot hold is refused here (exit 2).
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,

@@ -8,7 +8,8 @@ HDL/C/model bit-accuracy table) are appended without touching the existing ones.
 
 from .build import build_report, quantisation_sections
 from .html import Section, write_report
-from .quantisation import compute, figures
+from .quantisation import figures
+from .sampling import compute
 from .summary import summary_text
 
 __all__ = ["Section", "write_report", "compute", "figures", "summary_text", "build_report",

@@ -13,14 +13,12 @@ from . import worst as worst_poses
 from .html import Section, esc, fmt, image, para, table, write_report
 from .quantisation import (
     BIN_LABELS,
-    JOINTS,
     PERCENTILES,
     SIN_Q3_BINS,
     TASK_MEASURES,
-    Samples,
-    compute,
     figures,
 )
+from .sampling import JOINTS, Samples, compute
 from .summary import summary_text
 
 

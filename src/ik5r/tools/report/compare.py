@@ -16,7 +16,8 @@ from ik5r.core.fxconfig import load_config
 
 from . import hardware, provenance
 from .html import Section, image, jsonable, para, render_page, table
-from .quantisation import compute, figures
+from .quantisation import figures
+from .sampling import compute
 
 
 def config_row(fig: dict, cfg) -> dict:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .quantisation import JOINTS, Samples
+from .sampling import JOINTS, Samples
 
 #: Scatter / hexbin plots show at most this many poses (a random subset).
 MAX_POINTS = 200_000

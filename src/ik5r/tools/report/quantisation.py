@@ -12,26 +12,24 @@ Method (one pose = one random joint vector q, uniform in the joint limits, so re
   dequantised words, or the float32-rounded values): the algorithm's own error;
 * task-space errors are FK(solved q) in float64 against the target.
 
-:func:`compute` returns per-pose arrays (:class:`Samples`); :func:`figures` reduces them to a dict
-of plain numbers; :func:`.summary.summary_text` renders the one-screen terminal summary.
+:func:`.sampling.compute` returns per-pose arrays (:class:`~.sampling.Samples`); :func:`figures`
+reduces them to a dict of plain numbers; :func:`.summary.summary_text` renders the one-screen
+terminal summary.
 """
 
 from __future__ import annotations
 
 import math
-import time
-from dataclasses import dataclass, field
-from functools import partial
 
 import numpy as np
 
 from ik5r.core import reference as ref
 from ik5r.core import status as st
 from ik5r.core.arm import Arm
-from ik5r.core.fxconfig import FixedConfig, constants
-from ik5r.firmware_model.poses import PoseBatch
+from ik5r.core.fxconfig import FixedConfig
 
-JOINTS = ("q1", "q2", "q3", "q4", "q5")
+from .sampling import COMPARISONS, JOINTS, Samples
+
 #: Subsets of poses by |sin q3| (q2, q3 errors scale with 1 / |sin q3|): key -> lower bound.
 SIN_Q3_BINS = {"all": 0.0, "sin_q3_ge_1e-3": 1e-3, "sin_q3_ge_1e-2": 1e-2, "sin_q3_ge_1e-1": 1e-1}
 BIN_LABELS = {"all": "all poses", "sin_q3_ge_1e-3": "|sin q3| ≥ 1e-3",
@@ -41,160 +39,6 @@ PERCENTILES = (50.0, 90.0, 99.0, 99.9, 99.99)
 #: words and branch, where |sin q3| >= 1e-3.
 JOINT_FLOOR_RAD = 1e-6
 JOINT_FLOOR_BIN = "sin_q3_ge_1e-3"
-#: Joint-error comparisons: key -> (solver, reference pose).
-COMPARISONS = ("fixed_vs_exact", "fixed_vs_quantised", "float32_vs_exact", "float32_vs_quantised",
-               "input_effect")
-DEFAULT_CHUNK = 50_000
-
-
-@dataclass
-class Samples:
-    """Per-pose arrays of a run (N poses)."""
-
-    arm: Arm
-    cfg: FixedConfig
-    seed: int
-    q: np.ndarray                 # (N, 5) the drawn joint vectors
-    branch: np.ndarray            # (N,) float64 branch index matching q
-    branch_match_rad: np.ndarray  # (N,) max |wrap(q64[branch] - q)|
-    sin_q3: np.ndarray            # (N,) |sin q3| (float64 branch)
-    radius: np.ndarray            # (N,) horizontal distance of the tool point from the base axis (cm)
-    height: np.ndarray            # (N,) tool point z (cm)
-    wrist_dist: np.ndarray        # (N,) distance joint 2 axis -> wrist centre (cm)
-    joint_err: dict = field(default_factory=dict)   # COMPARISONS key -> (N, 5) signed rad
-    position_err: dict = field(default_factory=dict)  # "fixed" / "float32" / "float64" -> (N,) cm
-    approach_err: dict = field(default_factory=dict)  # same keys -> (N,) rad
-    orientation_err: dict = field(default_factory=dict)  # same keys -> (N,) rad, n/o (see _no_error)
-    status_fixed: np.ndarray = None   # (N,) fixed status bits
-    status_float64: np.ndarray = None  # (N,) float64 status bits of the branch (exact pose)
-    input_saturated: int = 0
-    timing: dict = field(default_factory=dict)
-
-
-def _unit_angle(u, v):
-    """Angle (rad) between direction vectors (..., 3), robust for tiny angles."""
-    cross = np.linalg.norm(np.cross(u, v), axis=-1)
-    dot = np.sum(u * v, axis=-1)
-    return np.arctan2(cross, dot)
-
-
-def _take(q_all, branch):
-    return q_all[np.arange(len(branch)), branch].astype(np.float64)
-
-
-def _task_errors(arm, q, p, a):
-    p_fk, _, _, a_fk = ref.fk(arm, q)
-    return np.linalg.norm(p_fk - p, axis=-1), _unit_angle(a_fk, a)
-
-
-def _no_error(arm, q, n, o):
-    """The n/o error (rad): the larger of the angles between the solved and the target n and o
-    (the tool's roll and direction together)."""
-    _, n_fk, o_fk, _ = ref.fk(arm, q)
-    return np.maximum(_unit_angle(n_fk, n), _unit_angle(o_fk, o))
-
-
-def _chunk(arm: Arm, k, q: np.ndarray, timing: dict) -> dict:
-    """Everything of one chunk of joint vectors."""
-    from ik5r.firmware_model.vector import solve_batch
-
-    cfg = k.cfg
-    count = len(q)
-    t0 = time.perf_counter()
-    p, n, o, a = ref.fk(arm, q)
-    r64 = ref.ik(arm, p, a, n, o)
-    diff = ref.wrap(r64.q - q[:, None, :])
-    branch = np.argmin(np.sum(diff**2, axis=-1), axis=1)
-    q64 = _take(r64.q, branch)
-    out = {
-        "q": q, "branch": branch,
-        "branch_match_rad": np.max(np.abs(diff[np.arange(count), branch]), axis=-1),
-        "sin_q3": np.abs(np.sin(arm.theta(q64)[:, 2])),
-        "radius": np.hypot(p[:, 0], p[:, 1]), "height": p[:, 2].copy(),
-        "status_float64": r64.status[np.arange(count), branch],
-    }
-    t = arm.theta(q64)
-    out["wrist_dist"] = np.sqrt(arm.a[1] ** 2 + arm.a[2] ** 2 + 2 * arm.a[1] * arm.a[2] * np.cos(t[:, 2]))
-    pe, ae = _task_errors(arm, q64, p, a)
-    out["position_float64"], out["approach_float64"] = pe, ae
-    out["orientation_float64"] = _no_error(arm, q64, n, o)
-    timing["float64_s"] = timing.get("float64_s", 0.0) + time.perf_counter() - t0
-
-    # Fixed point: quantise, solve the branch, dequantise.
-    t0 = time.perf_counter()
-    poses, input_status = PoseBatch.quantise(cfg, p, a, n, o)
-    poses = poses.with_branch(branch)
-    out["input_saturated"] = int(np.count_nonzero(input_status & st.SATURATED))
-    t1 = time.perf_counter()
-    q_a, status = poses.solve(partial(solve_batch, k))
-    timing["fixed_solver_s"] = timing.get("fixed_solver_s", 0.0) + time.perf_counter() - t1
-    q_fx = np.asarray(q_a, dtype=np.float64) * 2.0**-cfg.frac_angle
-    out["status_fixed"] = np.asarray(status, dtype=np.int64)
-    deq_l, deq_u = 2.0**-cfg.frac_length, 2.0**-cfg.frac_unit
-    # float64 on the solver's own words, with the solver's arm plane (near the base axis the
-    # quantised point alone would not give it; docs/algorithm.md, "Joint 1 near the base axis").
-    r_deq = ref.ik(arm, poses.p * deq_l, poses.a * deq_u, poses.n * deq_u, poses.o * deq_u, confirm_tolerance_cm=None,
-                   approach_plane=ref.fixed_plane(cfg))
-    q64_deq = _take(r_deq.q, branch)
-    out["fixed_vs_exact"] = ref.wrap(q_fx - q64)
-    out["fixed_vs_quantised"] = ref.wrap(q_fx - q64_deq)
-    out["input_effect"] = ref.wrap(q64_deq - q64)
-    out["position_fixed"], out["approach_fixed"] = _task_errors(arm, q_fx, p, a)
-    out["orientation_fixed"] = _no_error(arm, q_fx, n, o)
-    timing["fixed_s"] = timing.get("fixed_s", 0.0) + time.perf_counter() - t0
-
-    # float32: the same algorithm on float32-rounded inputs.
-    t0 = time.perf_counter()
-    p32, a32, n32, o32 = (v.astype(np.float32) for v in (p, a, n, o))
-    t1 = time.perf_counter()
-    r32 = ref.ik(arm, p32, a32, n32, o32, dtype=np.float32, confirm_tolerance_cm=None)
-    timing["float32_solver_s"] = timing.get("float32_solver_s", 0.0) + time.perf_counter() - t1
-    q32 = _take(r32.q, branch)
-    r64_32 = ref.ik(arm, p32.astype(np.float64), a32.astype(np.float64), n32.astype(np.float64),
-                    o32.astype(np.float64), confirm_tolerance_cm=None)
-    out["float32_vs_exact"] = ref.wrap(q32 - q64)
-    out["float32_vs_quantised"] = ref.wrap(q32 - _take(r64_32.q, branch))
-    out["position_float32"], out["approach_float32"] = _task_errors(arm, q32, p, a)
-    out["orientation_float32"] = _no_error(arm, q32, n, o)
-    timing["float32_s"] = timing.get("float32_s", 0.0) + time.perf_counter() - t0
-    return out
-
-
-def compute(arm: Arm, cfg: FixedConfig, vectors: int, seed: int = 0, *, chunk: int = DEFAULT_CHUNK,
-            progress: bool = True) -> Samples:
-    """Draw ``vectors`` joint vectors (uniform in the limits, ``seed``) and solve them all three ways."""
-    from tqdm import tqdm
-
-    if vectors < 1:
-        raise ValueError("need at least one vector")
-    start = time.perf_counter()
-    k = constants(cfg, arm)
-    q_all = ref.random_joints(arm, vectors, np.random.default_rng(seed))
-    timing: dict = {}
-    parts = []
-    bounds = range(0, vectors, chunk)
-    for lo in tqdm(bounds, desc=f"report {cfg.name}", unit="chunk", disable=not progress,
-                   total=len(bounds)):
-        parts.append(_chunk(arm, k, q_all[lo:lo + chunk], timing))
-
-    def cat(key):
-        return np.concatenate([part[key] for part in parts])
-
-    samples = Samples(
-        arm=arm, cfg=cfg, seed=seed, q=cat("q"), branch=cat("branch"),
-        branch_match_rad=cat("branch_match_rad"), sin_q3=cat("sin_q3"), radius=cat("radius"),
-        height=cat("height"), wrist_dist=cat("wrist_dist"),
-        joint_err={key: cat(key) for key in COMPARISONS},
-        position_err={s: cat(f"position_{s}") for s in ("fixed", "float32", "float64")},
-        approach_err={s: cat(f"approach_{s}") for s in ("fixed", "float32", "float64")},
-        orientation_err={s: cat(f"orientation_{s}") for s in ("fixed", "float32", "float64")},
-        status_fixed=cat("status_fixed"), status_float64=cat("status_float64"),
-        input_saturated=sum(part["input_saturated"] for part in parts),
-    )
-    timing["total_s"] = time.perf_counter() - start
-    timing["fixed_poses_per_s"] = vectors / timing["fixed_solver_s"] if timing.get("fixed_solver_s") else None
-    samples.timing = timing
-    return samples
 
 
 # ---------------------------------------------------------------------------------------------
@@ -289,23 +133,13 @@ def joint_figures(samples: Samples) -> dict:
     return out
 
 
-def conditioning_figures(samples: Samples) -> dict:
-    """First-order input-quantisation terms and how the measured input effect compares.
-
-    The 2-link inverse Jacobian of the wrist centre w: dq2 = |dw| / (a2 |s3|),
-    dq3 = D |dw| / (a2 a3 |s3|) (D = |w - joint 2 axis|); |dw| <= |dp| + hypot(a4, d5) |dphi|
-    with |dp| <= sqrt(3)/2 LSB_length and |dphi| <= sqrt(3)/2 LSB_unit, plus hypot(a4, d5) dq1^2 / 4
-    near the base axis. q1 (and q5 through it): dq1 <= sqrt(2) / (rho / LSB_length + |(ax, ay)| /
-    LSB_unit), the point's and the approach's directions weighed by their lengths in LSBs. The solver's own
-    rounding of cos q3 to the unit format adds LSB_unit / 2 / |s3| to q3.
-    """
-    arm, cfg = samples.arm, samples.cfg
+def _conditioning_bins(samples: Samples, terms: dict, masks: dict) -> dict:
+    """Per |sin q3| bin (poses off the base axis): the first-order bounds and the largest measured
+    input effect and own error per joint."""
+    arm = samples.arm
     a2, a3 = arm.a[1], arm.a[2]
-    h_l, h_u, h_a = _input_lsb(cfg)
-    terms = _input_terms(arm, cfg)
-    dp, dphi, dw, wrist_offset = terms["dp"], terms["dphi"], terms["dw"], terms["wrist_offset_cm"]
-    off_axis = samples.radius >= terms["axis_radius_cm"]
-    masks = _bin_masks(samples, off_axis)
+    _, h_u, h_a = _input_lsb(samples.cfg)
+    dw, dphi = terms["dw"], terms["dphi"]
     effect = np.abs(samples.joint_err["input_effect"])
     own = np.abs(samples.joint_err["fixed_vs_quantised"])
     bins = {}
@@ -324,45 +158,80 @@ def conditioning_figures(samples: Samples) -> dict:
         entry["measured_fixed_own_max_rad"] = {
             name: (_f(own[m, j].max()) if m.any() else None) for j, name in enumerate(JOINTS)}
         bins[key] = entry
-    # Per-pose bounds (all poses, including the base-axis term), and the largest fraction of them the
-    # measured input effect used (<= 1 where the first-order analysis holds).
+    return bins
+
+
+def _bound_used(samples: Samples, terms: dict) -> dict:
+    """Per-pose bounds (all poses, including the base-axis term), and the largest fraction of them
+    the measured input effect used (<= 1 where the first-order analysis holds)."""
+    arm = samples.arm
+    a2, a3 = arm.a[1], arm.a[2]
+    h_l, h_u, _ = _input_lsb(samples.cfg)
+    effect = np.abs(samples.joint_err["input_effect"])
     s3 = np.maximum(samples.sin_q3, 1e-300)
     # q1 from the tool point and the approach together (docs/algorithm.md, "Joint 1 near the base
     # axis"): each rounded by up to sqrt(2)/2 LSB across the plane, weighed by its length in LSBs.
     t = arm.theta(samples.q)
     horizontal = np.abs(np.sin(t[:, 1] + t[:, 2] + t[:, 3]))          # |(ax, ay)| = |sin phi|
     dq1 = math.sqrt(2) / np.maximum(samples.radius / h_l + horizontal / h_u, 1e-300)
-    dw_pose = dp + wrist_offset * (dphi + np.minimum(dq1, np.pi) ** 2 / 4)
+    dw_pose = terms["dp"] + terms["wrist_offset_cm"] * (terms["dphi"] + np.minimum(dq1, np.pi) ** 2 / 4)
     per_pose = {"q1": dq1, "q2": dw_pose / (a2 * s3), "q3": samples.wrist_dist * dw_pose / (a2 * a3 * s3)}
-    used = {name: _f(np.max(effect[:, JOINTS.index(name)] / bound)) for name, bound in per_pose.items()}
-    # The solver's own error expressed as the wrist-centre error that would explain it (first order,
-    # poses away from the singular elbow): its internal length-format arithmetic acts like |dw|.
+    return {name: _f(np.max(effect[:, JOINTS.index(name)] / bound)) for name, bound in per_pose.items()}
+
+
+def _implied_wrist_error(samples: Samples) -> dict:
+    """The solver's own error expressed as the wrist-centre error that would explain it (first
+    order, poses away from the singular elbow): its internal length-format arithmetic acts like
+    |dw|."""
+    a2, a3 = samples.arm.a[1], samples.arm.a[2]
+    h_l = _input_lsb(samples.cfg)[0]
+    own = np.abs(samples.joint_err["fixed_vs_quantised"])
     away = samples.sin_q3 >= 1e-2
     implied = {"from_q2": own[away, 1] * a2 * samples.sin_q3[away] / h_l,
                "from_q3": own[away, 2] * a2 * a3 * samples.sin_q3[away] / samples.wrist_dist[away] / h_l}
+    return {key: {"max": _max_rms(v)["max"], "rms": _max_rms(v)["rms"]} for key, v in implied.items()}
+
+
+#: The first-order bounds of :func:`conditioning_figures`, as written in the report.
+CONDITIONING_FORMULAE = {
+    "q1": "dq1 <= sqrt(2) / (rho / LSB_length + |(ax, ay)| / LSB_unit)   (rho: tool point to base axis)",
+    "q2": "dq2 <= |dw| / (a2 |sin q3|)",
+    "q3": "dq3 <= D |dw| / (a2 a3 |sin q3|) <= (a2 + a3) |dw| / (a2 a3 |sin q3|)",
+    "q4": "dq4 <= dphi + dq2 + dq3",
+    "wrist": "|dw| <= sqrt(3)/2 LSB_length + hypot(a4, d5) (sqrt(3)/2 LSB_unit + dq1^2 / 4)",
+    "axis": "rho_axis = (sqrt(2)/2 LSB_length) / sqrt(4 |dp| / hypot(a4, d5)): below it dq1^2/4 dominates |dw|",
+    "c3_rounding": "solver's own: dq3 ~ (LSB_unit / 2) / |sin q3|",
+    "bins": "bin bounds: at the bin's smallest |sin q3|, rho >= rho_axis (|dw| <= 2 x first-order term)",
+}
+
+
+def conditioning_figures(samples: Samples) -> dict:
+    """First-order input-quantisation terms and how the measured input effect compares.
+
+    The 2-link inverse Jacobian of the wrist centre w: dq2 = |dw| / (a2 |s3|),
+    dq3 = D |dw| / (a2 a3 |s3|) (D = |w - joint 2 axis|); |dw| <= |dp| + hypot(a4, d5) |dphi|
+    with |dp| <= sqrt(3)/2 LSB_length and |dphi| <= sqrt(3)/2 LSB_unit, plus hypot(a4, d5) dq1^2 / 4
+    near the base axis. q1 (and q5 through it): dq1 <= sqrt(2) / (rho / LSB_length + |(ax, ay)| /
+    LSB_unit), the point's and the approach's directions weighed by their lengths in LSBs. The solver's own
+    rounding of cos q3 to the unit format adds LSB_unit / 2 / |s3| to q3.
+    """
+    h_l, h_u, h_a = _input_lsb(samples.cfg)
+    terms = _input_terms(samples.arm, samples.cfg)
+    off_axis = samples.radius >= terms["axis_radius_cm"]
     return {
         "lsb": {"length_cm": h_l, "unit": h_u, "angle_rad": h_a},
-        "wrist_offset_cm": wrist_offset,
-        "max_input_error": {"position_cm": dp, "approach_rad": dphi, "wrist_centre_cm": dw},
+        "wrist_offset_cm": terms["wrist_offset_cm"],
+        "max_input_error": {"position_cm": terms["dp"], "approach_rad": terms["dphi"],
+                            "wrist_centre_cm": terms["dw"]},
         "axis_radius_cm": terms["axis_radius_cm"],
         "near_axis_count": int(np.count_nonzero(~off_axis)),
         "min_radius_cm": _f(samples.radius.min()),
         "min_abs_sin_q3": _f(samples.sin_q3.min()),
-        "formulae": {
-            "q1": "dq1 <= sqrt(2) / (rho / LSB_length + |(ax, ay)| / LSB_unit)   (rho: tool point to base axis)",
-            "q2": "dq2 <= |dw| / (a2 |sin q3|)",
-            "q3": "dq3 <= D |dw| / (a2 a3 |sin q3|) <= (a2 + a3) |dw| / (a2 a3 |sin q3|)",
-            "q4": "dq4 <= dphi + dq2 + dq3",
-            "wrist": "|dw| <= sqrt(3)/2 LSB_length + hypot(a4, d5) (sqrt(3)/2 LSB_unit + dq1^2 / 4)",
-            "axis": "rho_axis = (sqrt(2)/2 LSB_length) / sqrt(4 |dp| / hypot(a4, d5)): below it dq1^2/4 dominates |dw|",
-            "c3_rounding": "solver's own: dq3 ~ (LSB_unit / 2) / |sin q3|",
-            "bins": "bin bounds: at the bin's smallest |sin q3|, rho >= rho_axis (|dw| <= 2 x first-order term)",
-        },
-        "bins": bins,
-        "max_fraction_of_per_pose_bound_used": used,
-        "solver_own_equivalent_wrist_error_lsb_length": {
-            key: {"max": _max_rms(v)["max"], "rms": _max_rms(v)["rms"]} for key, v in implied.items()},
-        "input_wrist_error_bound_lsb_length": dw / h_l,
+        "formulae": dict(CONDITIONING_FORMULAE),
+        "bins": _conditioning_bins(samples, terms, _bin_masks(samples, off_axis)),
+        "max_fraction_of_per_pose_bound_used": _bound_used(samples, terms),
+        "solver_own_equivalent_wrist_error_lsb_length": _implied_wrist_error(samples),
+        "input_wrist_error_bound_lsb_length": terms["dw"] / h_l,
     }
 
 

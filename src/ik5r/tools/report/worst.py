@@ -25,7 +25,7 @@ from ik5r.core import status as st
 from ik5r.core.fxconfig import constants, quantize
 
 from .html import Section, esc, para, table
-from .quantisation import Samples
+from .sampling import Samples
 
 POSE = ("px", "py", "pz", "nx", "ny", "nz", "ox", "oy", "oz", "ax", "ay", "az")
 MEASURES = {

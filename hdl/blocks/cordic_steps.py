@@ -1,0 +1,216 @@
+"""The steps the CORDIC blocks of :mod:`ik5r.hdl.blocks.cordic` are made of: the micro-rotation
+(as a functional unit the compact core shares, and skewed for the pipelined rotation), the
+register widths and bounds, and the vectoring datapath's coarse rotation, normalisation and
+magnitude stages. :mod:`ik5r.hdl.blocks.cordic` composes them into :class:`Atan2` and
+:class:`Rotate` and their chains.
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Mux, signed, unsigned
+
+from ik5r.core.fxconfig import Constants
+
+from ..datapath.adders import GenericAdders
+from ..datapath.expr import asr, drop, leading_zeros, table_entry
+from ..datapath.products import add_products
+from ..datapath.stages import Datapath, SharedStage
+
+
+def atan2_widths(k: Constants) -> dict:
+    """Register widths of the vectoring datapath (see the bounds in :func:`~ik5r.hdl.blocks.cordic.add_atan2`)."""
+    c = k.cfg
+    return {
+        "cx": signed(c.width + c.guard_bits + 3),
+        "cy": signed(c.width + c.guard_bits + 3),
+        "cz": signed((k.half_pi_z + sum(k.atan_table)).bit_length() + 2),
+        "norm": unsigned((c.width - 1).bit_length()),
+    }
+
+
+def rotate_z_bound(k: Constants) -> int:
+    """Bound of the rotation angle accumulator: below 2**(W-1+ag) + half_pi_z at the start, then
+    moved by at most sum(atan_table)."""
+    c = k.cfg
+    return (1 << (c.width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
+
+
+def cordic_unit(k: Constants, *, rotate: bool, adders=None) -> SharedStage:
+    """The circular CORDIC micro-rotation as a functional unit, shared in the compact IK core.
+
+    Keys ``cx``, ``cy``, ``cz`` and ``rotate``: vectoring (``rotate`` 0: turn towards y = 0, by
+    the sign of y; :func:`~ik5r.hdl.blocks.cordic.add_atan2`) or rotation (``rotate`` 1: drive z to 0, by the sign of z;
+    :class:`~ik5r.hdl.blocks.cordic.Rotate`). Its registers are wide enough for both (see their bounds). With ``rotate``
+    a constant the step is exactly the vectoring or the rotation one; as a value (the shared unit)
+    both in one: direction d = rotate ? z >= 0 : y < 0, then x -+ (y >> i), y +- (x >> i),
+    z -+ step, which is each of them for its value of ``rotate``. ``adders``: the datapath's
+    add/subtract mapping (generic when None).
+    """
+    add_sub = (adders or GenericAdders()).add_sub
+    c = k.cfg
+    xy = signed(c.width + c.guard_bits + 3)
+    z_width = max(atan2_widths(k)["cz"].width, rotate_z_bound(k).bit_length() + 1)
+    shapes = {"cx": xy, "cy": xy, "cz": signed(z_width), "rotate": unsigned(1)}
+
+    def micro_rotation(s, i):
+        xs, ys, z, mode = s["cx"], s["cy"], s["cz"], s["rotate"]
+        step = table_entry(k.atan_table, i)
+        if isinstance(mode, bool):
+            if mode:
+                neg = z[-1]       # z < 0: rotate clockwise
+                return dict(s,
+                            cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
+                            cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
+                            cz=add_sub(z, step, ~neg))         # z +- step
+            down = ys[-1]     # ys < 0: rotate the other way
+            return dict(s,
+                        cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
+                        cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
+                        cz=add_sub(z, step, down))             # z -+ step
+        down = Mux(mode, ~z[-1], ys[-1])
+        return dict(s, cx=add_sub(xs, asr(ys, i), down), cy=add_sub(ys, asr(xs, i), ~down),
+                    cz=add_sub(z, step, down))
+
+    return SharedStage("cordic", micro_rotation,
+                       {"cx": "cx", "cy": "cy", "cz": "cz", "rotate": rotate}, shapes)
+
+
+def skewed_rotation(k: Constants, adders):
+    """The rotation micro-rotations as ``iterations + 1`` stages ``fn(state, i)`` with the angle
+    one step ahead of the vector: stage i takes z through micro-rotation i (while i <
+    iterations) and (x, y) through micro-rotation i - 1 (from stage 1), by the sign of z_(i-1)
+    that stage i - 1 copied into ``cneg`` (for y) and ``cpos`` (for x).
+
+    The same arithmetic as ``cordic_unit(k, rotate=True)``, one stage later. Why: there, one
+    flip-flop (the sign of z) steers three adders (x, y and z, ~110 LUTs), and its route was the
+    pipelined Rotate's slowest path. Here the sign of z steers the z adder only; x and y read
+    copies registered a stage later, one each (``cpos`` is the complement, so the two copies
+    have different inputs and synthesis cannot merge them back into one). Pipelined only (``i``
+    an int): one step per clock gains nothing from it. ``adders``: the datapath's add/subtract
+    mapping.
+    """
+    add_sub = adders.add_sub
+    count = k.cfg.iterations
+
+    def step(s, i: int):
+        xs, ys, z = s["cx"], s["cy"], s["cz"]
+        out = dict(s, cneg=z[-1], cpos=~z[-1])
+        if i < count:
+            out["cz"] = add_sub(z, Const(k.atan_table[i]), ~z[-1])  # z -+ step
+        else:
+            out = drop(out, "cz", "cneg", "cpos")
+        if i > 0:
+            out["cx"] = add_sub(xs, asr(ys, i - 1), s["cpos"])  # xs -+ (ys >> i-1)
+            out["cy"] = add_sub(ys, asr(xs, i - 1), s["cneg"])  # ys +- (xs >> i-1)
+        return out
+
+    return step, count + 1
+
+
+def atan2_coarse(k: Constants, add_sub, *, y: str, x: str):
+    """The coarse stage of :func:`~ik5r.hdl.blocks.cordic.add_atan2` (``add_sub``: the datapath's adders)."""
+    def coarse(s):
+        # Rotation by -+90 degrees into the right half-plane; zero flag.
+        xv, yv = s[x], s[y]
+        x_neg, y_neg = xv[-1], yv[-1]
+        out = drop(s, x, y)
+        # cx = x < 0 ? (y < 0 ? -y : y) : x, cy = x < 0 ? (y < 0 ? x : -x) : y, each as
+        # 0 +- (a mux of x and y): the mux and the negation share the LUT before the carry chain
+        # (a negation followed by a mux was the slowest path of the acos block).
+        out["cx"] = add_sub(0, Mux(x_neg, yv, xv), x_neg & y_neg)
+        out["cy"] = add_sub(0, Mux(x_neg, xv, yv), x_neg & ~y_neg)
+        out["cz"] = Mux(x_neg, Mux(y_neg, Const(-k.half_pi_z), Const(k.half_pi_z)), Const(0))
+        out["czero"] = (xv == 0) & (yv == 0)
+        return out
+
+    return coarse
+
+
+def atan2_normalisation(k: Constants):
+    """The three normalisation stages of :func:`~ik5r.hdl.blocks.cordic.add_atan2`."""
+    c = k.cfg
+    width, guard = c.width, c.guard_bits
+    # norm = max(0, W - 1 - bit_length(xs | ones_abs(ys))) in three stages, over bytes of
+    # u = v[:W-1] (v = xs | ones_abs(ys)) padded at the LSB end with 1 0..0 to whole bytes (so a
+    # zero u counts W - 1): each byte's zero flag and leading-zero count; then the first non-zero
+    # byte from the top, and the shift by whole bytes; then the shift by the count in that byte.
+    # A leading-zero tree over all W - 1 bits and a shift by norm in one stage were the slowest
+    # paths of the block.
+    pad = 8 - (width - 1) % 8
+    norm_bits = atan2_widths(k)["norm"].width
+    groups = (width - 1 + pad) // 8
+
+    def byte_counts(s):
+        xs, ys = s["cx"], s["cy"]
+        ones_abs = Mux(ys[-1], ~ys, ys)
+        v = xs[:width] | ones_abs[:width]
+        padded = Cat(Const(1 << (pad - 1), pad), v[:width - 1])
+        tops = [padded[8 * (groups - 1 - j):8 * (groups - j)] for j in range(groups)]
+        return dict(s, ntop=v[width - 1], nzg=Cat(*(t.any() for t in tops)),
+                    gcnt=Cat(*(leading_zeros(t)[:3] for t in tops)))
+
+    def normalise_shift_bytes(s):
+        top, nonzero, counts = s["ntop"], s["nzg"], s["gcnt"]
+        index, count = Const(groups - 1), counts[3 * (groups - 1):]
+        for j in reversed(range(groups - 1)):
+            index = Mux(nonzero[j], j, index)
+            count = Mux(nonzero[j], counts[3 * j:3 * j + 3], count)
+        index = Mux(top, 0, index)
+        out = drop(s, "ntop", "nzg", "gcnt")
+        out["norm"] = Mux(top, 0, Cat(count, index[:norm_bits - 3]))
+        by = Cat(Const(0, 3), index)
+        out["cx"] = (s["cx"] << by).shift_left(guard)
+        out["cy"] = (s["cy"] << by).shift_left(guard)
+        return out
+
+    def normalise_shift_fine(s):
+        by = s["norm"][:3]
+        return dict(s, cx=s["cx"] << by, cy=s["cy"] << by)
+
+    return byte_counts, normalise_shift_bytes, normalise_shift_fine
+
+
+def add_magnitude(dp: Datapath, k: Constants, angle, keep_zero):
+    """The magnitude stages of :func:`~ik5r.hdl.blocks.cordic.add_atan2`, the angle (``angle(state)``) and the zero
+    flag (``keep_zero``) computed beside its multiplier."""
+    c = k.cfg
+    width, guard, nearest = c.width, c.guard_bits, c.round_nearest
+    # magnitude = sat(rshift_round((xs >> g) * inv_gain, inv_gain_frac + norm)).
+    # Rounded: floor((p / 2**(s-1) + 1) / 2) = ((p >> (s-1)) + 1) >> 1, s - 1 = inv_gain_frac - 1 + norm >= 0.
+    def product_side(s):
+        out = angle(s)
+        out.update({key: fn(s) for key, fn in keep_zero.items()})
+        out["mzero"] = s["czero"]
+        return out
+
+    add_products(dp, "at_mag", [(lambda s: asr(s["cx"], guard)[:width + 1],
+                                 unsigned(width + 1), k.inv_gain, "mag_p")],
+                 parallel=product_side, drop_keys=("cx", "cy", "cz", "czero"))
+    shift_const = k.inv_gain_frac - 1 if nearest else k.inv_gain_frac
+
+    def denormalise_coarse(s):
+        out = drop(s, "mag_p")
+        out["mag_t"] = s["mag_p"].shift_right(shift_const) >> Cat(Const(0, 3), s["norm"][3:])
+        return out
+
+    def denormalise_fine(s):
+        out = drop(s, "norm")
+        out["mag_t"] = s["mag_t"] >> s["norm"][:3]
+        return out
+
+    def round_saturate(s):
+        t = s["mag_t"]
+        out = drop(s, "mag_t", "mzero")
+        if nearest:
+            # (t + 1) >> 1 > word_max  <=>  t >= 2**W - 1 (a comparison parallel to the adder).
+            over = t >= (1 << width) - 1
+            value = (t + 1).shift_right(1)
+        else:
+            over = t > k.word_max
+            value = t
+        out["magnitude"] = Mux(s["mzero"], 0, Mux(over, k.word_max, value[:width]))
+        return out
+
+    dp.add("at_denorm", denormalise_coarse)
+    dp.add("at_denorm_fine", denormalise_fine)
+    dp.add("at_round", round_saturate)
