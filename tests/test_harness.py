@@ -20,6 +20,11 @@ from ik5r.tools.testbench.portmap import Field, Stream
 pytestmark = pytest.mark.sim
 
 SMALL = ("sqrt", "pipelined", "q18")
+
+
+def small():
+    from ik5r.tools.testbench.runner import sim_design
+    return sim_design(*SMALL)
 SOAK_POSES = int(os.environ.get("IK5R_SOAK_POSES", str(10**7)))
 
 
@@ -56,7 +61,7 @@ def test_pack_words_round_trip():
 def test_harness_matches_model(pattern):
     _need_verilator()
     from ik5r.tools.testbench.harness import run_harness
-    r = run_harness(*SMALL, vectors=3000, seed=11, pattern=pattern, chunk=1024, cflags="-O0")
+    r = run_harness(small(), vectors=3000, seed=11, pattern=pattern, chunk=1024, cflags="-O0")
     assert r["mismatches"] == 0, r["first_mismatch"]
     assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
     assert r["vectors"] >= 3000 and r["harness"]["vectors"] == r["vectors"]
@@ -82,7 +87,7 @@ def test_harness_reports_a_wrong_bit(monkeypatch):
         return exp
 
     monkeypatch.setattr(Job, "expected", flipped)
-    r = harness.run_harness(*SMALL, vectors=500, seed=12, pattern="full", cflags="-O0")
+    r = harness.run_harness(small(), vectors=500, seed=12, pattern="full", cflags="-O0")
     assert r["mismatches"] == 1 and r["first_mismatch"]["index"] == 7
 
 
@@ -98,7 +103,30 @@ def test_soak_ik_core(arch, config, poses):
     every pose, in chunks of 2**20."""
     _need_verilator()
     from ik5r.tools.testbench.harness import run_harness
-    r = run_harness("ik", arch, config, vectors=poses, seed=2025, pattern="random")
+    from ik5r.tools.testbench.runner import sim_design
+    r = run_harness(sim_design("ik", arch, config), vectors=poses, seed=2025, pattern="random")
     assert r["mismatches"] == 0, r["first_mismatch"]
     assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
     assert r["vectors"] >= poses
+
+
+#: A shipped arm other than the arm of record: its own Verilog (constants, formats' bounds), its
+#: own model; the compact core keeps the C++ build short.
+OTHER_ARM = "youbot-arm"
+
+
+def test_harness_on_another_arm():
+    """The harness simulates the design's arm: the Verilog it built names that arm, and every bit
+    of every pose (random and directed, random idles and back-pressure) equals that arm's model."""
+    _need_verilator()
+    import json
+
+    from ik5r.tools.testbench.harness import harness_dir, run_harness
+    from ik5r.tools.testbench.runner import sim_design
+    design = sim_design("ik", "compact", "q32w", arm=OTHER_ARM)
+    r = run_harness(design, vectors=300, seed=13, pattern="random", cflags="-O0", jobs=1)
+    assert r["arm"] == OTHER_ARM and design.arm_suffix in str(harness_dir(design))
+    assert json.loads((harness_dir(design) / "src" / "ik.json").read_text())["arm"]["name"] == OTHER_ARM
+    assert r["mismatches"] == 0, r["first_mismatch"]
+    assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
+    assert r["vectors"] >= 300 and r["harness"]["vectors"] == r["vectors"]

@@ -133,7 +133,7 @@ def _simulate(block: str, config: str, sim: str, vectors: int) -> dict:
     from .testbench.runner import run_block, sim_design
 
     if sim == "verilator-harness":
-        r = run_harness(block, "pipelined", config, vectors=vectors, seed=3, pattern="full")
+        r = run_harness(sim_design(block, "pipelined", config), vectors=vectors, seed=3, pattern="full")
         h = r["harness"]
         # Per CPU second of the simulator processes: the machine's other load left out.
         return dict(r, bulk_vectors_per_second=r["vectors_per_second"], cycles=h["cycles"],
