@@ -135,3 +135,38 @@ def test_harness_on_another_arm():
     assert r["mismatches"] == 0, r["first_mismatch"]
     assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
     assert r["vectors"] >= 300 and r["harness"]["vectors"] == r["vectors"]
+
+
+def test_cli_harness_passes_the_arm(monkeypatch, tmp_path):
+    """``ik5r sim --harness --arm NAME``: the harness gets the design of that arm and the stream
+    run's options (the bit-exact run of such a design is the test above); its counts are merged."""
+    import json
+
+    from ik5r.tools.cli import main
+    from ik5r.tools.testbench import harness, runner
+
+    seen = {}
+    counts = {"mismatches": 0, "first_mismatch": None, "field_mismatches": {"q1": 0}, "tag_errors": 0,
+              "stale_outputs": 0, "hold_violations": 0, "max_error_lsb": 0.5, "rms_error_lsb": 0.1}
+
+    def stream_run(design, sim, **kw):
+        seen["stream"] = design
+        return dict(counts, vectors=10, latency_cycles=800, cycles_per_result=800, latency_cycles_portmap=800,
+                    cycles_per_result_portmap=800, arm=design.arm.name, block="ik", arch=design.arch,
+                    config=design.config.name, simulator=sim, stream={"vectors": 10}, bulk=None,
+                    build_seconds=0.0, build_dir="", waves=None, log="")
+
+    def bulk_run(design, **kw):
+        seen["bulk"], seen["kw"] = design, kw
+        return dict(counts, vectors=300, harness={"vectors": 300, "vectors_per_second": 1.0}, error_items=300,
+                    build_seconds=0.0)
+
+    monkeypatch.setattr(runner, "run_block", stream_run)
+    monkeypatch.setattr(harness, "run_harness", bulk_run)
+    out = tmp_path / "sim.json"
+    assert main(["sim", "--block", "ik", "--arch", "compact", "--arm", OTHER_ARM, "--simulator", "verilator",
+                 "--harness", "--vectors", "300", "--tag-width", "6", "--json", str(out), "-q"]) == 0
+    assert seen["bulk"] is seen["stream"] and seen["bulk"].arm.name == OTHER_ARM
+    assert seen["bulk"].options.tag_width == 6 and seen["kw"]["vectors"] == 300
+    doc = json.loads(out.read_text())
+    assert doc["arm"] == OTHER_ARM and doc["vectors"] == 310 and doc["bulk"]["simulator"] == "verilator-harness"
