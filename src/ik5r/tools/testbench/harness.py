@@ -148,6 +148,14 @@ MIN_CHUNK = 1 << 14
 ERROR_SAMPLE = 1 << 14
 
 
+def cycle_limit(items: int, pm: PortMap) -> int:
+    """Cycles after which the harness gives up on a chunk of ``items``: 64 times what the block
+    needs at its rate (idles, back-pressure and stalls cost at most a few times that), so only a
+    hung block reaches it; the compact IK core takes ``cycles_per_result`` (~800) per item."""
+    per_item = max(1, pm.cycles_per_result or 1)
+    return (items + 1000) * 64 * per_item + 4 * (pm.latency_cycles or 0) + 1_000_000
+
+
 class _Chunk:
     """One chunk's stimulus, expected values and tags, and its files."""
 
@@ -187,7 +195,8 @@ class HarnessRun:
     def _start(self, chunk: _Chunk) -> None:
         valid, ready, stalls = self.pattern
         cmd = [str(self.binary), str(chunk.in_path), str(chunk.out_path), str(chunk.n),
-               str(self.job.seed * 1000003 + chunk.index), str(valid), str(ready), str(int(stalls))]
+               str(self.job.seed * 1000003 + chunk.index), str(valid), str(ready), str(int(stalls)),
+               str(cycle_limit(chunk.n, self.job.pm))]
         chunk.started = time.perf_counter()
         chunk.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
