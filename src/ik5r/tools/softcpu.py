@@ -6,7 +6,10 @@
 the CPU runs the firmware cycle by cycle, and the raw joint words and status words come back out,
 with the clock cycles and retired instructions of every solve (from the MARK writes between
 solves). ``solve_batch`` has the signature of :func:`ik5r.firmware_model.vector.solve_batch` (minus
-``k``).
+``k``). A batch is cut into jobs (a fresh SoC each), run by up to ``jobs`` simulator processes
+side by side (default: one per CPU): Verilator evaluates the whole SoC on every clock, the IK
+peripheral's core included while the CPU runs the software path, so a SoC with the pipelined
+core simulates far fewer cycles a second than the CPU alone, and only more processes help.
 
 A CPU that traps, stops early (fewer solves done than asked) or hangs (no STOP write within the
 cycle limit) raises :class:`SoftCpuError`, as does a missing cross compiler or simulator: every
