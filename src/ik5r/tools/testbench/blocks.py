@@ -285,6 +285,19 @@ _IK_ERR_EXCLUDE = st.UNREACHABLE | st.INVALID | st.SATURATED | st.SINGULAR_BASE 
 _IK_ERR_QUANTA = 4
 
 
+def _well_formed(a, nv, ov, has_roll, tol):
+    """Rows whose approach is a unit vector and, with roll, whose n and o are unit vectors
+    orthogonal to each other and to it, all within ``tol``."""
+    def unit(v):
+        return np.abs(np.linalg.norm(v, axis=1) - 1.0) <= tol
+
+    def orthogonal(u, v):
+        return np.abs(np.sum(u * v, axis=1)) <= tol
+
+    return unit(a) & np.where(has_roll, unit(nv) & unit(ov) & orthogonal(nv, ov) & orthogonal(nv, a)
+                              & orthogonal(ov, a), True)
+
+
 def _ik_err(x, got, pm, k):
     """Joint error (LSB of the angle format, worst joint per pose) of the core against the float64
     reference (:func:`ik5r.core.reference.ik`) on the same branch, over the rows where an error means
@@ -313,16 +326,7 @@ def _ik_err(x, got, pm, k):
     nv = np.stack([x["nx"], x["ny"], x["nz"]], axis=1) * 2.0**-fu
     ov = np.stack([x["ox"], x["oy"], x["oz"]], axis=1) * 2.0**-fu
     has_roll = x["has_roll"] != 0
-    tol = _IK_ERR_QUANTA * 2.0**-fu
-
-    def unit(v):
-        return np.abs(np.linalg.norm(v, axis=1) - 1.0) <= tol
-
-    def orthogonal(u, v):
-        return np.abs(np.sum(u * v, axis=1)) <= tol
-
-    frame = unit(a) & np.where(has_roll, unit(nv) & unit(ov) & orthogonal(nv, ov) & orthogonal(nv, a)
-                               & orthogonal(ov, a), True)
+    frame = _well_formed(a, nv, ov, has_roll, _IK_ERR_QUANTA * 2.0**-fu)
     # The arm's plane contains the base axis and the tool point: its angle is known to about one
     # position quantum over the distance from the axis, plus the approach's own quantisation.
     rho = np.hypot(p[:, 0], p[:, 1])

@@ -92,14 +92,8 @@ module {TOP} (  /*verilator public_flat_rw_on*/  // cocotb's handles: this modul
 """
 
 
-def _bulk_engine(pm: PortMap) -> str:
-    """The bulk engine: file names from plusargs, then per clock one input read on a transfer and
-    one output line written on a transfer; ``bulk_done`` after the last output."""
-    o = pm.o
-    cols = out_columns(pm)
-    fmt = " ".join("%0d" for _ in cols)
-    # unsigned bits; Python applies the sign (portable across simulators)
-    args = [f"d_o_payload[{o.fields[name].lsb + o.fields[name].width - 1}:{o.fields[name].lsb}]" for name in cols]
+def _bulk_init() -> str:
+    """The bulk engine's start: the file names from plusargs (or the defaults), idle state."""
     return f"""
     initial begin
         if (!$value$plusargs("ik5r_bulk_in=%s", fn_in)) fn_in = "{IN_FILE}";
@@ -114,7 +108,18 @@ def _bulk_engine(pm: PortMap) -> str:
         bulk_out_count = 32'd0;
     end
 
-    always @(posedge {pm.clk}) begin
+"""
+
+
+def _bulk_engine(pm: PortMap) -> str:
+    """The bulk engine: file names from plusargs, then per clock one input read on a transfer and
+    one output line written on a transfer; ``bulk_done`` after the last output."""
+    o = pm.o
+    cols = out_columns(pm)
+    fmt = " ".join("%0d" for _ in cols)
+    # unsigned bits; Python applies the sign (portable across simulators)
+    args = [f"d_o_payload[{o.fields[name].lsb + o.fields[name].width - 1}:{o.fields[name].lsb}]" for name in cols]
+    return _bulk_init() + f"""    always @(posedge {pm.clk}) begin
         if (!bulk_mode && !bulk_done && bulk_start) begin
             $readmemb(fn_vpat, vpat);
             $readmemb(fn_rpat, rpat);
