@@ -193,6 +193,9 @@ class Lower:
             sat = A_SATI if n.params[0] == self.ki.cfg.width else A_SATW
             return self.acc(args[0]) + [alu(sat, None, *gates, stat=bit)]
         if op == Op.RSR:
+            halving = _halving(n)
+            if halving:
+                return self._halve(*halving)
             return self.acc(args[0]) + a.round_shift(n.params[0])
         if op == Op.MULC:
             return self.acc(args[0]) + a.mul_const(n.params[0], args[0].bits)
@@ -239,6 +242,13 @@ class Lower:
         if self._cheap(b) or not self._cheap(a):
             return self.acc(a, self._early(b)) + [alu(A_LD, self.operand(b), no)]
         return self.acc(b, self._early(a)) + [alu(A_LD, self.operand(a), yes)]
+
+    def _halve(self, v, weight) -> list:
+        """rshift_round(v * weight, 1) for a weight in {0, 2}: v where the weight is 2, else 0
+        (exact either way, so the rounding does not matter): a compare and two loads instead of
+        the multiplier's limb products and a rounding shift (the near-axis rule's v or 0)."""
+        return self.acc(weight) + [alu(A_CMPGT, Const(0)), alu(A_LD, self.operand(v), (C_F, 0)),
+                                   alu(A_LD, Const(0), (C_F, 1))]
 
     def _sqrt(self, n) -> list:
         """isqrt(x, bits): the radicand aligned to the top of the engine's register, bits / 2 digit
@@ -301,6 +311,30 @@ class Lower:
         if s.const and not lead:
             code += [alu(A_ADD, Const(s.const << extra))]
         return code
+
+
+def _even(n) -> bool:
+    """``n`` is even for every input (a sum of a value with itself, of evens, an even constant)."""
+    if isinstance(n, int):
+        return n % 2 == 0
+    if not isinstance(n, Node) or isinstance(n, Sop) or n.op not in (Op.ADD, Op.SUB, Op.NEG):
+        return False
+    if n.op in (Op.ADD, Op.SUB) and n.args[0] is n.args[1]:
+        return True
+    return all(_even(v) for v in n.args)
+
+
+def _halving(n):
+    """(v, weight) if ``n`` is rshift_round(v * weight, 1) with weight a clip to [0, 2] of an
+    even value (so 0 or 2), else None."""
+    s = n.args[0]
+    if n.params[0] != 1 or not isinstance(s, Sop) or s.const or len(s.terms) != 1:
+        return None
+    for v, w in (s.terms[0][:2], s.terms[0][1::-1]):
+        if (s.terms[0][2:] == (False, 0) and isinstance(w, Node) and not isinstance(w, Sop)
+                and w.op == Op.CLIP and w.params == (0, 2) and _even(w.args[0])):
+            return v, w
+    return None
 
 
 def _bits(v, ki) -> int:
