@@ -25,21 +25,17 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from ik5r.core import status as S
-from ik5r.core.fxconfig import CHECK_BITS, Constants
+from ik5r.core.fxconfig import Constants
 
 from ..modes import CoreArch
 from . import isa as X
 from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, core_fields
-from ..datapath.expr import add_sub, asr_radix4, saturate, select
+from ..datapath.expr import select
+from . import units as U
 from .program import ik_program
+from .units import STATUS_BITS
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
-
-STATUS_BITS = S.FIXED_WIDTH
-#: Multiplier operand bits: a 16-bit signed limb or a check word.
-_FACTOR_BITS = max(16, CHECK_BITS)
-
 
 def _pack(prog: X.Program):
     """(instruction words, {field: (lsb, bits)}, word width)."""
@@ -91,8 +87,45 @@ class SeqEngine(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         prog, w = self.prog, self.widths
-        words, layout, iw_bits = _pack(prog)
         stall = Signal()
+        pc, exe, fetch, pre, f = self._fetch(m, stall)
+        dec, shift = self._decode(m, pre, stall)
+        mem_q, step, mem_wr = self._memories(m, fetch, stall)
+
+        io = f("io")
+        reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
+        writing = (io == X.IO_OUT) | (io == X.IO_STATUS)
+        m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
+        run = ~stall
+
+        acc = Signal(signed(w.acc))
+        regs = U.registers(w)
+        in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
+        bus = Signal(signed(w.acc), name="bus")
+        options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
+        # One-hot AND-OR (the select is decoded ahead): one LUT level per few sources.
+        terms = [Mux(dec[f"bus{index}"], value, 0) for index, value in enumerate(options)]
+        total_bus = terms[0]
+        for term in terms[1:]:
+            total_bus = total_bus | term
+        m.d.comb += bus.eq(total_bus)
+        sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
+        cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
+        #: The registers by name, for test benches that trace the engine.
+        self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
+        U.alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
+        U.cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
+        U.multiplier(m, f, pre("sh"), bus, regs, run, w, prog.shifts)
+        U.sqrt(m, f, acc, regs, run, w)
+        m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
+
+        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
+        return m
+
+    def _fetch(self, m, stall):
+        """The program counter, the instruction ROM and the two instruction registers; the
+        field accessors of the ROM's output, of ``fetched`` and of ``exe``."""
+        words, layout, iw_bits = _pack(self.prog)
         # ``started`` is low in the first clock after power-up or reset, when the ROM's output
         # is not yet instruction 0: the program counter stays at 0 and a no-op executes.
         started = Signal()
@@ -110,20 +143,15 @@ class SeqEngine(wiring.Component):
         with m.If(~stall):
             m.d.sync += [fetched.eq(Mux(started, rom_rd.data, 0)), exe.eq(fetched)]
 
-        def fetch(name):
-            lo, n = layout[name]
-            return rom_rd.data[lo:lo + n]
+        def fields(word):
+            return lambda name: word[layout[name][0]:layout[name][0] + layout[name][1]]
 
-        def f(name):
-            lo, n = layout[name]
-            return exe[lo:lo + n]
+        return pc, exe, fields(rom_rd.data), fields(fetched), fields(exe)
 
-        def pre(name):
-            lo, n = layout[name]
-            return fetched[lo:lo + n]
-
-        dec, shift = self._decode(m, pre, stall)
-
+    def _memories(self, m, fetch, stall):
+        """The data memory and the step-angle ROM, read for the fetched instruction and
+        registered: (the memory word, the step angle, the memory's write port)."""
+        prog, w = self.prog, self.widths
         mem_shape = signed(w.mem)
         m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init)
         mem_rd = mem.read_port(transparent_for=())
@@ -136,36 +164,7 @@ class SeqEngine(wiring.Component):
                      atan_rd.addr.eq(fetch("ci")), atan_rd.en.eq(~stall)]
         with m.If(~stall):
             m.d.sync += [mem_q.eq(mem_rd.data), step.eq(atan_rd.data)]
-
-        io = f("io")
-        reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
-        writing = (io == X.IO_OUT) | (io == X.IO_STATUS)
-        m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
-        run = ~stall
-
-        acc = Signal(signed(w.acc))
-        regs = self._registers(w)
-        in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
-        bus = Signal(signed(w.acc), name="bus")
-        options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
-        # One-hot AND-OR (the select is decoded ahead): one LUT level per few sources.
-        terms = [Mux(dec[f"bus{index}"], value, 0) for index, value in enumerate(options)]
-        total_bus = terms[0]
-        for term in terms[1:]:
-            total_bus = total_bus | term
-        m.d.comb += bus.eq(total_bus)
-        sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
-        cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
-        #: The registers by name, for test benches that trace the engine.
-        self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
-        self._alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
-        self._cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
-        self._multiplier(m, f, pre("sh"), bus, regs, run, w)
-        self._sqrt(m, f, acc, regs, run, w)
-        m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
-
-        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
-        return m
+        return mem_q, step, mem_wr
 
     def _decode(self, m, pre, stall):
         """Decoded controls registered beside ``exe`` (from ``pre``: the fetched instruction)."""
@@ -221,138 +220,6 @@ class SeqEngine(wiring.Component):
                          regs["down"].eq(self.in_data[2])]
             if w.tag:
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
-
-    @staticmethod
-    def _registers(w):
-        return {
-            "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
-            "down": Signal(name="down"), "roll": Signal(name="roll"),
-            "status": Signal(STATUS_BITS, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
-            "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
-            "cz": Signal(signed(w.z), name="cz"),
-            "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
-            "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(_FACTOR_BITS), name="lb"),
-            "prod": Signal(signed(w.acc), name="prod"),
-            "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
-            "rem": Signal(w.radicand // 2 + 2, name="rem"),
-        }
-
-    def _alu(self, m, f, dec, acc, bus, mem_q, cond, regs, run, w):
-        op = f("alu")
-        # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
-        # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
-        right = Signal(signed(w.acc), name="alu_right")
-        m.d.comb += right.eq(Mux(dec["right_product"], regs["prod"], 0) | Mux(dec["right_acc"], acc, 0)
-                             | Mux(dec["right_mem"], mem_q, 0) | Mux(dec["right_root"], regs["root"], 0))
-        left = Mux(dec["left_zero"], 0, acc)
-        wide = Signal(w.acc + 1, name="alu_wide")
-        m.d.comb += wide.eq(Cat(dec["carry"], left)
-                            + Cat(dec["carry"], (right ^ dec["sub"].replicate(w.acc))[:w.acc]))
-        total = Signal(signed(w.acc), name="alu_sum")
-        m.d.comb += total.eq(wide[1:])
-        # A compare's result: the sign of acc - b (CMPLT) or of acc - b - 1, inverted (CMPGT).
-        result = Signal(name="alu_compare")
-        m.d.comb += result.eq(total[-1] ^ dec["gt"])
-        sat_i, clip_i = saturate(acc, w.internal)
-        sat_w, clip_w = saturate(acc, w.word)
-        # Everything but the sum is ready early: the sum (and the compare) enter at the last
-        # mux of the accumulator, the F flag and the status bits.
-        early = Signal(signed(w.acc), name="alu_early")
-        m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
-                                 Mux(op == X.A_SHR4, acc.shift_right(4),
-                                     Mux(op == X.A_SHR16, acc.shift_right(16),
-                                         Mux(op == X.A_SATI, sat_i, sat_w))))))
-        # A compare's event is its result (under the condition); other ops' events are early.
-        other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
-        on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
-        on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
-        with m.If(run):
-            with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
-                m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
-            with m.If(dec["cmp"] & cond):
-                m.d.sync += regs["flag"].eq(result)
-            with m.Elif(op == X.A_SETF):
-                m.d.sync += regs["flag"].eq(cond)
-            # Status bits reach the register a clock after their event.
-            pending = Signal(STATUS_BITS, name="status_pending")
-            m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
-                         regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
-
-    def _cordic(self, m, f, dec, shift, bus, cond, step, regs, run, w):
-        op = f("cop")
-        x, y, z = regs["cx"], regs["cy"], regs["cz"]
-        quarter = dec["quarter"]
-        ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
-        x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
-        y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
-        z_next = add_sub(z, step, ccw)
-        ones_abs = Mux(y[-1], ~y, y)
-        v = (x | ones_abs).as_unsigned()
-        top = w.internal - 1 + w.cordic_guard
-        fits8 = v[top - 8:] == 0
-        fits1 = v[top - 1:] == 0
-        go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
-        with m.If(run):
-            with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
-                with m.If(cond):
-                    m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
-                    with m.If(op == X.K_LDXG):
-                        m.d.sync += z.eq(0)
-            with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
-                with m.If(cond):
-                    m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
-            with m.Elif(op == X.K_LDZA):
-                with m.If(cond):
-                    m.d.sync += z.eq(bus.shift_left(w.angle_guard))
-            with m.Elif(op == X.K_NORM8):
-                with m.If(fits8):
-                    m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
-            with m.Elif(op == X.K_NORM1):
-                with m.If(fits1):
-                    m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
-            with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
-                        | (op == X.K_ROT)):
-                with m.If(go):
-                    m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
-            with m.If(op == X.K_COARSE):
-                m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
-
-    def _multiplier(self, m, f, next_shift, bus, regs, run, w):
-        def limb(reg, index, top, check):
-            options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
-                       for i in range(w.limbs)]
-            return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
-                       select(options, index).as_signed())
-
-        product = Signal(signed(2 * _FACTOR_BITS), name="limb_product")     # the one multiplier
-        m.d.comb += product.eq(regs["la"] * regs["lb"])
-        with m.If(run):
-            # The product register holds the limb product already shifted to its weight, by
-            # the shift of the instruction that adds it (the next one to execute).
-            shifts = self.prog.shifts
-            m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
-                                        if len(shifts) > 1 else product.shift_left(shifts[0]))
-            with m.If(f("pick")):
-                m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
-                             regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb")))]
-            with m.If(f("mld") == 1):
-                m.d.sync += regs["ma"].eq(bus)
-            with m.If(f("mld") == 2):
-                m.d.sync += regs["mb"].eq(bus)
-
-    def _sqrt(self, m, f, acc, regs, run, w):
-        rad, root, rem = regs["rad"], regs["root"], regs["rem"]
-        shifted = Cat(rad[w.radicand - 2:], rem)
-        trial = Cat(Const(1, 2), root)
-        diff = Signal(signed(len(shifted) + 1), name="sqrt_diff")
-        m.d.comb += diff.eq(shifted - trial)
-        with m.If(run):
-            with m.If(f("sq") == X.Q_LOAD):
-                m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
-            with m.If(f("sq") == X.Q_STEP):
-                m.d.sync += [rad.eq(rad.shift_left(2)), root.eq(Cat(~diff[-1], root)),
-                             rem.eq(Mux(diff[-1], shifted, diff))]
-
 
 def _check_tag(tag_width, limit):
     if isinstance(tag_width, bool) or not isinstance(tag_width, int) or not 0 <= tag_width <= limit:

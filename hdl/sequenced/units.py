@@ -1,0 +1,153 @@
+"""The units of the sequenced engine (:class:`.engine.SeqEngine`): each a function adding one
+unit's registers and logic to the engine's module, all stepping on ``run`` from the executing
+instruction (``f``: one of its fields; ``dec``: controls decoded a clock early).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Mux, Signal, signed
+
+from ik5r.core import status as S
+from ik5r.core.fxconfig import CHECK_BITS
+
+from . import isa as X
+from ..datapath.expr import add_sub, asr_radix4, saturate, select
+
+STATUS_BITS = S.FIXED_WIDTH
+#: Multiplier operand bits: a 16-bit signed limb or a check word.
+_FACTOR_BITS = max(16, CHECK_BITS)
+
+
+def registers(w):
+    """The engine's unit registers by name."""
+    return {
+        "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
+        "down": Signal(name="down"), "roll": Signal(name="roll"),
+        "status": Signal(STATUS_BITS, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
+        "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
+        "cz": Signal(signed(w.z), name="cz"),
+        "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
+        "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(_FACTOR_BITS), name="lb"),
+        "prod": Signal(signed(w.acc), name="prod"),
+        "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
+        "rem": Signal(w.radicand // 2 + 2, name="rem"),
+    }
+
+def alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w):
+    """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits."""
+    op = f("alu")
+    # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
+    # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
+    right = Signal(signed(w.acc), name="alu_right")
+    m.d.comb += right.eq(Mux(dec["right_product"], regs["prod"], 0) | Mux(dec["right_acc"], acc, 0)
+                         | Mux(dec["right_mem"], mem_q, 0) | Mux(dec["right_root"], regs["root"], 0))
+    left = Mux(dec["left_zero"], 0, acc)
+    wide = Signal(w.acc + 1, name="alu_wide")
+    m.d.comb += wide.eq(Cat(dec["carry"], left)
+                        + Cat(dec["carry"], (right ^ dec["sub"].replicate(w.acc))[:w.acc]))
+    total = Signal(signed(w.acc), name="alu_sum")
+    m.d.comb += total.eq(wide[1:])
+    # A compare's result: the sign of acc - b (CMPLT) or of acc - b - 1, inverted (CMPGT).
+    result = Signal(name="alu_compare")
+    m.d.comb += result.eq(total[-1] ^ dec["gt"])
+    sat_i, clip_i = saturate(acc, w.internal)
+    sat_w, clip_w = saturate(acc, w.word)
+    # Everything but the sum is ready early: the sum (and the compare) enter at the last
+    # mux of the accumulator, the F flag and the status bits.
+    early = Signal(signed(w.acc), name="alu_early")
+    m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
+                             Mux(op == X.A_SHR4, acc.shift_right(4),
+                                 Mux(op == X.A_SHR16, acc.shift_right(16),
+                                     Mux(op == X.A_SATI, sat_i, sat_w))))))
+    # A compare's event is its result (under the condition); other ops' events are early.
+    other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
+    on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
+    on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
+    with m.If(run):
+        with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
+            m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
+        with m.If(dec["cmp"] & cond):
+            m.d.sync += regs["flag"].eq(result)
+        with m.Elif(op == X.A_SETF):
+            m.d.sync += regs["flag"].eq(cond)
+        # Status bits reach the register a clock after their event.
+        pending = Signal(STATUS_BITS, name="status_pending")
+        m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
+                     regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
+
+def cordic(m, f, dec, shift, bus, cond, step, regs, run, w):
+    """The CORDIC unit: loads, quarter turns, normalising shifts, one micro-rotation a clock."""
+    op = f("cop")
+    x, y, z = regs["cx"], regs["cy"], regs["cz"]
+    quarter = dec["quarter"]
+    ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
+    x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
+    y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
+    z_next = add_sub(z, step, ccw)
+    ones_abs = Mux(y[-1], ~y, y)
+    v = (x | ones_abs).as_unsigned()
+    top = w.internal - 1 + w.cordic_guard
+    fits8 = v[top - 8:] == 0
+    fits1 = v[top - 1:] == 0
+    go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
+    with m.If(run):
+        with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
+            with m.If(cond):
+                m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
+                with m.If(op == X.K_LDXG):
+                    m.d.sync += z.eq(0)
+        with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
+            with m.If(cond):
+                m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
+        with m.Elif(op == X.K_LDZA):
+            with m.If(cond):
+                m.d.sync += z.eq(bus.shift_left(w.angle_guard))
+        with m.Elif(op == X.K_NORM8):
+            with m.If(fits8):
+                m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
+        with m.Elif(op == X.K_NORM1):
+            with m.If(fits1):
+                m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
+        with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
+                    | (op == X.K_ROT)):
+            with m.If(go):
+                m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
+        with m.If(op == X.K_COARSE):
+            m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
+
+def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
+    """The operand registers, the limb pick and the one limb multiplier."""
+    def limb(reg, index, top, check):
+        options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
+                   for i in range(w.limbs)]
+        return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
+                   select(options, index).as_signed())
+
+    product = Signal(signed(2 * _FACTOR_BITS), name="limb_product")     # the one multiplier
+    m.d.comb += product.eq(regs["la"] * regs["lb"])
+    with m.If(run):
+        # The product register holds the limb product already shifted to its weight, by
+        # the shift of the instruction that adds it (the next one to execute).
+        m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
+                                    if len(shifts) > 1 else product.shift_left(shifts[0]))
+        with m.If(f("pick")):
+            m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
+                         regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb")))]
+        with m.If(f("mld") == 1):
+            m.d.sync += regs["ma"].eq(bus)
+        with m.If(f("mld") == 2):
+            m.d.sync += regs["mb"].eq(bus)
+
+def sqrt(m, f, acc, regs, run, w):
+    """The digit-serial square root (one digit a clock)."""
+    rad, root, rem = regs["rad"], regs["root"], regs["rem"]
+    shifted = Cat(rad[w.radicand - 2:], rem)
+    trial = Cat(Const(1, 2), root)
+    diff = Signal(signed(len(shifted) + 1), name="sqrt_diff")
+    m.d.comb += diff.eq(shifted - trial)
+    with m.If(run):
+        with m.If(f("sq") == X.Q_LOAD):
+            m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
+        with m.If(f("sq") == X.Q_STEP):
+            m.d.sync += [rad.eq(rad.shift_left(2)), root.eq(Cat(~diff[-1], root)),
+                         rem.eq(Mux(diff[-1], shifted, diff))]
