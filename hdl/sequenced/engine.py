@@ -66,10 +66,11 @@ class SeqEngine(wiring.Component):
     first instruction is about to execute.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
-        self.prog = ik_program(constants)
+        _check_wide(wide_product)
+        self.prog = ik_program(constants, wide_product=wide_product)
         if any(i.get("alu", 0) in X.ADDING and i.get("bsel", 0) not in X.ADDER_SOURCES for i in self.prog.code):
             raise ValueError(f"the program adds a B-bus source outside {X.ADDER_SOURCES} (seq_isa.ADDER_SOURCES)")
         self.widths = w = self.prog.widths
@@ -221,6 +222,11 @@ class SeqEngine(wiring.Component):
             if w.tag:
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
 
+def _check_wide(wide_product):
+    if not isinstance(wide_product, bool):
+        raise ValueError(f"wide_product must be True or False, got {wide_product!r}")
+
+
 def _check_tag(tag_width, limit):
     if isinstance(tag_width, bool) or not isinstance(tag_width, int) or not 0 <= tag_width <= limit:
         raise ValueError(f"tag_width must be an integer in [0, {limit}], got {tag_width!r}")
@@ -237,9 +243,10 @@ class SequencedIKCore(wiring.Component):
     result is held). Nothing is lost, duplicated or reordered under back-pressure.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
         _check_tag(tag_width, 26)
-        self._engine = SeqEngine(constants=constants, tag_width=tag_width)
+        _check_wide(wide_product)
+        self._engine = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
         self.constants, self.arch, self.tag_width = constants, "sequenced", tag_width
         in_fields, out_fields = core_fields(constants)
         if tag_width:
@@ -249,7 +256,7 @@ class SequencedIKCore(wiring.Component):
         self.cycles_per_result = self._engine.cycles
         self.latency = self._engine.cycles + 2
         self.capacity = 3
-        self.options = {}
+        self.options = {"wide_product": True} if wide_product else {}
         super().__init__({
             "i": In(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in in_fields.items()}))),
             "o": Out(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in out_fields.items()}))),
@@ -306,11 +313,13 @@ class SerialIK(wiring.Component):
     ``cycles_per_result`` clocks when beats come and go every clock; one pose in flight.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16,
+                 wide_product: bool = False):
         _check_tag(tag_width, 26)
+        _check_wide(wide_product)
         if isinstance(beat_bits, bool) or not isinstance(beat_bits, int) or not 1 <= beat_bits <= 32:
             raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
-        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width)
+        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
         self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
         self.arch = CoreArch.COMPACT
         self.in_beats = -(-e.in_bits // beat_bits)
@@ -320,7 +329,7 @@ class SerialIK(wiring.Component):
         self.latency = e.cycles + (len(INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
         self.cycles_per_result = self.latency - (self.in_beats - 1)
         self.capacity = 1
-        self.options = {"serial": beat_bits}
+        self.options = {"serial": beat_bits} | ({"wide_product": True} if wide_product else {})
         self.in_fields = {"beat": (unsigned(beat_bits), None, "input word beat, LSB first")}
         self.out_fields = {"beat": (unsigned(beat_bits), None, "output word beat, LSB first")}
         super().__init__({

@@ -99,6 +99,7 @@ class Widths:
     angle_guard: int
     check_lsb: int = 0  # a check word: operand bits [check_lsb, check_lsb + CHECK_BITS), signed
     tag: int = 0
+    b_limbs: int = 1   # limbs of MB per pick: 2 with the wide product step (a 16 x 31 product)
 
     @property
     def operand(self) -> int:
@@ -122,12 +123,13 @@ class Program:
                 for name in FIELDS}
 
 
-def limb(value: int, index: int, top: bool) -> int:
-    """Limb ``index`` of an operand: 15 unsigned bits, or 16 signed bits for the top limb."""
+def limb(value: int, index: int, top: bool, size: int = 1) -> int:
+    """Limb ``index`` of an operand cut in limbs of ``size`` 15-bit limbs: 15 ``size`` unsigned
+    bits, or, for the top one, the signed rest (16 bits for ``size`` 1)."""
     if top:
-        bits = (value >> (LIMB * index)) & 0xFFFF
-        return bits - 0x10000 if bits & 0x8000 else bits
-    return (value >> (LIMB * index)) & ((1 << LIMB) - 1)
+        bits = (value >> (LIMB * size * index)) & ((1 << (LIMB * size + 1)) - 1)
+        return bits - (1 << (LIMB * size + 1)) if bits >> (LIMB * size) else bits
+    return (value >> (LIMB * size * index)) & ((1 << (LIMB * size)) - 1)
 
 
 def check_word(value: int, lsb: int) -> int:
@@ -273,7 +275,7 @@ class Machine:
             self.la = (check_word(self.ma, w.check_lsb) if ins.get("pwa")
                        else limb(self.ma, ins.get("pa", 0), ins.get("psa", 0)))
             self.lb = (check_word(self.mb, w.check_lsb) if ins.get("pwb")
-                       else limb(self.mb, ins.get("pb", 0), ins.get("psb", 0)))
+                       else limb(self.mb, ins.get("pb", 0), ins.get("psb", 0), w.b_limbs))
         mld = ins.get("mld", 0)
         if mld:
             if not fits(b, w.operand):

@@ -27,7 +27,7 @@ def registers(w):
         "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
         "cz": Signal(signed(w.z), name="cz"),
         "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
-        "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(_FACTOR_BITS), name="lb"),
+        "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(b_factor_bits(w)), name="lb"),
         "prod": Signal(signed(w.acc), name="prod"),
         "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
         "rem": Signal(w.radicand // 2 + 2, name="rem"),
@@ -115,15 +115,31 @@ def cordic(m, f, dec, shift, bus, cond, step, regs, run, w):
         with m.If(op == X.K_COARSE):
             m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
 
+def b_factor_bits(w) -> int:
+    """Bits of the B factor: a limb (two with the wide product step, ``w.b_limbs``) or a check
+    word."""
+    return max(X.LIMB * w.b_limbs + 1, CHECK_BITS)
+
+
+def _piece(reg, lsb: int, n: int, top):
+    """Bits [lsb, lsb + n) of ``reg`` unsigned, or with the next bit as the sign if ``top``; a
+    piece that reaches the register's end is its signed top (the last limb is always the top)."""
+    if lsb + n < len(reg):
+        return Cat(reg[lsb:lsb + n], top & reg[lsb + n]).as_signed()
+    rest = reg[lsb:]
+    return Cat(rest, rest[-1].replicate(n + 1 - len(rest))).as_signed()
+
+
 def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
-    """The operand registers, the limb pick and the one limb multiplier."""
-    def limb(reg, index, top, check):
-        options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
-                   for i in range(w.limbs)]
+    """The operand registers, the limb pick and the one limb multiplier (16 x 16 bits, or 16 x
+    31 with the wide product step)."""
+    def limb(reg, index, top, check, size=1):
+        n = X.LIMB * size
+        options = [_piece(reg, n * i, n, top) for i in range(-(-w.limbs // size))]
         return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
                    select(options, index).as_signed())
 
-    product = Signal(signed(2 * _FACTOR_BITS), name="limb_product")     # the one multiplier
+    product = Signal(signed(_FACTOR_BITS + b_factor_bits(w)), name="limb_product")   # the one multiplier
     m.d.comb += product.eq(regs["la"] * regs["lb"])
     with m.If(run):
         # The product register holds the limb product already shifted to its weight, by
@@ -132,7 +148,7 @@ def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
                                     if len(shifts) > 1 else product.shift_left(shifts[0]))
         with m.If(f("pick")):
             m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
-                         regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb")))]
+                         regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb"), w.b_limbs))]
         with m.If(f("mld") == 1):
             m.d.sync += regs["ma"].eq(bus)
         with m.If(f("mld") == 2):

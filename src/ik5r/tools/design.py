@@ -31,12 +31,14 @@ class DesignOptions:
     dsp: str = "generic"            # hdl.modes.DSPS; only the pipelined arch maps primitives
     serial: int | None = None       # compact IK core: beats of its word-serial wrapper
     rotations_per_stage: int = 1    # pipelined arch: CORDIC micro-rotations per register stage
+    wide_product: bool = False      # compact IK core: a 16 x 31 product step (two DSPs), fewer clocks
 
     def generate_kwargs(self) -> dict:
         """The options of ``ik5r.hdl.generate.generate`` (module name, constructor)."""
         return ({} if self.dsp == "generic" else {"dsp": self.dsp}) | \
                ({} if self.serial is None else {"serial": self.serial}) | \
-               ({} if self.rotations_per_stage == 1 else {"rotations_per_stage": self.rotations_per_stage})
+               ({} if self.rotations_per_stage == 1 else {"rotations_per_stage": self.rotations_per_stage}) | \
+               ({"wide_product": True} if self.wide_product else {})
 
 
 @dataclass(frozen=True)
@@ -52,7 +54,8 @@ class Design:
     @classmethod
     def resolve(cls, block: str, arch: str, *, config: FixedConfig | str | Path | None = None,
                 arm: Arm | str | Path | None = None, tag_width: int = 0, dsp: str = "generic",
-                serial: int | None = None, rotations_per_stage: int = 1) -> "Design":
+                serial: int | None = None, rotations_per_stage: int = 1,
+                wide_product: bool = False) -> "Design":
         """Load the config (name or file) and the arm (name or file) once, resolve the arch
         (``iterative``/``compact``: the small one) and check the arm fits the config."""
         from ik5r.hdl.generate import resolve_arch
@@ -61,7 +64,8 @@ class Design:
         arm_ = arm if isinstance(arm, Arm) else load_arm(arm)
         if block not in ("cpu",):
             arch = resolve_arch(block, arch)
-        design = cls(block, arch, cfg, arm_, DesignOptions(tag_width, dsp, serial, rotations_per_stage))
+        design = cls(block, arch, cfg, arm_, DesignOptions(tag_width, dsp, serial, rotations_per_stage,
+                                                          wide_product))
         design.constants        # noqa: B018 -- builds and checks (armfit) now, not at generation
         return design
 

@@ -155,9 +155,11 @@ def _design(design, opts: SynthOptions):
         serial = ICE40_BEAT_BITS
     if opts.rotations_per_stage != 1 and design.arch != "pipelined":
         raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {design.arch}")
+    if opts.wide_product and (design.block, design.arch) != ("ik", "compact"):
+        raise InputError("--wide-product", f"applies to the compact IK core, not to {design.block} {design.arch}")
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
                             tag_width=opts.tag_width, dsp=dsp, serial=serial,
-                            rotations_per_stage=opts.rotations_per_stage)
+                            rotations_per_stage=opts.rotations_per_stage, wide_product=opts.wide_product)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
 
@@ -278,7 +280,7 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items()
-             if name not in ("threads", "dsp", "rotations_per_stage")}
+             if name not in ("threads", "dsp", "rotations_per_stage", "wide_product")}
     # --rotations-per-stage is in the Verilog and the module name already (old keys stay valid).
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid

@@ -58,6 +58,7 @@ class SynthOptions:
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
     dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
     rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
+    wide_product: bool = False      # compact IK core: the 16 x 31 product step
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:

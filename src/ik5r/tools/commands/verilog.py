@@ -55,6 +55,7 @@ def register(subparsers) -> None:
                              "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
                              "(default: generic)")
     cliopts.add_rotations_per_stage(parser)
+    cliopts.add_wide_product(parser)
     parser.set_defaults(run=run)
 
 
@@ -68,6 +69,8 @@ def run(args) -> int:
                                   f"not to --arch {args.arch}")
     if args.arch not in ("pipelined", "all"):
         cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
+    if args.block != "all" and args.arch != "all":
+        cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
     # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
@@ -80,8 +83,10 @@ def run(args) -> int:
             per_stage = 1
             if args.arch != "all" or arch == "pipelined":
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
+            # --wide-product: the compact IK core's option (of --block all / --arch all, that core).
+            wide = {"wide_product": True} if args.wide_product and (block, arch) == ("ik", "compact") else {}
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
-                                    dsp=dsp, rotations_per_stage=per_stage)
+                                    dsp=dsp, rotations_per_stage=per_stage, **wide)
             text, pmap = design.verilog()
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)
