@@ -253,6 +253,7 @@ def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict
     return {
         "block": design.block, "arch": design.arch, "dsp": design.options.dsp, "tag_width": opts.tag_width,
         "module": pmap["module"], "serial": options.get("serial"), "config": cfg.name,
+        **({"wide_product": True} if options.get("wide_product") else {}),
         "arm": design.arm.name, "arm_sha256": arm_hash(design.constants), "arm_reach_cm": design.arm.reach,
         "width": cfg.width, "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
