@@ -78,6 +78,8 @@ def deps(n) -> list:
             return [a]
         if _add_sub(a, b):
             return list(a.args)
+    if n.op == Op.SUB and _magnitude_of(n) is not None:
+        return [_magnitude_of(n)]
     if n.op == Op.ATAN2:
         out = []
         for v in n.args:
@@ -181,6 +183,8 @@ class Lower:
     # -- values --
     def _code(self, n) -> list:
         a, op, args = self.a, n.op, n.args
+        if op == Op.SUB and _magnitude_of(n) is not None:
+            return self._abs(_magnitude_of(n))
         if op in (Op.ADD, Op.SUB):
             x, y = args
             if op == Op.ADD and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
@@ -246,9 +250,21 @@ class Lower:
     def _halve(self, v, weight) -> list:
         """rshift_round(v * weight, 1) for a weight in {0, 2}: v where the weight is 2, else 0
         (exact either way, so the rounding does not matter): a compare and two loads instead of
-        the multiplier's limb products and a rounding shift (the near-axis rule's v or 0)."""
-        return self.acc(weight) + [alu(A_CMPGT, Const(0)), alu(A_LD, self.operand(v), (C_F, 0)),
-                                   alu(A_LD, Const(0), (C_F, 1))]
+        the multiplier's limb products and a rounding shift (the near-axis rule's v or 0). The
+        weight is clip(e, 0, 2), positive where e is: the clip itself is not formed."""
+        e = weight.args[0]
+        if isinstance(e, Node) and e.op == Op.ADD and isinstance(e.args[1], int) and _doubled(e.args[0]):
+            # e = s + s + c > 0 where s > floor(-c / 2) (s an integer).
+            s = e.args[0].args[0]
+            code = self.acc(s) + [alu(A_CMPGT, Const((-e.args[1]) // 2))]
+        else:
+            code = self.acc(e) + [alu(A_CMPGT, Const(0))]
+        return code + [alu(A_LD, self.operand(v), (C_F, 0)), alu(A_LD, Const(0), (C_F, 1))]
+
+    def _abs(self, v) -> list:
+        """|v| as max(v, 0) - min(v, 0) (two clips, the body's magnitude of a word): a compare
+        and a conditional negation."""
+        return self.acc(v) + [alu(A_CMPLT, Const(0)), alu(A_NEG, None, (C_F, 0))]
 
     def _sqrt(self, n) -> list:
         """isqrt(x, bits): the radicand aligned to the top of the engine's register, bits / 2 digit
@@ -311,6 +327,22 @@ class Lower:
         if s.const and not lead:
             code += [alu(A_ADD, Const(s.const << extra))]
         return code
+
+
+def _doubled(n) -> bool:
+    return isinstance(n, Node) and not isinstance(n, Sop) and n.op == Op.ADD and n.args[0] is n.args[1]
+
+
+def _magnitude_of(n):
+    """v if ``n`` is clip(v, 0, hi) - clip(v, lo, 0) with v within [lo, hi] (so |v|), else None."""
+    a, b = n.args
+    if not all(isinstance(c, Node) and not isinstance(c, Sop) and c.op == Op.CLIP for c in (a, b)):
+        return None
+    v = a.args[0]
+    if b.args[0] is not v or a.params[0] != 0 or b.params[1] != 0 or None in (a.params[1], b.params[0]):
+        return None
+    lo, hi = v.bounds() if isinstance(v, Sop) else (v.lo, v.hi)
+    return v if b.params[0] <= lo and hi <= a.params[1] else None
 
 
 def _even(n) -> bool:
