@@ -123,14 +123,14 @@ def test_program_is_traced_from_the_one_ik():
 
 
 def test_program_is_short_and_shared():
-    """One program per config; the q32w pose within 777 clocks (720 before issue 31's plane from
-    the approach near the base axis, 830 with it; 777 with its v-or-0 as loads, its magnitudes
-    as a compare and a negation, and the hill climb's lowered priorities), 755 with the wide
-    product step; units used side by side."""
+    """One program per config; the q32w pose within 774 clocks (720 before issue 31's plane from
+    the approach near the base axis, 830 with it; 774 with its v-or-0 as loads, its magnitudes
+    as a compare and a negation, two square-root digits a clock and the hill climb's lowered
+    priorities), 742 with the wide product step; units used side by side."""
     k = _k("q32w")
     prog = ik_program(k)
-    assert len(prog.code) <= 777
-    assert len(ik_program(k, wide_product=True).code) <= 755
+    assert len(prog.code) <= 774
+    assert len(ik_program(k, wide_product=True).code) <= 742
     both = [ins for ins in prog.code if ins.get("cop") and (ins.get("alu") or ins.get("pick"))]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)

@@ -56,8 +56,8 @@ FLAG_SOURCE = {BranchFlag.ROLL: C_ROLL, BranchFlag.BACK: C_BACK, BranchFlag.DOWN
 (K_NOP, K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA, K_COARSE, K_QROT, K_NORM8, K_NORM1, K_VEC,
  K_ROT) = range(12)
 
-#: Square root (``sq``): load the radicand from the accumulator, one digit step.
-Q_NOP, Q_LOAD, Q_STEP = range(3)
+#: Square root (``sq``): load the radicand from the accumulator, one digit step, two digit steps.
+Q_NOP, Q_LOAD, Q_STEP, Q_STEP2 = range(4)
 
 #: Word ports (``io``): input word ``iw`` on the B bus, the flags word (ends the input), output
 #: word ``iw`` (the accumulator, before this instruction), the status word (ends the output).
@@ -291,14 +291,20 @@ class Machine:
             if not 0 <= self.acc < (1 << w.radicand):
                 raise OverflowError(f"radicand out of range {self.acc}")
             self.rad, self.root, self.rem = self.acc, 0, 0
-        elif op == Q_STEP:
-            rem = (self.rem << 2) | (self.rad >> (w.radicand - 2))
-            self.rad = (self.rad << 2) & ((1 << w.radicand) - 1)
-            trial = (self.root << 2) | 1
-            if rem >= trial:
-                self.rem, self.root = rem - trial, (self.root << 1) | 1
-            else:
-                self.rem, self.root = rem, self.root << 1
+        elif op in (Q_STEP, Q_STEP2):
+            for _ in range(op - Q_STEP + 1):
+                self._digit()
+
+    def _digit(self):
+        """One digit of the square root (two radicand bits in, one root bit out)."""
+        w = self.w
+        rem = (self.rem << 2) | (self.rad >> (w.radicand - 2))
+        self.rad = (self.rad << 2) & ((1 << w.radicand) - 1)
+        trial = (self.root << 2) | 1
+        if rem >= trial:
+            self.rem, self.root = rem - trial, (self.root << 1) | 1
+        else:
+            self.rem, self.root = rem, self.root << 1
 
 
 def run(prog: Program, inputs: list[int]) -> dict:

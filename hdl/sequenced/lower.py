@@ -20,7 +20,7 @@ from collections import Counter
 from ..graph.ops import Op
 from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_NEG, A_NOP, A_SATI, A_SATW, A_SUB, C_F, C_ZERO,
                       FLAG_SOURCE, IO_FLAGS, IO_IN, IO_OUT, IO_STATUS, B_IN, K_LDXG, K_LDYG, Q_LOAD,
-                      Q_STEP)
+                      Q_STEP, Q_STEP2)
 from ..graph.inputs import INPUT_WORDS
 from .asm import Asm, Check as CheckOperand, Const, I, alu, operand as _op, sqrt_round, st
 from ..graph.nodes import Check, Compare, Flag, Node, Not, Sop, Status, Zero, rotation_outputs
@@ -274,7 +274,9 @@ class Lower:
         if extra and not isinstance(x, Sop):
             raise NotImplementedError("a narrow radicand must be a sum of products")
         code = self._sop(x, extra) if isinstance(x, Sop) else self.acc(x)
-        return code + [I(sq=Q_LOAD)] + [I(sq=Q_STEP)] * (bits // 2) + sqrt_round(self.a)
+        digits = bits // 2          # two per clock, the odd one alone
+        return (code + [I(sq=Q_LOAD)] + [I(sq=Q_STEP2)] * (digits // 2) + [I(sq=Q_STEP)] * (digits % 2)
+                + sqrt_round(self.a))
 
     def _atan2(self, n) -> list:
         """Operand loads (a selection by a comparison: F, then the other operand where not F), the

@@ -169,9 +169,9 @@ def schedule(codes: list) -> list:
 
 
 #: Hill-climbing passes over the priorities (each schedules the program once per block and step).
-PASSES = 6
+PASSES = 8
 #: The priority steps tried per block.
-STEPS = (-100, -40, 40, 100, 200, 400, 600, 800)
+STEPS = (-200, -100, -40, -10, 10, 40, 100, 200, 400, 800)
 
 
 class _Placer:

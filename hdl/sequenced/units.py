@@ -154,16 +154,29 @@ def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
         with m.If(f("mld") == 2):
             m.d.sync += regs["mb"].eq(bus)
 
-def sqrt(m, f, acc, regs, run, w):
-    """The digit-serial square root (one digit a clock)."""
-    rad, root, rem = regs["rad"], regs["root"], regs["rem"]
+def _digit(m, rad, root, rem, w, name):
+    """One digit step of the square root from (rad, root, rem): the next values, each cut to
+    its register's width."""
     shifted = Cat(rad[w.radicand - 2:], rem)
     trial = Cat(Const(1, 2), root)
-    diff = Signal(signed(len(shifted) + 1), name="sqrt_diff")
+    diff = Signal(signed(len(shifted) + 1), name=f"{name}_diff")
     m.d.comb += diff.eq(shifted - trial)
+    nxt = [Signal.like(reg, name=f"{name}_{reg.name}") for reg in (rad, root, rem)]
+    m.d.comb += [nxt[0].eq(rad.shift_left(2)), nxt[1].eq(Cat(~diff[-1], root)),
+                 nxt[2].eq(Mux(diff[-1], shifted, diff))]
+    return nxt
+
+
+def sqrt(m, f, acc, regs, run, w):
+    """The digit-serial square root: one digit a clock, or two (``Q_STEP2``: two digit steps
+    chained, two subtractions in one clock, off the engine's slowest paths)."""
+    rad, root, rem = regs["rad"], regs["root"], regs["rem"]
+    one = _digit(m, rad, root, rem, w, "sqrt")
+    two = _digit(m, *one, w, "sqrt2")
     with m.If(run):
         with m.If(f("sq") == X.Q_LOAD):
             m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
         with m.If(f("sq") == X.Q_STEP):
-            m.d.sync += [rad.eq(rad.shift_left(2)), root.eq(Cat(~diff[-1], root)),
-                         rem.eq(Mux(diff[-1], shifted, diff))]
+            m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), one)]
+        with m.If(f("sq") == X.Q_STEP2):
+            m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), two)]
