@@ -63,7 +63,8 @@ class SeqEngine(wiring.Component):
     the :data:`STATUS_BITS` bits of :mod:`ik5r.core.status`) in ``out_data``, held until
     ``out_ready``. One pose takes
     ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
-    first instruction is about to execute.
+    first instruction is about to execute. ``wide_product``: each product step multiplies a
+    16-bit limb of MA by 31 bits of MB (two DSPs): fewer clocks per pose, a longer product path.
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
