@@ -47,11 +47,14 @@ def _engine_words(fields, i, tag):
     return words + [flags]
 
 
-@pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))
-def test_program_on_interpreter(cfg):
-    """Every directed pose and 200 random ones (all branches, with and without n, o)."""
+@pytest.mark.parametrize("cfg, wide", (("q18", False), ("q32", False), ("q32w", False),
+                                       ("q18", True), ("q32w", True)))
+def test_program_on_interpreter(cfg, wide):
+    """Every directed pose and 200 random ones (all branches, with and without n, o); also the
+    program of the wide product step (16 x 31-bit limb products)."""
     k = _k(cfg)
-    prog = ik_program(k)
+    prog = ik_program(k, wide_product=wide)
+    assert prog.widths.b_limbs == (2 if wide else 1)
     poses = concat(directed_poses(k), random_poses(k, 25, seed=11))
     expected = ik_outputs(k, poses, model.solve_batch)
     fields = poses.fields()
@@ -120,11 +123,14 @@ def test_program_is_traced_from_the_one_ik():
 
 
 def test_program_is_short_and_shared():
-    """One program per config; the q32w pose within 840 clocks (720 before issue 31's plane from
-    the approach near the base axis: 830); units used side by side."""
+    """One program per config; the q32w pose within 774 clocks (720 before issue 31's plane from
+    the approach near the base axis, 830 with it; 774 with its v-or-0 as loads, its magnitudes
+    as a compare and a negation, two square-root digits a clock and the hill climb's lowered
+    priorities), 742 with the wide product step; units used side by side."""
     k = _k("q32w")
     prog = ik_program(k)
-    assert len(prog.code) <= 840
+    assert len(prog.code) <= 774
+    assert len(ik_program(k, wide_product=True).code) <= 742
     both = [ins for ins in prog.code if ins.get("cop") and (ins.get("alu") or ins.get("pick"))]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
@@ -145,14 +151,16 @@ def test_adder_sources_checked():
         seq_isa.run(prog, [0] * (len(INPUT_WORDS) + 1))
 
 
-@pytest.mark.parametrize("cfg", ("q18", "q32", "q32w"))
-def test_core_full_rate_and_stalls(cfg):
+@pytest.mark.parametrize("cfg, wide", (("q18", False), ("q32", False), ("q32w", False),
+                                       ("q18", True), ("q32w", True)))
+def test_core_full_rate_and_stalls(cfg, wide):
     k = _k(cfg)
     step = {"q18": 12, "q32": 40, "q32w": 24}[cfg]
     poses = concat(directed_poses(k)[::step], random_poses(k, 1, seed=2)[:2])
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))
-    dut = SequencedIKCore(constants=k, tag_width=TAG_WIDTH)
+    dut = SequencedIKCore(constants=k, tag_width=TAG_WIDTH, wide_product=wide)
+    assert dut.options == ({"wide_product": True} if wide else {})
     outputs, accepted, produced = run_stream(dut, items)
     compare(items, expected, outputs)
     # Into an idle core: exactly `latency`; then one pose per program length.
@@ -228,6 +236,26 @@ def test_serial_wrapper(stalls):
         # Beats every clock: one pose per cycles_per_result clocks, + the clock after power-up
         # (the first pose waits for its first word's beats too).
         assert last_cycle[0] == len(poses) * dut.cycles_per_result + dut.in_beats
+
+
+@pytest.mark.parametrize("bad", (1, "yes", None))
+def test_wide_product_checked(bad):
+    """``wide_product`` is True or False (keyword-only): anything else is refused."""
+    k = _k("q18")
+    with pytest.raises(ValueError, match="wide_product must be True or False"):
+        SequencedIKCore(constants=k, wide_product=bad)
+    with pytest.raises(ValueError, match="wide_product must be True or False"):
+        SerialIK(constants=k, wide_product=bad)
+    with pytest.raises(TypeError):
+        SequencedIKCore(k, 0, True)
+
+
+def test_wide_limbs():
+    """A limb of two 15-bit limbs: 30 unsigned bits, or the signed rest at the top."""
+    value = -(3 << 44) + (5 << 30) + (1 << 29) + 7
+    assert seq_isa.limb(value, 0, False, 2) == (1 << 29) + 7
+    assert seq_isa.limb(value, 1, True, 2) == -(3 << 14) + 5
+    assert seq_isa.limb(value, 1, False) == 1 << 14        # 15-bit limbs as before
 
 
 def test_compact_verilog_structure():

@@ -95,8 +95,10 @@ def shr(n: int) -> list:
 class Asm:
     """Builds the instruction list; resolves constants and variables to memory addresses."""
 
-    def __init__(self, k: Constants):
+    def __init__(self, k: Constants, *, wide_product: bool = False):
         self.k, self.ki = k, k.internal
+        #: Limbs of the B operand per pick (the wide product step multiplies 16 x 31 bits).
+        self.b_size = 2 if wide_product else 1
         self.nearest = k.cfg.round_nearest
         self.shifts: list[int] = []
         self.operand_bits = 16
@@ -145,7 +147,10 @@ class Asm:
         for index, (a, a_bits, b, b_bits, negative, extra) in enumerate(terms):
             self.operand_bits = max(self.operand_bits, a_bits, b_bits)
             self.product_bits = max(self.product_bits, a_bits + b_bits + extra)
+            if self._cheaper_swapped(a, a_bits, b, b_bits):
+                a, a_bits, b, b_bits = b, b_bits, a, a_bits
             la, lb = (1 if isinstance(x, Check) else limbs_of(bits) for x, bits in ((a, a_bits), (b, b_bits)))
+            lb = -(-lb // self.b_size)
             if isinstance(a, Check) or isinstance(b, Check):
                 self.operand_bits = max(self.operand_bits, CHECK_BITS)
             put(t, mld=1, **operand(a))
@@ -161,13 +166,20 @@ class Asm:
                 for j in range(lb):
                     put(t, pick=1, **_pick(a, i, la), **_pick(b, j, lb, "b"))
                     put(t + 2, alu=A_MLD if first_macc else A_MACC,
-                        sh=self.shift_index(LIMB * (i + j) + extra))
+                        sh=self.shift_index(LIMB * (i + self.b_size * j) + extra))
                     first_macc = False
                     t += 1
             if negative:
                 put(t + 2, alu=A_NEG)
             t -= 1      # the next term's MA load may share the last pick's clock
         return slots
+
+    def _cheaper_swapped(self, a, a_bits, b, b_bits) -> bool:
+        """With the wide step, the operand of more limbs goes to MB (fewer picks)."""
+        if self.b_size == 1:
+            return False
+        la, lb = (1 if isinstance(x, Check) else limbs_of(bits) for x, bits in ((a, a_bits), (b, b_bits)))
+        return lb * -(-la // self.b_size) < la * -(-lb // self.b_size)
 
     def mul_const(self, m, bits: int) -> list:
         """acc = mul_const(acc, m) for |acc| < 2**(bits - 1)."""

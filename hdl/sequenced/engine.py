@@ -25,21 +25,17 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
-from ik5r.core import status as S
-from ik5r.core.fxconfig import CHECK_BITS, Constants
+from ik5r.core.fxconfig import Constants
 
 from ..modes import CoreArch
 from . import isa as X
 from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, tagged_fields
-from ..datapath.expr import add_sub, asr_radix4, saturate, select
+from ..datapath.expr import select
+from . import units as U
 from .program import ik_program
+from .units import STATUS_BITS
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
-
-STATUS_BITS = S.FIXED_WIDTH
-#: Multiplier operand bits: a 16-bit signed limb or a check word.
-_FACTOR_BITS = max(16, CHECK_BITS)
-
 
 def _pack(prog: X.Program):
     """(instruction words, {field: (lsb, bits)}, word width)."""
@@ -67,13 +63,15 @@ class SeqEngine(wiring.Component):
     the :data:`STATUS_BITS` bits of :mod:`ik5r.core.status`) in ``out_data``, held until
     ``out_ready``. One pose takes
     ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
-    first instruction is about to execute.
+    first instruction is about to execute. ``wide_product``: each product step multiplies a
+    16-bit limb of MA by 31 bits of MB (two DSPs): fewer clocks per pose, a longer product path.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
-        self.prog = ik_program(constants)
+        _check_wide(wide_product)
+        self.prog = ik_program(constants, wide_product=wide_product)
         if any(i.get("alu", 0) in X.ADDING and i.get("bsel", 0) not in X.ADDER_SOURCES for i in self.prog.code):
             raise ValueError(f"the program adds a B-bus source outside {X.ADDER_SOURCES} (seq_isa.ADDER_SOURCES)")
         self.widths = w = self.prog.widths
@@ -81,7 +79,7 @@ class SeqEngine(wiring.Component):
         self.cycles = len(self.prog.code)
         self.in_bits = max(w.word, 3 + tag_width)
         #: STATUS_BITS, or 7 for an arm with limits (OUT_OF_LIMITS): the tag sits above them.
-        self.status_bits = constants.status_width
+        self.status_bits = w.status = constants.status_width
         self.out_bits = max(w.word, self.status_bits + tag_width)
         super().__init__({
             "in_index": Out(unsigned(4)), "in_valid": In(1), "in_data": In(unsigned(self.in_bits)),
@@ -93,8 +91,45 @@ class SeqEngine(wiring.Component):
     def elaborate(self, platform):
         m = Module()
         prog, w = self.prog, self.widths
-        words, layout, iw_bits = _pack(prog)
         stall = Signal()
+        pc, exe, fetch, pre, f = self._fetch(m, stall)
+        dec, shift = self._decode(m, pre, stall)
+        mem_q, step, mem_wr = self._memories(m, fetch, stall)
+
+        io = f("io")
+        reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
+        writing = (io == X.IO_OUT) | (io == X.IO_STATUS)
+        m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
+        run = ~stall
+
+        acc = Signal(signed(w.acc))
+        regs = U.registers(w)
+        in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
+        bus = Signal(signed(w.acc), name="bus")
+        options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
+        # One-hot AND-OR (the select is decoded ahead): one LUT level per few sources.
+        terms = [Mux(dec[f"bus{index}"], value, 0) for index, value in enumerate(options)]
+        total_bus = terms[0]
+        for term in terms[1:]:
+            total_bus = total_bus | term
+        m.d.comb += bus.eq(total_bus)
+        sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
+        cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
+        #: The registers by name, for test benches that trace the engine.
+        self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
+        U.alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
+        U.cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
+        U.multiplier(m, f, pre("sh"), bus, regs, run, w, prog.shifts)
+        U.sqrt(m, f, acc, regs, run, w)
+        m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
+
+        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
+        return m
+
+    def _fetch(self, m, stall):
+        """The program counter, the instruction ROM and the two instruction registers; the
+        field accessors of the ROM's output, of ``fetched`` and of ``exe``."""
+        words, layout, iw_bits = _pack(self.prog)
         # ``started`` is low in the first clock after power-up or reset, when the ROM's output
         # is not yet instruction 0: the program counter stays at 0 and a no-op executes.
         started = Signal()
@@ -112,20 +147,15 @@ class SeqEngine(wiring.Component):
         with m.If(~stall):
             m.d.sync += [fetched.eq(Mux(started, rom_rd.data, 0)), exe.eq(fetched)]
 
-        def fetch(name):
-            lo, n = layout[name]
-            return rom_rd.data[lo:lo + n]
+        def fields(word):
+            return lambda name: word[layout[name][0]:layout[name][0] + layout[name][1]]
 
-        def f(name):
-            lo, n = layout[name]
-            return exe[lo:lo + n]
+        return pc, exe, fields(rom_rd.data), fields(fetched), fields(exe)
 
-        def pre(name):
-            lo, n = layout[name]
-            return fetched[lo:lo + n]
-
-        dec, shift = self._decode(m, pre, stall)
-
+    def _memories(self, m, fetch, stall):
+        """The data memory and the step-angle ROM, read for the fetched instruction and
+        registered: (the memory word, the step angle, the memory's write port)."""
+        prog, w = self.prog, self.widths
         mem_shape = signed(w.mem)
         m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init)
         mem_rd = mem.read_port(transparent_for=())
@@ -138,36 +168,7 @@ class SeqEngine(wiring.Component):
                      atan_rd.addr.eq(fetch("ci")), atan_rd.en.eq(~stall)]
         with m.If(~stall):
             m.d.sync += [mem_q.eq(mem_rd.data), step.eq(atan_rd.data)]
-
-        io = f("io")
-        reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
-        writing = (io == X.IO_OUT) | (io == X.IO_STATUS)
-        m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
-        run = ~stall
-
-        acc = Signal(signed(w.acc))
-        regs = self._registers(w, self.status_bits)
-        in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
-        bus = Signal(signed(w.acc), name="bus")
-        options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
-        # One-hot AND-OR (the select is decoded ahead): one LUT level per few sources.
-        terms = [Mux(dec[f"bus{index}"], value, 0) for index, value in enumerate(options)]
-        total_bus = terms[0]
-        for term in terms[1:]:
-            total_bus = total_bus | term
-        m.d.comb += bus.eq(total_bus)
-        sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
-        cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
-        #: The registers by name, for test benches that trace the engine.
-        self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
-        self._alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
-        self._cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
-        self._multiplier(m, f, pre("sh"), bus, regs, run, w)
-        self._sqrt(m, f, acc, regs, run, w)
-        m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
-
-        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
-        return m
+        return mem_q, step, mem_wr
 
     def _decode(self, m, pre, stall):
         """Decoded controls registered beside ``exe`` (from ``pre``: the fetched instruction)."""
@@ -224,136 +225,9 @@ class SeqEngine(wiring.Component):
             if w.tag:
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
 
-    @staticmethod
-    def _registers(w, status_bits):
-        return {
-            "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
-            "down": Signal(name="down"), "roll": Signal(name="roll"),
-            "status": Signal(status_bits, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
-            "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
-            "cz": Signal(signed(w.z), name="cz"),
-            "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
-            "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(_FACTOR_BITS), name="lb"),
-            "prod": Signal(signed(w.acc), name="prod"),
-            "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
-            "rem": Signal(w.radicand // 2 + 2, name="rem"),
-        }
-
-    def _alu(self, m, f, dec, acc, bus, mem_q, cond, regs, run, w):
-        op = f("alu")
-        # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
-        # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
-        right = Signal(signed(w.acc), name="alu_right")
-        m.d.comb += right.eq(Mux(dec["right_product"], regs["prod"], 0) | Mux(dec["right_acc"], acc, 0)
-                             | Mux(dec["right_mem"], mem_q, 0) | Mux(dec["right_root"], regs["root"], 0))
-        left = Mux(dec["left_zero"], 0, acc)
-        wide = Signal(w.acc + 1, name="alu_wide")
-        m.d.comb += wide.eq(Cat(dec["carry"], left)
-                            + Cat(dec["carry"], (right ^ dec["sub"].replicate(w.acc))[:w.acc]))
-        total = Signal(signed(w.acc), name="alu_sum")
-        m.d.comb += total.eq(wide[1:])
-        # A compare's result: the sign of acc - b (CMPLT) or of acc - b - 1, inverted (CMPGT).
-        result = Signal(name="alu_compare")
-        m.d.comb += result.eq(total[-1] ^ dec["gt"])
-        sat_i, clip_i = saturate(acc, w.internal)
-        sat_w, clip_w = saturate(acc, w.word)
-        # Everything but the sum is ready early: the sum (and the compare) enter at the last
-        # mux of the accumulator, the F flag and the status bits.
-        early = Signal(signed(w.acc), name="alu_early")
-        m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
-                                 Mux(op == X.A_SHR4, acc.shift_right(4),
-                                     Mux(op == X.A_SHR16, acc.shift_right(16),
-                                         Mux(op == X.A_SATI, sat_i, sat_w))))))
-        # A compare's event is its result (under the condition); other ops' events are early.
-        other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
-        on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
-        on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
-        with m.If(run):
-            with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
-                m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
-            with m.If(dec["cmp"] & cond):
-                m.d.sync += regs["flag"].eq(result)
-            with m.Elif(op == X.A_SETF):
-                m.d.sync += regs["flag"].eq(cond)
-            # Status bits reach the register a clock after their event.
-            pending = Signal(self.status_bits, name="status_pending")
-            m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
-                         regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
-
-    def _cordic(self, m, f, dec, shift, bus, cond, step, regs, run, w):
-        op = f("cop")
-        x, y, z = regs["cx"], regs["cy"], regs["cz"]
-        quarter = dec["quarter"]
-        ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
-        x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
-        y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
-        z_next = add_sub(z, step, ccw)
-        ones_abs = Mux(y[-1], ~y, y)
-        v = (x | ones_abs).as_unsigned()
-        top = w.internal - 1 + w.cordic_guard
-        fits8 = v[top - 8:] == 0
-        fits1 = v[top - 1:] == 0
-        go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
-        with m.If(run):
-            with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
-                with m.If(cond):
-                    m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
-                    with m.If(op == X.K_LDXG):
-                        m.d.sync += z.eq(0)
-            with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
-                with m.If(cond):
-                    m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
-            with m.Elif(op == X.K_LDZA):
-                with m.If(cond):
-                    m.d.sync += z.eq(bus.shift_left(w.angle_guard))
-            with m.Elif(op == X.K_NORM8):
-                with m.If(fits8):
-                    m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
-            with m.Elif(op == X.K_NORM1):
-                with m.If(fits1):
-                    m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
-            with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
-                        | (op == X.K_ROT)):
-                with m.If(go):
-                    m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
-            with m.If(op == X.K_COARSE):
-                m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
-
-    def _multiplier(self, m, f, next_shift, bus, regs, run, w):
-        def limb(reg, index, top, check):
-            options = [Cat(reg[X.LIMB * i:X.LIMB * i + X.LIMB], top & reg[X.LIMB * i + X.LIMB])
-                       for i in range(w.limbs)]
-            return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
-                       select(options, index).as_signed())
-
-        product = Signal(signed(2 * _FACTOR_BITS), name="limb_product")     # the one multiplier
-        m.d.comb += product.eq(regs["la"] * regs["lb"])
-        with m.If(run):
-            # The product register holds the limb product already shifted to its weight, by
-            # the shift of the instruction that adds it (the next one to execute).
-            shifts = self.prog.shifts
-            m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
-                                        if len(shifts) > 1 else product.shift_left(shifts[0]))
-            with m.If(f("pick")):
-                m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
-                             regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb")))]
-            with m.If(f("mld") == 1):
-                m.d.sync += regs["ma"].eq(bus)
-            with m.If(f("mld") == 2):
-                m.d.sync += regs["mb"].eq(bus)
-
-    def _sqrt(self, m, f, acc, regs, run, w):
-        rad, root, rem = regs["rad"], regs["root"], regs["rem"]
-        shifted = Cat(rad[w.radicand - 2:], rem)
-        trial = Cat(Const(1, 2), root)
-        diff = Signal(signed(len(shifted) + 1), name="sqrt_diff")
-        m.d.comb += diff.eq(shifted - trial)
-        with m.If(run):
-            with m.If(f("sq") == X.Q_LOAD):
-                m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
-            with m.If(f("sq") == X.Q_STEP):
-                m.d.sync += [rad.eq(rad.shift_left(2)), root.eq(Cat(~diff[-1], root)),
-                             rem.eq(Mux(diff[-1], shifted, diff))]
+def _check_wide(wide_product):
+    if not isinstance(wide_product, bool):
+        raise ValueError(f"wide_product must be True or False, got {wide_product!r}")
 
 
 def _check_tag(tag_width, limit):
@@ -372,16 +246,17 @@ class SequencedIKCore(wiring.Component):
     result is held). Nothing is lost, duplicated or reordered under back-pressure.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
         _check_tag(tag_width, 26)
-        self._engine = SeqEngine(constants=constants, tag_width=tag_width)
+        _check_wide(wide_product)
+        self._engine = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
         self.constants, self.arch, self.tag_width = constants, "sequenced", tag_width
         in_fields, out_fields = tagged_fields(constants, tag_width)
         self.in_fields, self.out_fields = in_fields, out_fields
         self.cycles_per_result = self._engine.cycles
         self.latency = self._engine.cycles + 2
         self.capacity = 3
-        self.options = {}
+        self.options = {"wide_product": True} if wide_product else {}
         super().__init__({
             "i": In(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in in_fields.items()}))),
             "o": Out(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in out_fields.items()}))),
@@ -438,11 +313,13 @@ class SerialIK(wiring.Component):
     ``cycles_per_result`` clocks when beats come and go every clock; one pose in flight.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16,
+                 wide_product: bool = False):
         _check_tag(tag_width, 26)
+        _check_wide(wide_product)
         if isinstance(beat_bits, bool) or not isinstance(beat_bits, int) or not 1 <= beat_bits <= 32:
             raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
-        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width)
+        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
         self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
         self.arch = CoreArch.COMPACT
         self.in_beats = -(-e.in_bits // beat_bits)
@@ -452,7 +329,7 @@ class SerialIK(wiring.Component):
         self.latency = e.cycles + (len(INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
         self.cycles_per_result = self.latency - (self.in_beats - 1)
         self.capacity = 1
-        self.options = {"serial": beat_bits}
+        self.options = {"serial": beat_bits} | ({"wide_product": True} if wide_product else {})
         self.in_fields = {"beat": (unsigned(beat_bits), None, "input word beat, LSB first")}
         self.out_fields = {"beat": (unsigned(beat_bits), None, "output word beat, LSB first")}
         super().__init__({

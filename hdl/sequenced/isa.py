@@ -56,8 +56,8 @@ FLAG_SOURCE = {BranchFlag.ROLL: C_ROLL, BranchFlag.BACK: C_BACK, BranchFlag.DOWN
 (K_NOP, K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA, K_COARSE, K_QROT, K_NORM8, K_NORM1, K_VEC,
  K_ROT) = range(12)
 
-#: Square root (``sq``): load the radicand from the accumulator, one digit step.
-Q_NOP, Q_LOAD, Q_STEP = range(3)
+#: Square root (``sq``): load the radicand from the accumulator, one digit step, two digit steps.
+Q_NOP, Q_LOAD, Q_STEP, Q_STEP2 = range(4)
 
 #: Word ports (``io``): input word ``iw`` on the B bus, the flags word (ends the input), output
 #: word ``iw`` (the accumulator, before this instruction), the status word (ends the output).
@@ -99,6 +99,7 @@ class Widths:
     angle_guard: int
     check_lsb: int = 0  # a check word: operand bits [check_lsb, check_lsb + CHECK_BITS), signed
     tag: int = 0
+    b_limbs: int = 1   # limbs of MB per pick: 2 with the wide product step (a 16 x 31 product)
 
     @property
     def operand(self) -> int:
@@ -122,12 +123,13 @@ class Program:
                 for name in FIELDS}
 
 
-def limb(value: int, index: int, top: bool) -> int:
-    """Limb ``index`` of an operand: 15 unsigned bits, or 16 signed bits for the top limb."""
+def limb(value: int, index: int, top: bool, size: int = 1) -> int:
+    """Limb ``index`` of an operand cut in limbs of ``size`` 15-bit limbs: 15 ``size`` unsigned
+    bits, or, for the top one, the signed rest (16 bits for ``size`` 1)."""
     if top:
-        bits = (value >> (LIMB * index)) & 0xFFFF
-        return bits - 0x10000 if bits & 0x8000 else bits
-    return (value >> (LIMB * index)) & ((1 << LIMB) - 1)
+        bits = (value >> (LIMB * size * index)) & ((1 << (LIMB * size + 1)) - 1)
+        return bits - (1 << (LIMB * size + 1)) if bits >> (LIMB * size) else bits
+    return (value >> (LIMB * size * index)) & ((1 << (LIMB * size)) - 1)
 
 
 def check_word(value: int, lsb: int) -> int:
@@ -273,7 +275,7 @@ class Machine:
             self.la = (check_word(self.ma, w.check_lsb) if ins.get("pwa")
                        else limb(self.ma, ins.get("pa", 0), ins.get("psa", 0)))
             self.lb = (check_word(self.mb, w.check_lsb) if ins.get("pwb")
-                       else limb(self.mb, ins.get("pb", 0), ins.get("psb", 0)))
+                       else limb(self.mb, ins.get("pb", 0), ins.get("psb", 0), w.b_limbs))
         mld = ins.get("mld", 0)
         if mld:
             if not fits(b, w.operand):
@@ -289,14 +291,20 @@ class Machine:
             if not 0 <= self.acc < (1 << w.radicand):
                 raise OverflowError(f"radicand out of range {self.acc}")
             self.rad, self.root, self.rem = self.acc, 0, 0
-        elif op == Q_STEP:
-            rem = (self.rem << 2) | (self.rad >> (w.radicand - 2))
-            self.rad = (self.rad << 2) & ((1 << w.radicand) - 1)
-            trial = (self.root << 2) | 1
-            if rem >= trial:
-                self.rem, self.root = rem - trial, (self.root << 1) | 1
-            else:
-                self.rem, self.root = rem, self.root << 1
+        elif op in (Q_STEP, Q_STEP2):
+            for _ in range(op - Q_STEP + 1):
+                self._digit()
+
+    def _digit(self):
+        """One digit of the square root (two radicand bits in, one root bit out)."""
+        w = self.w
+        rem = (self.rem << 2) | (self.rad >> (w.radicand - 2))
+        self.rad = (self.rad << 2) & ((1 << w.radicand) - 1)
+        trial = (self.root << 2) | 1
+        if rem >= trial:
+            self.rem, self.root = rem - trial, (self.root << 1) | 1
+        else:
+            self.rem, self.root = rem, self.root << 1
 
 
 def run(prog: Program, inputs: list[int]) -> dict:

@@ -20,7 +20,7 @@ from collections import Counter
 from ..graph.ops import Op
 from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_NEG, A_NOP, A_SATI, A_SATW, A_SUB, C_F, C_ZERO,
                       FLAG_SOURCE, IO_FLAGS, IO_IN, IO_OUT, IO_STATUS, B_IN, K_LDXG, K_LDYG, Q_LOAD,
-                      Q_STEP)
+                      Q_STEP, Q_STEP2)
 from ..graph.inputs import INPUT_WORDS
 from .asm import Asm, Check as CheckOperand, Const, I, alu, operand as _op, sqrt_round, st
 from ..graph.nodes import Check, Compare, Flag, Node, Not, Sop, Status, Zero, rotation_outputs
@@ -78,6 +78,8 @@ def deps(n) -> list:
             return [a]
         if _add_sub(a, b):
             return list(a.args)
+    if n.op == Op.SUB and _magnitude_of(n) is not None:
+        return [_magnitude_of(n)]
     if n.op == Op.ATAN2:
         out = []
         for v in n.args:
@@ -181,6 +183,8 @@ class Lower:
     # -- values --
     def _code(self, n) -> list:
         a, op, args = self.a, n.op, n.args
+        if op == Op.SUB and _magnitude_of(n) is not None:
+            return self._abs(_magnitude_of(n))
         if op in (Op.ADD, Op.SUB):
             x, y = args
             if op == Op.ADD and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
@@ -193,6 +197,9 @@ class Lower:
             sat = A_SATI if n.params[0] == self.ki.cfg.width else A_SATW
             return self.acc(args[0]) + [alu(sat, None, *gates, stat=bit)]
         if op == Op.RSR:
+            halving = _halving(n)
+            if halving:
+                return self._halve(*halving)
             return self.acc(args[0]) + a.round_shift(n.params[0])
         if op == Op.MULC:
             return self.acc(args[0]) + a.mul_const(n.params[0], args[0].bits)
@@ -240,6 +247,25 @@ class Lower:
             return self.acc(a, self._early(b)) + [alu(A_LD, self.operand(b), no)]
         return self.acc(b, self._early(a)) + [alu(A_LD, self.operand(a), yes)]
 
+    def _halve(self, v, weight) -> list:
+        """rshift_round(v * weight, 1) for a weight in {0, 2}: v where the weight is 2, else 0
+        (exact either way, so the rounding does not matter): a compare and two loads instead of
+        the multiplier's limb products and a rounding shift (the near-axis rule's v or 0). The
+        weight is clip(e, 0, 2), positive where e is: the clip itself is not formed."""
+        e = weight.args[0]
+        if isinstance(e, Node) and e.op == Op.ADD and isinstance(e.args[1], int) and _doubled(e.args[0]):
+            # e = s + s + c > 0 where s > floor(-c / 2) (s an integer).
+            s = e.args[0].args[0]
+            code = self.acc(s) + [alu(A_CMPGT, Const((-e.args[1]) // 2))]
+        else:
+            code = self.acc(e) + [alu(A_CMPGT, Const(0))]
+        return code + [alu(A_LD, self.operand(v), (C_F, 0)), alu(A_LD, Const(0), (C_F, 1))]
+
+    def _abs(self, v) -> list:
+        """|v| as max(v, 0) - min(v, 0) (two clips, the body's magnitude of a word): a compare
+        and a conditional negation."""
+        return self.acc(v) + [alu(A_CMPLT, Const(0)), alu(A_NEG, None, (C_F, 0))]
+
     def _sqrt(self, n) -> list:
         """isqrt(x, bits): the radicand aligned to the top of the engine's register, bits / 2 digit
         steps, rounded."""
@@ -248,7 +274,9 @@ class Lower:
         if extra and not isinstance(x, Sop):
             raise NotImplementedError("a narrow radicand must be a sum of products")
         code = self._sop(x, extra) if isinstance(x, Sop) else self.acc(x)
-        return code + [I(sq=Q_LOAD)] + [I(sq=Q_STEP)] * (bits // 2) + sqrt_round(self.a)
+        digits = bits // 2          # two per clock, the odd one alone
+        return (code + [I(sq=Q_LOAD)] + [I(sq=Q_STEP2)] * (digits // 2) + [I(sq=Q_STEP)] * (digits % 2)
+                + sqrt_round(self.a))
 
     def _atan2(self, n) -> list:
         """Operand loads (a selection by a comparison: F, then the other operand where not F), the
@@ -301,6 +329,46 @@ class Lower:
         if s.const and not lead:
             code += [alu(A_ADD, Const(s.const << extra))]
         return code
+
+
+def _doubled(n) -> bool:
+    return isinstance(n, Node) and not isinstance(n, Sop) and n.op == Op.ADD and n.args[0] is n.args[1]
+
+
+def _magnitude_of(n):
+    """v if ``n`` is clip(v, 0, hi) - clip(v, lo, 0) with v within [lo, hi] (so |v|), else None."""
+    a, b = n.args
+    if not all(isinstance(c, Node) and not isinstance(c, Sop) and c.op == Op.CLIP for c in (a, b)):
+        return None
+    v = a.args[0]
+    if b.args[0] is not v or a.params[0] != 0 or b.params[1] != 0 or None in (a.params[1], b.params[0]):
+        return None
+    lo, hi = v.bounds() if isinstance(v, Sop) else (v.lo, v.hi)
+    return v if b.params[0] <= lo and hi <= a.params[1] else None
+
+
+def _even(n) -> bool:
+    """``n`` is even for every input (a sum of a value with itself, of evens, an even constant)."""
+    if isinstance(n, int):
+        return n % 2 == 0
+    if not isinstance(n, Node) or isinstance(n, Sop) or n.op not in (Op.ADD, Op.SUB, Op.NEG):
+        return False
+    if n.op in (Op.ADD, Op.SUB) and n.args[0] is n.args[1]:
+        return True
+    return all(_even(v) for v in n.args)
+
+
+def _halving(n):
+    """(v, weight) if ``n`` is rshift_round(v * weight, 1) with weight a clip to [0, 2] of an
+    even value (so 0 or 2), else None."""
+    s = n.args[0]
+    if n.params[0] != 1 or not isinstance(s, Sop) or s.const or len(s.terms) != 1:
+        return None
+    for v, w in (s.terms[0][:2], s.terms[0][1::-1]):
+        if (s.terms[0][2:] == (False, 0) and isinstance(w, Node) and not isinstance(w, Sop)
+                and w.op == Op.CLIP and w.params == (0, 2) and _even(w.args[0])):
+            return v, w
+    return None
 
 
 def _bits(v, ki) -> int:

@@ -25,23 +25,28 @@ from ..graph.trace import trace
 __all__ = ["ik_program"]
 
 
-def ik_program(k: Constants) -> Program:
+def ik_program(k: Constants, *, wide_product: bool = False) -> Program:
     """``ik.solve`` for format ``k`` as a program of the sequenced engine (bit-exact to
-    ``model.ik_solve``; see the module docstring). Compiled once per format (the schedule is a
-    search: :func:`.seq_schedule.schedule`); each call returns its own copy."""
-    return copy.deepcopy(_compile(k))
+    ``model.ik_solve``; see the module docstring); ``wide_product``: for the engine whose product
+    step multiplies a 16-bit limb by two limbs of MB (31 bits, two DSPs). Compiled once per
+    format (the schedule is a search: :func:`.seq_schedule.schedule`); each call returns its
+    own copy."""
+    if not isinstance(wide_product, bool):
+        raise TypeError(f"wide_product must be a bool, got {wide_product!r}")
+    return copy.deepcopy(_compile(k, wide_product))
 
 
 @lru_cache(maxsize=None)
-def _compile(k: Constants) -> Program:
+def _compile(k: Constants, wide_product: bool = False) -> Program:
     ki = k.internal
     if ki.check_shift != k.check_shift + k.cfg.internal_guard_bits:
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
-    a = Asm(k)
+    a = Asm(k, wide_product=wide_product)
     joints, status, _ = trace(k)
     code = schedule(Lower(a, joints, status).blocks)
     widths = widths_of(k)
     widths.limbs = limbs_of(a.operand_bits)
+    widths.b_limbs = a.b_size
     widths.acc = max(widths.acc, a.product_bits + 3)
     return a.finish(code, widths)

@@ -149,15 +149,16 @@ def schedule(codes: list) -> list:
 
     The longest-path priorities are a start: a block off the critical path placed late may find
     its unit taken where it had room (the roll's atan2 behind the elbow's). So each block's
-    priority is raised by a few steps in turn, a change kept when the program gets shorter, until
-    a pass keeps none (a hill climb, deterministic)."""
+    priority is moved by a few steps in turn (lowered too: a block placed early may take a unit a
+    more urgent one needs a little later), a change kept when the program gets shorter, until a
+    pass keeps none (a hill climb, deterministic)."""
     blocks = [Block(c) for c in codes]
     prio = _priorities(blocks, _Placer(blocks).producer)
     best = _Placer(blocks, prio).run()
     for _ in range(PASSES):
         improved = False
         for i in range(1, len(blocks) - 1):
-            for step in (40, 100, 200, 400):
+            for step in STEPS:
                 trial = prio[:i] + [prio[i] + step] + prio[i + 1:]
                 code = _Placer(blocks, trial).run()
                 if len(code) < len(best):
@@ -168,7 +169,9 @@ def schedule(codes: list) -> list:
 
 
 #: Hill-climbing passes over the priorities (each schedules the program once per block and step).
-PASSES = 3
+PASSES = 8
+#: The priority steps tried per block.
+STEPS = (-200, -100, -40, -10, 10, 40, 100, 200, 400, 800)
 
 
 class _Placer:

@@ -136,6 +136,26 @@ def max_dsp_option(args, arch: str, dsp: str) -> dict:
     return {"max_dsp": cap}
 
 
+def add_wide_product(parser) -> None:
+    """``--wide-product`` (verilog, sim, synth)."""
+    parser.add_argument("--wide-product", action="store_true",
+                        help="compact IK core: each product step multiplies a 16-bit limb by 31 bits (two "
+                             "DSPs instead of one): fewer clocks per pose, the same bits (module name "
+                             "..._wide_product1_...)")
+
+
+def wide_option(args, block: str, arch: str) -> dict:
+    """The generator option of ``--wide-product`` (none when not given); exit 2 when it is asked
+    of anything but the compact IK core."""
+    from ik5r.core.errors import InputError
+
+    if not getattr(args, "wide_product", False):
+        return {}
+    if block != "ik" or arch != "compact":
+        raise InputError("--wide-product", f"applies to the compact IK core, not to {block} {arch}")
+    return {"wide_product": True}
+
+
 def rotations_option(args, arch: str) -> dict:
     """The generator option of ``--rotations-per-stage`` for ``arch`` (none at 1); exit 2 when it
     is asked of an architecture that has no pipeline stages to fill."""

@@ -32,13 +32,15 @@ class DesignOptions:
     serial: int | None = None       # compact IK core: beats of its word-serial wrapper
     rotations_per_stage: int = 1    # pipelined arch: CORDIC micro-rotations per register stage
     max_dsp: int | None = None      # pipelined arch, dsp="ecp5": cap on MULT18X18D (the rest in LUTs)
+    wide_product: bool = False      # compact IK core: a 16 x 31 product step (two DSPs), fewer clocks
 
     def generate_kwargs(self) -> dict:
         """The options of ``ik5r.hdl.generate.generate`` (module name, constructor)."""
         return ({} if self.dsp == "generic" else {"dsp": self.dsp}) | \
                ({} if self.serial is None else {"serial": self.serial}) | \
                ({} if self.rotations_per_stage == 1 else {"rotations_per_stage": self.rotations_per_stage}) | \
-               ({} if self.max_dsp is None else {"max_dsp": self.max_dsp})
+               ({} if self.max_dsp is None else {"max_dsp": self.max_dsp}) | \
+               ({"wide_product": True} if self.wide_product else {})
 
 
 @dataclass(frozen=True)
@@ -55,7 +57,7 @@ class Design:
     def resolve(cls, block: str, arch: str, *, config: FixedConfig | str | Path | None = None,
                 arm: Arm | str | Path | None = None, tag_width: int = 0, dsp: str = "generic",
                 serial: int | None = None, rotations_per_stage: int = 1,
-                max_dsp: int | None = None) -> "Design":
+                max_dsp: int | None = None, wide_product: bool = False) -> "Design":
         """Load the config (name or file) and the arm (name or file) once, resolve the arch
         (``iterative``/``compact``: the small one) and check the arm fits the config."""
         from ik5r.hdl.generate import resolve_arch
@@ -64,7 +66,8 @@ class Design:
         arm_ = arm if isinstance(arm, Arm) else load_arm(arm)
         if block not in ("cpu",):
             arch = resolve_arch(block, arch)
-        design = cls(block, arch, cfg, arm_, DesignOptions(tag_width, dsp, serial, rotations_per_stage, max_dsp))
+        design = cls(block, arch, cfg, arm_, DesignOptions(tag_width, dsp, serial, rotations_per_stage,
+                                                          max_dsp, wide_product))
         design.constants        # noqa: B018 -- builds and checks (armfit) now, not at generation
         return design
 

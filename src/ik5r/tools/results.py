@@ -66,13 +66,15 @@ class VerilogOfCheckout:
             # difference not yet tracked down); the runs of the arm of record use the default.
             arm = None if is_seed_arm(load_arm(arm)) else arm
         per_stage = r.get("rotations_per_stage", 1)
-        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm, per_stage)
+        # The compact core's wide product step (records made before the key: in the module name).
+        wide = bool(r.get("wide_product")) or "_wide_product1_" in r.get("module", "")
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm, per_stage, wide)
         if key in self._texts:
             return self._texts[key]
         try:
             design = Design.resolve(r["block"], r["arch"], config=r["config"], arm=arm,
                                     tag_width=r.get("tag_width", 0), dsp=dsp, serial=serial,
-                                    rotations_per_stage=per_stage)
+                                    rotations_per_stage=per_stage, wide_product=wide)
         except InputError:
             self._texts[key] = ""
             return ""

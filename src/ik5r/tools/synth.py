@@ -155,9 +155,11 @@ def _design(design, opts: SynthOptions):
         serial = ICE40_BEAT_BITS
     if opts.rotations_per_stage != 1 and design.arch != "pipelined":
         raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {design.arch}")
+    if opts.wide_product and (design.block, design.arch) != ("ik", "compact"):
+        raise InputError("--wide-product", f"applies to the compact IK core, not to {design.block} {design.arch}")
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
                             tag_width=opts.tag_width, dsp=dsp, serial=serial,
-                            rotations_per_stage=opts.rotations_per_stage,
+                            rotations_per_stage=opts.rotations_per_stage, wide_product=opts.wide_product,
                             max_dsp=opts.max_dsp if dsp == "ecp5" else None)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
@@ -252,6 +254,7 @@ def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict
     return {
         "block": design.block, "arch": design.arch, "dsp": design.options.dsp, "tag_width": opts.tag_width,
         "module": pmap["module"], "serial": options.get("serial"), "config": cfg.name,
+        **({"wide_product": True} if options.get("wide_product") else {}),
         "arm": design.arm.name, "arm_sha256": arm_hash(design.constants), "arm_reach_cm": design.arm.reach,
         "width": cfg.width, "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
@@ -279,9 +282,9 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items()
-             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp")}
-    # --rotations-per-stage and --max-dsp are in the Verilog and the module name already (old keys
-    # stay valid).
+             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp", "wide_product")}
+    # --rotations-per-stage, --max-dsp and --wide-product are in the Verilog and the module name
+    # already (old keys stay valid).
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid
     key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), json.dumps(flags, sort_keys=True))

@@ -97,6 +97,7 @@ def register(subparsers) -> None:
                              "--stream-vectors random poses (default: min(--vectors, 1000)) plus the "
                              "directed set")
     cliopts.add_rotations_per_stage(parser)
+    cliopts.add_wide_product(parser)
     parser.add_argument("--harness", action="store_true",
                         help="the bulk run on the Verilator C++ harness fed from a file (much faster than "
                              "cocotb; the cocotb stream run, with its protocol checks, still runs first)")
@@ -120,6 +121,7 @@ def run(args) -> int:
     from ik5r.hdl.generate import resolve_arch
 
     per_stage = cliopts.rotations_option(args, resolve_arch(args.block, args.arch)).get("rotations_per_stage", 1)
+    wide = cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
     if args.harness and (args.serial is not None or sim != "verilator"):
         print("ik5r sim: --harness is a Verilator bulk run: use it with --simulator verilator, without --serial",
               file=sys.stderr)
@@ -128,7 +130,7 @@ def run(args) -> int:
     # InputError (exit 2) on a bad config or arm, or an arm the config cannot hold.
     design = Design.resolve(args.block, args.arch, config=args.config, arm=args.arm, tag_width=args.tag_width,
                             dsp=args.dsp, serial=args.serial,
-                            rotations_per_stage=per_stage)
+                            rotations_per_stage=per_stage, **wide)
     t0 = time.perf_counter()
     result = run_block(design, sim, stream_vectors=stream_vectors, seed=args.seed,
                        bulk_vectors=0 if args.serial or args.harness else max(args.vectors, 1),

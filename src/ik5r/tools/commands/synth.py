@@ -61,6 +61,7 @@ def register(subparsers) -> None:
                              "Yosys (default: ecp5 on ECP5, generic on iCE40)")
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_max_dsp(parser)
+    cliopts.add_wide_product(parser)
     parser.add_argument("--cache", default="build/synth", metavar="DIR",
                         help="cache folder (default: build/synth)")
     parser.add_argument("--force", action="store_true", help="ignore cached results")
@@ -108,7 +109,8 @@ def run(args) -> int:
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
                         seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp,
-                        rotations_per_stage=args.rotations_per_stage, max_dsp=args.max_dsp).resolved()
+                        rotations_per_stage=args.rotations_per_stage, max_dsp=args.max_dsp,
+                        wide_product=args.wide_product).resolved()
 
     def log(message):
         if not args.quiet:

@@ -56,6 +56,7 @@ def register(subparsers) -> None:
                              "(default: generic)")
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_max_dsp(parser)
+    cliopts.add_wide_product(parser)
     parser.set_defaults(run=run)
 
 
@@ -70,6 +71,8 @@ def run(args) -> int:
     if args.arch not in ("pipelined", "all"):
         cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
     cliopts.max_dsp_option(args, "pipelined" if args.arch == "all" else args.arch, args.dsp)
+    if args.block != "all" and args.arch != "all":
+        cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
     # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
     base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
@@ -82,8 +85,10 @@ def run(args) -> int:
             per_stage = 1
             if args.arch != "all" or arch == "pipelined":
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
+            # --wide-product: the compact IK core's option (of --block all / --arch all, that core).
+            wide = {"wide_product": True} if args.wide_product and (block, arch) == ("ik", "compact") else {}
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
-                                    dsp=dsp, rotations_per_stage=per_stage,
+                                    dsp=dsp, rotations_per_stage=per_stage, **wide,
                                     **(cliopts.max_dsp_option(args, arch, dsp) if dsp == "ecp5" else {}))
             text, pmap = design.verilog()
             module = pmap["module"]

@@ -68,7 +68,8 @@ def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int =
 def build_dir_for(design: Design, sim: str) -> Path:
     o = design.options
     variant = (("" if o.dsp == "generic" else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
-               + ("" if o.rotations_per_stage == 1 else f"_rps{o.rotations_per_stage}"))
+               + ("" if o.rotations_per_stage == 1 else f"_rps{o.rotations_per_stage}")
+               + ("_wide" if o.wide_product else ""))
     return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 

@@ -1,0 +1,182 @@
+"""The units of the sequenced engine (:class:`.engine.SeqEngine`): each a function adding one
+unit's registers and logic to the engine's module, all stepping on ``run`` from the executing
+instruction (``f``: one of its fields; ``dec``: controls decoded a clock early).
+"""
+
+from __future__ import annotations
+
+from amaranth.hdl import Cat, Const, Mux, Signal, signed
+
+from ik5r.core import status as S
+from ik5r.core.fxconfig import CHECK_BITS
+
+from . import isa as X
+from ..datapath.expr import add_sub, asr_radix4, saturate, select
+
+STATUS_BITS = S.FIXED_WIDTH
+#: Multiplier operand bits: a 16-bit signed limb or a check word.
+_FACTOR_BITS = max(16, CHECK_BITS)
+
+
+def registers(w):
+    """The engine's unit registers by name."""
+    return {
+        "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
+        "down": Signal(name="down"), "roll": Signal(name="roll"),
+        "status": Signal(w.status, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
+        "cx": Signal(signed(w.xy), name="cx"), "cy": Signal(signed(w.xy), name="cy"),
+        "cz": Signal(signed(w.z), name="cz"),
+        "ma": Signal(signed(w.operand), name="ma"), "mb": Signal(signed(w.operand), name="mb"),
+        "la": Signal(signed(_FACTOR_BITS), name="la"), "lb": Signal(signed(b_factor_bits(w)), name="lb"),
+        "prod": Signal(signed(w.acc), name="prod"),
+        "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
+        "rem": Signal(w.radicand // 2 + 2, name="rem"),
+    }
+
+def alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w):
+    """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits."""
+    op = f("alu")
+    # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
+    # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
+    right = Signal(signed(w.acc), name="alu_right")
+    m.d.comb += right.eq(Mux(dec["right_product"], regs["prod"], 0) | Mux(dec["right_acc"], acc, 0)
+                         | Mux(dec["right_mem"], mem_q, 0) | Mux(dec["right_root"], regs["root"], 0))
+    left = Mux(dec["left_zero"], 0, acc)
+    wide = Signal(w.acc + 1, name="alu_wide")
+    m.d.comb += wide.eq(Cat(dec["carry"], left)
+                        + Cat(dec["carry"], (right ^ dec["sub"].replicate(w.acc))[:w.acc]))
+    total = Signal(signed(w.acc), name="alu_sum")
+    m.d.comb += total.eq(wide[1:])
+    # A compare's result: the sign of acc - b (CMPLT) or of acc - b - 1, inverted (CMPGT).
+    result = Signal(name="alu_compare")
+    m.d.comb += result.eq(total[-1] ^ dec["gt"])
+    sat_i, clip_i = saturate(acc, w.internal)
+    sat_w, clip_w = saturate(acc, w.word)
+    # Everything but the sum is ready early: the sum (and the compare) enter at the last
+    # mux of the accumulator, the F flag and the status bits.
+    early = Signal(signed(w.acc), name="alu_early")
+    m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
+                             Mux(op == X.A_SHR4, acc.shift_right(4),
+                                 Mux(op == X.A_SHR16, acc.shift_right(16),
+                                     Mux(op == X.A_SATI, sat_i, sat_w))))))
+    # A compare's event is its result (under the condition); other ops' events are early.
+    other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
+    on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
+    on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
+    with m.If(run):
+        with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
+            m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
+        with m.If(dec["cmp"] & cond):
+            m.d.sync += regs["flag"].eq(result)
+        with m.Elif(op == X.A_SETF):
+            m.d.sync += regs["flag"].eq(cond)
+        # Status bits reach the register a clock after their event.
+        pending = Signal(w.status, name="status_pending")
+        m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
+                     regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
+
+def cordic(m, f, dec, shift, bus, cond, step, regs, run, w):
+    """The CORDIC unit: loads, quarter turns, normalising shifts, one micro-rotation a clock."""
+    op = f("cop")
+    x, y, z = regs["cx"], regs["cy"], regs["cz"]
+    quarter = dec["quarter"]
+    ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
+    x_next = add_sub(Mux(quarter, 0, x), asr_radix4(y, shift[1]), ccw)
+    y_next = add_sub(Mux(quarter, 0, y), asr_radix4(x, shift[0]), ~ccw)
+    z_next = add_sub(z, step, ccw)
+    ones_abs = Mux(y[-1], ~y, y)
+    v = (x | ones_abs).as_unsigned()
+    top = w.internal - 1 + w.cordic_guard
+    fits8 = v[top - 8:] == 0
+    fits1 = v[top - 1:] == 0
+    go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
+    with m.If(run):
+        with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
+            with m.If(cond):
+                m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
+                with m.If(op == X.K_LDXG):
+                    m.d.sync += z.eq(0)
+        with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
+            with m.If(cond):
+                m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
+        with m.Elif(op == X.K_LDZA):
+            with m.If(cond):
+                m.d.sync += z.eq(bus.shift_left(w.angle_guard))
+        with m.Elif(op == X.K_NORM8):
+            with m.If(fits8):
+                m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
+        with m.Elif(op == X.K_NORM1):
+            with m.If(fits1):
+                m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
+        with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
+                    | (op == X.K_ROT)):
+            with m.If(go):
+                m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
+        with m.If(op == X.K_COARSE):
+            m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
+
+def b_factor_bits(w) -> int:
+    """Bits of the B factor: a limb (two with the wide product step, ``w.b_limbs``) or a check
+    word."""
+    return max(X.LIMB * w.b_limbs + 1, CHECK_BITS)
+
+
+def _piece(reg, lsb: int, n: int, top):
+    """Bits [lsb, lsb + n) of ``reg`` unsigned, or with the next bit as the sign if ``top``; a
+    piece that reaches the register's end is its signed top (the last limb is always the top)."""
+    if lsb + n < len(reg):
+        return Cat(reg[lsb:lsb + n], top & reg[lsb + n]).as_signed()
+    rest = reg[lsb:]
+    return Cat(rest, rest[-1].replicate(n + 1 - len(rest))).as_signed()
+
+
+def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
+    """The operand registers, the limb pick and the one limb multiplier (16 x 16 bits, or 16 x
+    31 with the wide product step)."""
+    def limb(reg, index, top, check, size=1):
+        n = X.LIMB * size
+        options = [_piece(reg, n * i, n, top) for i in range(-(-w.limbs // size))]
+        return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
+                   select(options, index).as_signed())
+
+    product = Signal(signed(_FACTOR_BITS + b_factor_bits(w)), name="limb_product")   # the one multiplier
+    m.d.comb += product.eq(regs["la"] * regs["lb"])
+    with m.If(run):
+        # The product register holds the limb product already shifted to its weight, by
+        # the shift of the instruction that adds it (the next one to execute).
+        m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
+                                    if len(shifts) > 1 else product.shift_left(shifts[0]))
+        with m.If(f("pick")):
+            m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
+                         regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb"), w.b_limbs))]
+        with m.If(f("mld") == 1):
+            m.d.sync += regs["ma"].eq(bus)
+        with m.If(f("mld") == 2):
+            m.d.sync += regs["mb"].eq(bus)
+
+def _digit(m, rad, root, rem, w, name):
+    """One digit step of the square root from (rad, root, rem): the next values, each cut to
+    its register's width."""
+    shifted = Cat(rad[w.radicand - 2:], rem)
+    trial = Cat(Const(1, 2), root)
+    diff = Signal(signed(len(shifted) + 1), name=f"{name}_diff")
+    m.d.comb += diff.eq(shifted - trial)
+    nxt = [Signal.like(reg, name=f"{name}_{reg.name}") for reg in (rad, root, rem)]
+    m.d.comb += [nxt[0].eq(rad.shift_left(2)), nxt[1].eq(Cat(~diff[-1], root)),
+                 nxt[2].eq(Mux(diff[-1], shifted, diff))]
+    return nxt
+
+
+def sqrt(m, f, acc, regs, run, w):
+    """The digit-serial square root: one digit a clock, or two (``Q_STEP2``: two digit steps
+    chained, two subtractions in one clock, off the engine's slowest paths)."""
+    rad, root, rem = regs["rad"], regs["root"], regs["rem"]
+    one = _digit(m, rad, root, rem, w, "sqrt")
+    two = _digit(m, *one, w, "sqrt2")
+    with m.If(run):
+        with m.If(f("sq") == X.Q_LOAD):
+            m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
+        with m.If(f("sq") == X.Q_STEP):
+            m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), one)]
+        with m.If(f("sq") == X.Q_STEP2):
+            m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), two)]
