@@ -82,8 +82,11 @@ class Node:
     hi: int
     id: int
 
-    #: Not an exact sum (:class:`Sop`): a word.
-    exact = False
+    @property
+    def exact(self) -> bool:
+        """The value is an exact product's (a clip of an exact sum, a sum or difference with
+        one): wider than a word, as the vocabulary's exact words hold it."""
+        return self.op in _EXACT_OPS and any(getattr(v, "exact", False) for v in self.args)
 
     def bounds(self) -> tuple[int, int]:
         return self.lo, self.hi
@@ -168,6 +171,10 @@ class Check(Node):
 
     def __lshift__(self, n: int):
         return self.g.sop([(self, 1, False, n)], 0)
+
+
+#: The operations whose value is exact when an argument's is.
+_EXACT_OPS = (Op.CLIP, Op.ADD, Op.SUB)
 
 
 def add(g, a, b):

@@ -38,12 +38,14 @@ class OpSpec:
     ``meaning(ev, node, *values)``: its value from its arguments' values (``ev``: an
     :class:`~.evaluate.Evaluation`, holding ``fx``, ``fw`` and the formats); an operation with a
     second result (a saturation's flag, an atan2's zero vector, a rotation's x, y and flag)
-    returns a tuple whose first item is the node's value."""
+    returns a tuple, ``results`` items long, whose first item is the node's value (a rotation's
+    value is its tuple: ``ROTX`` and ``ROTY`` take its items)."""
     op: Op
     arity: int
     params: tuple[str, ...]
     bound: Callable | None
     meaning: Callable
+    results: int = 1
 
 
 def _word(g, args, params):
@@ -88,8 +90,8 @@ def _clip_value(ev, n, a):
     return ev.fx.minimum(a, high) if low is None else ev.fx.clip(a, low, high)
 
 
-def _spec(op, arity, params, bound, meaning) -> OpSpec:
-    return OpSpec(op, arity, params, bound, meaning)
+def _spec(op, arity, params, bound, meaning, results=1) -> OpSpec:
+    return OpSpec(op, arity, params, bound, meaning, results)
 
 
 #: An atan2's vectoring z stays within the coarse quarter turn plus the sum of the step angles
@@ -101,10 +103,10 @@ SPECS: dict[Op, OpSpec] = {s.op: s for s in (
     _spec(Op.NEG, 1, (), lambda g, a, p: (-span(a[0])[1], -span(a[0])[0]), lambda ev, n, a: -a),
     _spec(Op.CHECK, 1, (), None, lambda ev, n, a: a >> ev.ki.check_shift),
     _spec(Op.ADD, 2, (), lambda g, a, p: (span(a[0])[0] + span(a[1])[0], span(a[0])[1] + span(a[1])[1]),
-          lambda ev, n, a, b: a + b),
+          lambda ev, n, a, b: ev.fx.exact_add(*ev.exact(n, a, b)) if n.exact else a + b),
     _spec(Op.SUB, 2, (), lambda g, a, p: (span(a[0])[0] - span(a[1])[1], span(a[0])[1] - span(a[1])[0]),
-          lambda ev, n, a, b: a - b),
-    _spec(Op.SAT, 1, ("bits",), _sat, _saturate),
+          lambda ev, n, a, b: ev.fx.exact_sub(*ev.exact(n, a, b)) if n.exact else a - b),
+    _spec(Op.SAT, 1, ("bits",), _sat, _saturate, results=2),
     _spec(Op.RSR, 1, ("shift",), _rsr,
           lambda ev, n, a: ev.fx.rshift_round(a, n.params[0], ev.nearest)),
     _spec(Op.MULC, 1, ("constant",), _mulc, lambda ev, n, a: ev.fx.mul_const(a, n.params[0], ev.nearest)),
@@ -113,7 +115,7 @@ SPECS: dict[Op, OpSpec] = {s.op: s for s in (
     _spec(Op.SEL, 2, ("cond",), _sel, lambda ev, n, a, b: ev.fx.select(ev.cond(n.params[0]), a, b)),
     _spec(Op.CLIP, 1, ("low", "high"), _clip, _clip_value),
     _spec(Op.ATAN2, 2, (), lambda g, a, p: (-_ATAN2_TURNS * g.ki.pi_a, _ATAN2_TURNS * g.ki.pi_a),
-          lambda ev, n, y, x: ev.fw.atan2_angle(y, x, ev.ki)),
+          lambda ev, n, y, x: ev.fw.atan2_angle(y, x, ev.ki), results=2),
     _spec(Op.ROT, 3, (), None, lambda ev, n, x, y, angle: ev.fw.cordic_rotate(x, y, angle, ev.ki)),
     _spec(Op.ROTX, 1, (), None, lambda ev, n, r: r[0]),
     _spec(Op.ROTY, 1, (), None, lambda ev, n, r: r[1]),
