@@ -13,7 +13,7 @@ from __future__ import annotations
 from ik5r.core.fxconfig import Constants
 
 from .inputs import BranchFlag
-from .nodes import AnyOf, Compare, Flag, Node, Not, Sop, Zero
+from .nodes import AnyOf, Flag, Node, Not, Sop, Zero
 from .registry import SPECS
 
 __all__ = ["Evaluation", "evaluate"]
@@ -72,7 +72,7 @@ class Evaluation:
                 out = out | self.cond(other)
             return out
         v = self.value(c.value)
-        if getattr(c.value, "exact", False) and not c.value.of_check_words:
+        if isinstance(c.value, Sop) and not c.value.of_check_words:
             const = fx.exact_const(c.const, self.ki)
             return fx.exact_less(const, v) if c.op == ">" else fx.exact_less(v, const)
         return v > c.const if c.op == ">" else v < c.const

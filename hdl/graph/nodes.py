@@ -12,7 +12,7 @@ graph; a node's ``==`` records a condition, as the body's words do).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from ik5r.core.fxconfig import Constants
 

@@ -74,8 +74,7 @@ def _leaves(ctx, events: StatusEvents) -> list:
         if any(level != 0 for _, level in leaf.gates):
             raise NotImplementedError("a status bit gated by a flag being low")
         gates = tuple(flag.value for flag, _ in leaf.gates)
-        leaf.carrier                  # raises for an event the status cannot hold
-        event = leaf.event
+        event = leaf.event            # (StatusEvents has refused any other kind of event)
         out.append((ctx.derived("flag", event) if isinstance(event, Node) else ctx.canon(event),
                     leaf.bit, gates))
     return out
