@@ -28,7 +28,8 @@ from ..datapath.expr import drop
 from .glue import unit_of
 from .units import Ctx, Derived
 from ..graph.inputs import BranchFlag
-from ..graph.nodes import Compare, Flag, Node, Not, Sop, Zero
+from ..graph.nodes import Flag, Node, Sop
+from ..graph.status import StatusEvents
 from ..graph.trace import trace
 from ..datapath.stash import REGISTER_DELAY_MAX, Stash
 
@@ -44,44 +45,38 @@ class _Keys:
 
     def __init__(self):
         self.names: dict = {}
-        self.objects: list = []       # keeps the objects alive (keys are by id)
-        self.flags: dict = {}
 
     def __call__(self, v) -> str:
         if isinstance(v, Flag):
             return v.flag.value
         if isinstance(v, Node) and v.op == Op.INPUT:
             return v.params[0]
-        if id(v) not in self.names:
-            self.objects.append(v)
+        if v not in self.names:
             if isinstance(v, Derived):
                 name = f"{v.kind}_{self(v.node)}"
             elif isinstance(v, (Node, Sop)):
                 name = f"{v.op}{len(self.names)}" if isinstance(v, Node) else f"sop{len(self.names)}"
             else:
                 name = f"cond{len(self.names)}"
-            self.names[id(v)] = name
-        return self.names[id(v)]
+            self.names[v] = name
+        return self.names[v]
 
 
 def _is_input(v) -> bool:
     return isinstance(v, Flag) or (isinstance(v, Node) and v.op == Op.INPUT)
 
 
-def _leaves(ctx, status) -> list:
+def _leaves(ctx, events: StatusEvents) -> list:
     """The status leaves as (bit value object, status bit, gate flag keys): a saturation's or a
-    rotation's flag, a compare, an atan2's zero vector."""
+    rotation's flag, a compare (or its negation), an atan2's zero vector."""
     out = []
-    for event, bit, flags in status.flat():
-        if any(level != 0 for _, level in flags):
+    for leaf in events:
+        if any(level != 0 for _, level in leaf.gates):
             raise NotImplementedError("a status bit gated by a flag being low")
-        gates = tuple(flag.value for flag, _ in flags)
-        if isinstance(event, Node):
-            out.append((ctx.derived("flag", event), bit, gates))
-        elif isinstance(event, (Compare, Not, Zero)):
-            out.append((ctx.canon(event), bit, gates))
-        else:
-            raise NotImplementedError(f"status of {event!r}")
+        gates = tuple(flag.value for flag, _ in leaf.gates)
+        event = leaf.event            # (StatusEvents has refused any other kind of event)
+        out.append((ctx.derived("flag", event) if isinstance(event, Node) else ctx.canon(event),
+                    leaf.bit, gates))
     return out
 
 
@@ -99,11 +94,11 @@ class _Schedule:
         for root in roots:
             self._need(root)
         for unit in self.units:
-            start = max((self.ready[id(r)] for r in unit.reads), default=0)
+            start = max((self.ready[r] for r in unit.reads), default=0)
             start = self.end if ctx.serial else start
-            self.start[id(unit)] = start
+            self.start[unit] = start
             for w in unit.writes:
-                self.ready[id(w)] = start + unit.latency(ctx.serial)
+                self.ready[w] = start + unit.latency(ctx.serial)
             self.end = max(self.end, start + unit.latency(ctx.serial))
 
     def _producer(self, v):
@@ -115,17 +110,17 @@ class _Schedule:
 
     def _need(self, v):
         v = self.ctx.canon(v)
-        if isinstance(v, int) or id(v) in self.ctx.needed:
+        if isinstance(v, int) or v in self.ctx.needed:
             return
-        self.ctx.needed.add(id(v))
+        self.ctx.needed.add(v)
         if _is_input(v):
-            self.ready[id(v)] = int(self.ctx.serial)
+            self.ready[v] = int(self.ctx.serial)
             return
         producer = self._producer(v)
-        if id(producer) in self.unit_of:
+        if producer in self.unit_of:
             return
         unit = unit_of(self.ctx, f"u{len(self.unit_of)}", producer)
-        self.unit_of[id(producer)] = unit
+        self.unit_of[producer] = unit
         for r in unit.reads:
             self._need(r)
         self.units.append(unit)
@@ -136,19 +131,19 @@ def graph_datapath(words: Constants, stash: Stash, tag: bool, adders, *, serial:
     joints leave rounded back to words): ``j1`` .. ``j5``, ``st`` (and ``tag``). ``serial``:
     the units one after the other on one item (the staged core: an iterative build sharing its
     CORDIC unit), else side by side (pipelined)."""
-    joints, status, _ = trace(words)
+    joints, events, _ = trace(words)
     keys = _Keys()
     ctx = Ctx(words.internal, adders, keys, serial)
-    leaves = _leaves(ctx, status)
+    leaves = _leaves(ctx, events)
     gates = {flag.value: Flag(flag) for flag in BranchFlag}
     sched = _Schedule(ctx, list(joints) + [v for v, _, _ in leaves] + list(gates.values()))
     # When each value is read: by units (at their start), the status word, the outputs.
     uses = defaultdict(list)
     for unit in sched.units:
         for r in unit.reads:
-            uses[keys(ctx.canon(r))].append(sched.start[id(unit)])
-    ready = {keys(v): sched.ready[id(v)] for v in map(ctx.canon, _values(sched, gates))}
-    starts = sorted({sched.start[id(u)] for u in sched.units} | {sched.end})
+            uses[keys(ctx.canon(r))].append(sched.start[unit])
+    ready = {keys(v): sched.ready[v] for v in map(ctx.canon, _values(sched, gates))}
+    starts = sorted({sched.start[u] for u in sched.units} | {sched.end})
 
     def boundary(t):
         """Where a value ready at t can be read: anywhere pipelined, between units serially."""
@@ -227,7 +222,7 @@ def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath
     active, wiring = defaultdict(list), defaultdict(list)
     for unit in sched.units:
         dp.declare(**unit.shapes)
-        start = sched.start[id(unit)]
+        start = sched.start[unit]
         if unit.wiring:
             wiring[start].append(unit)
         for j, step in enumerate([] if unit.wiring else unit.steps):
@@ -303,7 +298,7 @@ def _assemble_serial(sched, keys, timing, leaf_at, joints, starts, stash) -> Dat
     dp.add("inputs", lambda s: dict(s))
     for unit in sched.units:
         dp.declare(**unit.shapes)
-    unit_at = {sched.start[id(u)]: u for u in sched.units}
+    unit_at = {sched.start[u]: u for u in sched.units}
     puts = defaultdict(list)
     for put, take, key in _stash_segments(ready, uses, set(), boundary):
         puts[put, take].append(key)

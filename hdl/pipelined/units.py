@@ -14,6 +14,8 @@ bounds). The semantics of each op are those of :mod:`.seq_lower` (bit-exact on t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from amaranth.hdl import Const, signed, unsigned
 
 from ik5r.core import fixedpoint
@@ -25,7 +27,7 @@ from ..datapath.stages import Datapath, Stage, StageKind
 from ..datapath.expr import drop, rshift_round
 from .const_rotate import rotate_const_chain
 from ..datapath.products import add_products
-from ..graph.nodes import Check, Node, Sop, Zero, bits_of, rotation_outputs
+from ..graph.nodes import Check, Node, Sop, Zero, bits_of
 from ..blocks.sqrt import add_isqrt, fit
 
 __all__ = ["Unit", "Ctx", "Derived", "flatten", "shape_of", "sop_unit", "mulc_unit", "atan2_unit",
@@ -128,7 +130,7 @@ def shape_of(v):
 
 class Ctx:
     """What a unit builder needs: the internal constants, the adders, the key of a value, the
-    values the core needs (``needed``, ids: a unit leaves only those)."""
+    values the core needs (``needed``: a unit leaves only those)."""
 
     def __init__(self, ki, adders, key, serial: bool):
         self.ki, self.adders, self.key, self.serial = ki, adders, key, serial
@@ -140,9 +142,11 @@ class Ctx:
 
     def derived(self, kind: str, node) -> "Derived":
         """The one object naming the second result ``kind`` of ``node``'s unit."""
-        if (kind, id(node)) not in self._derived:
-            self._derived[kind, id(node)] = Derived(kind, node)
-        return self._derived[kind, id(node)]
+        # By the node's id: a tuple holding the node would compare nodes on a hash collision
+        # (a node's == records a condition).
+        if (kind, node.id) not in self._derived:
+            self._derived[kind, node.id] = Derived(kind, node)
+        return self._derived[kind, node.id]
 
     def canon(self, v):
         """The value object of ``v`` (an atan2's zero vector: its unit's second result)."""
@@ -171,7 +175,7 @@ class Ctx:
         """One stage: ``writes`` = ``fn(*values of reads)``."""
         def step(s):
             values = fn(*(self.get(s, r) for r in reads))
-            return dict(s, **{self.key(w): v for w, v in zip(writes, values) if id(w) in self.needed})
+            return dict(s, **{self.key(w): v for w, v in zip(writes, values) if w in self.needed})
         return Unit(name, reads, writes, _registered(name, step),
                     shapes={self.key(w): _shape(w) for w in writes})
 
@@ -207,7 +211,7 @@ class Ctx:
 
         def last(s):
             # Decided when the stages run: the core's needed values are known by then.
-            kept = {ck: v for ck, v in outputs.items() if id(v) in self.needed}
+            kept = {ck: v for ck, v in outputs.items() if v in self.needed}
             out = drop(s, *(prefix + ck for ck in outputs))
             out.update({self.key(v): s[prefix + ck] for ck, v in kept.items()})
             return out
@@ -232,12 +236,12 @@ def _reading(fn, *reads):
 
 # --- the units of the graph's operations ----------------------------------------------------------
 
+@dataclass(frozen=True, eq=False, slots=True)
 class Derived:
     """A second result of a unit: ``"flag"`` (a saturation's or a rotation's status bit),
-    ``"zero"`` (an atan2's zero vector)."""
-
-    def __init__(self, kind: str, node):
-        self.kind, self.node = kind, node
+    ``"zero"`` (an atan2's zero vector); one object per result (:meth:`Ctx.derived`)."""
+    kind: str
+    node: Node
 
 
 def _operand_shape(ctx, v):
@@ -349,7 +353,7 @@ def rotate_unit(ctx, name, r) -> Unit:
     """``model.cordic_rotate``: of a constant vector the rotation's constant quadrant step
     (:func:`rotate_const_chain`), else the rotation block's chain; x, y and the saturation."""
     x, y, angle = r.args
-    outputs = {"saturated": ctx.derived("flag", r), **rotation_outputs(r)}
+    outputs = {"saturated": ctx.derived("flag", r), **r.g.outputs_of(r)}
     angle_of = _reading(lambda s: ctx.word_of(s, angle), angle)
     if isinstance(x, int) and isinstance(y, int):
         chain = rotate_const_chain(ctx.ki, (x, y), skewed=not ctx.serial, adders=ctx.adders)
