@@ -24,8 +24,8 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
 broken hold must break the order induction of a pipelined block, of an iterative block and of
-the pipelined IK core (a flipped output tag too: the iterative block and both IK cores: the
-pipelined one's in the slow set), and the control induction of the compact core
+the pipelined IK core (a flipped output tag too: the iterative block and the pipelined IK core,
+in the slow set), and the control induction of the compact core
 (slow set); a stash lemma
 claiming a distance one off must fail; the FIFO lemma on the core's FIFO must fail (by induction
 and by BMC from reset) without each of its assumptions or with its read assumption at the wrong
@@ -139,7 +139,7 @@ def test_injected_fault_fails_the_proof(proofs, mutation, block, arch):
 #: The sequenced compact core's self-test: by k-induction (a counterexample from reset needs an
 #: item through the whole program, see run.INDUCTION_ONLY). The faulty core's proof must not go
 #: through: the induction step fails on the assertion the fault breaks. Slow set (about a CPU
-#: minute; the default run's broken-hold self-tests are the blocks' and the other cores').
+#: minute; the default run's broken-hold self-tests are the blocks' and the pipelined core's).
 SEQUENCED_MUTANTS = [pytest.param("ready_glitch", "ik", "compact", id="ready_glitch-ik-compact",
                                   marks=pytest.mark.slow)]
 
@@ -156,7 +156,7 @@ def test_injected_fault_breaks_the_induction(proofs, mutation, block, arch):
 #: its FIFO while the output is held, so the items counted inside and the marks' places no
 #: longer agree (the induction step, or a counterexample from reset, fails).
 #: A tag fault (``tag_flip``: the output tag's LSB inverted on its way out, the component
-#: intact) must break the order induction of the IK cores and of an iterative block (their
+#: intact) must break the order induction of the pipelined IK core and of an iterative block (their
 #: tracking: not vacuous); the pipelined IK core's (about a CPU minute) in the slow set, its broken
 #: hold in the default run.
 ORDER_MUTANTS = [pytest.param("order", mutation, block, arch, id=f"order-{mutation}-{block}-{arch}",
