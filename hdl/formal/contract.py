@@ -183,6 +183,9 @@ class StreamContract(Elaboratable):
             raise ValueError("control_assumed: only for an order job of a fault-free component")
         self.control_assumed = control_assumed
         self.dut = dut
+        #: The component's elaborated module, once :meth:`elaborate` has run (the stash lemma's
+        #: links are read from it, :func:`.run.stash_lemma_links`).
+        self.inner = None
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
         self.sequenced = isinstance(dut, SequencedIKCore)
@@ -219,11 +222,9 @@ class StreamContract(Elaboratable):
     def elaborate(self, platform):
         m = Module()
         dut = self.dut
-        inner = dut.elaborate(platform)
+        self.inner = inner = dut.elaborate(platform)
         m.submodules.dut = inner
         self.places = None
-        #: The component's elaborated module (the stash lemma's links are read from it, :mod:`.run`).
-        self.inner = inner
         if self.pipelined:
             fifo_name = f"{dut._dp.name}_output_fifo"
             self.fifo, self.fifo_module = inner._named_submodules[fifo_name][0], None
