@@ -1,4 +1,4 @@
-"""The staged datapath of the ik5r arithmetic blocks: typed stages over named values.
+"""The datapath of the ik5r arithmetic blocks: a list of typed stages over named values.
 
 Every block (:class:`~ik5r.hdl.blocks.cordic.Atan2`, :class:`~ik5r.hdl.blocks.cordic.Rotate`,
 :class:`~ik5r.hdl.blocks.sqrt.Sqrt`, :class:`~ik5r.hdl.blocks.acos.Acos`, the IK core) describes its arithmetic
