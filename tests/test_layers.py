@@ -103,7 +103,7 @@ def test_hardware_choices_are_named_once():
 
     from ik5r.hdl import modes
 
-    lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.CORE_BUILDS, modes.ARCH_NAMES,
+    lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
                                             modes.DSPS, modes.PRODUCTS, modes.BLOCKS)}
     found = []
     for module, path in all_modules().items():

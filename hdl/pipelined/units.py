@@ -2,9 +2,8 @@
 of the graph of :func:`ik5r.hdl.graph.trace.trace`, a list of stages over named values.
 
 A unit reads the values of its operands from the state in its first stage and leaves its results
-in the state after its last one; pipelined, its stages are flattened to one function per clock
-(``latency`` steps; a unit of latency 0 is wiring in the stage of its start), one item at a time
-(the staged core) they are the datapath's own stages. The heavy operations run the blocks' public
+in the state after its last one; its stages are flattened to one function per clock
+(``latency`` steps; a unit of latency 0 is wiring in the stage of its start). The heavy operations run the blocks' public
 chains (atan2 and the rotation of :mod:`.cordic`, the square root of :mod:`.sqrt`, the
 multipliers of :mod:`.products`); the glue (:mod:`.ik_glue`) is one stage of logic per step,
 widths from the node's interval bounds (:mod:`.seq_trace`: the sequenced core's memory words are sized by the same
@@ -20,7 +19,6 @@ from amaranth.hdl import Const, signed, unsigned
 
 from ik5r.core import fixedpoint
 
-from ..modes import Products
 from ..blocks.chains import compose, namespaced
 from ..blocks.cordic import Rotate, add_atan2
 from ..datapath.stages import Datapath, Stage, StageKind
@@ -50,11 +48,9 @@ class Unit:
             self._steps = [self.stages[0].fn] if self.wiring else flatten(self.stages)
         return self._steps
 
-    def latency(self, serial: bool) -> int:
-        """Clocks from the operands to the results: pipelined (a wiring unit's 0), or in the
-        stages of one item at a time (``serial``: a wiring unit's one registered stage)."""
-        if serial:
-            return sum(stage.count for stage in self.stages)
+    @property
+    def latency(self) -> int:
+        """Clocks from the operands to the results (a wiring unit's 0)."""
         return 0 if self.wiring else len(self.steps)
 
 
@@ -132,11 +128,8 @@ class Ctx:
     """What a unit builder needs: the internal constants, the adders, the key of a value, the
     values the core needs (``needed``: a unit leaves only those)."""
 
-    def __init__(self, ki, adders, key, serial: bool):
-        self.ki, self.adders, self.key, self.serial = ki, adders, key, serial
-        #: One item at a time (``serial``, the staged core): each multiplier stepped over its
-        #: partial products, the CORDIC steps on one shared unit.
-        self.products = Products.SEQUENTIAL if serial else Products.PARALLEL
+    def __init__(self, ki, adders, key):
+        self.ki, self.adders, self.key = ki, adders, key
         self.needed: set = set()
         self._derived: dict = {}
 
@@ -154,7 +147,7 @@ class Ctx:
 
     def chain(self, name) -> Datapath:
         """A scratch chain with the core's multiplier schedule and adders."""
-        return Datapath(name, products=self.products, adders=self.adders)
+        return Datapath(name, adders=self.adders)
 
     def get(self, s, v):
         """The value of ``v`` in state ``s`` (a constant as itself)."""
@@ -196,8 +189,7 @@ class Ctx:
             out = drop(s, *inner, *flags)
             out[self.key(write)] = fn([s[f] for f in flags], *(s[i] for i in inner))
             return out
-        # One item at a time (the staged core) the compares and the select share a stage.
-        stages = _registered(name, *([compose(first, second)] if self.serial else [first, second]))
+        stages = _registered(name, first, second)
         return Unit(name, reads, [write], stages, shapes={self.key(write): _shape(write)})
 
     def chain_unit(self, name, chain, inputs: dict, outputs: dict):
@@ -356,9 +348,9 @@ def rotate_unit(ctx, name, r) -> Unit:
     outputs = {"saturated": ctx.derived("flag", r), **r.g.outputs_of(r)}
     angle_of = _reading(lambda s: ctx.word_of(s, angle), angle)
     if isinstance(x, int) and isinstance(y, int):
-        chain = rotate_const_chain(ctx.ki, (x, y), skewed=not ctx.serial, adders=ctx.adders)
+        chain = rotate_const_chain(ctx.ki, (x, y), skewed=True, adders=ctx.adders)
         return ctx.chain_unit(name, chain, {"angle": angle_of}, outputs)
-    chain = Rotate.chain(ctx.ki, skewed=not ctx.serial, adders=ctx.adders)
+    chain = Rotate.chain(ctx.ki, skewed=True, adders=ctx.adders)
     return ctx.chain_unit(name, chain, {"x": _reading(lambda s: ctx.word_of(s, x), x),
                                         "y": _reading(lambda s: ctx.word_of(s, y), y),
                                         "angle": angle_of}, outputs)
