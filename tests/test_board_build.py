@@ -81,7 +81,7 @@ def test_a_baud_rate_the_clock_cannot_make_is_one_line_exit_2(capsys):
 def test_board_table_is_rendered_from_the_records(tmp_path):
     import json
 
-    from ik5r.tools.results import board_part
+    from ik5r.tools.results_board import board_part
 
     board = tmp_path / "board"
     board.mkdir()

@@ -8,7 +8,7 @@ import os
 
 from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.generate import generate
-from ik5r.tools import results
+from ik5r.tools import results, results_board
 
 
 def _synth_result(block="sqrt", arch="iterative", config="q18", luts=123, fmax=111.5, seed=1):
@@ -124,7 +124,7 @@ def test_a_board_record_of_other_rtlil_is_left_out(tmp_path):
     hands Yosys for the same board, config, arm, baud and core."""
     from ik5r.tools.board import BOARDS
 
-    boards = results.BoardOfCheckout()
+    boards = results_board.BoardOfCheckout()
     r = {"board": "icebreaker", "core": "serial", "config": "q18", "arm": None, "baud": 3_000_000,
          "clock_mhz": 12.0, "fmax_mhz": 20.0, "timing_met": True, "resources": {"ICESTORM_LC": {"used": 5}},
          "bitstream_bytes": 1, "line_poses_per_s": 4_838.7, "core_poses_per_s": 1.0}
@@ -135,7 +135,7 @@ def test_a_board_record_of_other_rtlil_is_left_out(tmp_path):
     (tmp_path / "board" / "icebreaker_serial_q32w.json").write_text(
         json.dumps(dict(r, config="q32w", rtlil_sha256=sha)))       # q18's RTLIL: not q32w's
     (tmp_path / "board" / "ulx3s-85f_pipelined_q18.json").write_text(json.dumps(dict(r, board="ulx3s-85f")))
-    builds, stale = results.board_builds(tmp_path, boards)
+    builds, stale = results_board.board_builds(tmp_path, boards)
     assert [b["config"] for b in builds] == ["q18"]
     assert stale == ["board/icebreaker_serial_q32w.json", "board/ulx3s-85f_pipelined_q18.json"]
-    assert "| icebreaker | serial | q18 | 12 | 3,000,000 |" in "\n".join(results.board_part(tmp_path, builds))
+    assert "| icebreaker | serial | q18 | 12 | 3,000,000 |" in "\n".join(results_board.board_part(tmp_path, builds))
