@@ -48,6 +48,13 @@ def test_runs_become_replications_and_nothing_else_changes():
     assert replicate_runs(text) == (text, 0)
 
 
+def test_a_wider_wire_is_not_an_alias():
+    r"""``wire [1:0] \$9 ; assign \$9 = ~ b[0];`` holds {1, ~b[0]} (the bit zero-extended, then
+    inverted): two copies of it are four bits, not two copies of ~ b[0]."""
+    text = "  wire [1:0] \\$9 ;\n  assign \\$9  = ~ b[0];\n  assign q = { \\$9 , \\$9  };\n"
+    assert replicate_runs(text) == (text, 0)
+
+
 def _outputs(tmp_path, verilog: str, name: str) -> str:
     bench = """module bench;
   reg [3:0] a; reg [1:0] b; wire [6:0] o; wire [5:0] p; integer i;

@@ -17,8 +17,11 @@ from __future__ import annotations
 
 import re
 
-#: ``assign \$N = ~ name[k];``: a one-bit wire that is the inverse of one bit.
+#: ``assign \$N = ~ name[k];``: a wire that is the inverse of one bit (an alias only when the
+#: wire is one bit wide: a wider one holds the inverse of the zero-extended bit).
 _INVERTED = re.compile(r"^\s*assign (\\\$\d+)\s+= (~ [A-Za-z_][A-Za-z0-9_$]*\[\d+\]);$", re.M)
+#: ``wire \$N ;``: a one-bit wire (no range).
+_ONE_BIT = re.compile(r"^\s*wire (\\\$\d+) ;$", re.M)
 #: One bit of a plain (not escaped) identifier, or its inverse.
 _BIT = re.compile(r"~ ?[A-Za-z_][A-Za-z0-9_$]*\[\d+\]|[A-Za-z_][A-Za-z0-9_$]*\[\d+\]")
 #: A concatenation without nested braces, as yosys writes it (a space inside each brace).
@@ -46,7 +49,8 @@ def _merge(items: list[str], alias: dict[str, str]) -> tuple[list[str], int]:
 def replicate_runs(text: str) -> tuple[str, int]:
     """(``text`` with every run of one repeated bit in a concatenation as ``{n{bit}}``, the number
     of runs merged)."""
-    alias = dict(_INVERTED.findall(text))
+    one_bit = set(_ONE_BIT.findall(text))
+    alias = {wire: inverse for wire, inverse in _INVERTED.findall(text) if wire in one_bit}
     total = 0
 
     def concat(m: re.Match) -> str:
