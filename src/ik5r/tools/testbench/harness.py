@@ -112,7 +112,10 @@ def _simulation_text(vpath: Path) -> Path:
     text, _ = replicate_runs(vpath.read_text())
     out = vpath.with_name(f"{vpath.stem}_sim.v")
     if not out.exists() or out.read_text() != text:
-        out.write_text(text)
+        # Written aside and renamed: another test worker may be reading the file right now.
+        tmp = out.with_name(f"{out.name}.{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, out)
     return out
 
 
