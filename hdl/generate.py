@@ -20,9 +20,9 @@ from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 
 from .datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
-from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 from .provenance import arm_hash, verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]

@@ -98,16 +98,16 @@ def test_cache_key_closures_follow_the_imports():
 
 
 def test_hardware_choices_are_named_once():
-    """No module but ``ik5r.hdl.modes`` spells out a list of architectures, DSP mappings or blocks."""
+    """No module but ``ik5r.core.modes`` spells out a list of architectures, DSP mappings or blocks."""
     import ast
 
-    from ik5r.hdl import modes
+    from ik5r.core import modes
 
     lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
                                             modes.DSPS, modes.PRODUCTS, modes.BLOCKS)}
     found = []
     for module, path in all_modules().items():
-        if module == "ik5r.hdl.modes":
+        if module == "ik5r.core.modes":
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and len(node.elts) > 1 and all(
@@ -120,15 +120,15 @@ def test_hardware_choices_are_named_once():
 #: The subpackages (and top modules) of ``ik5r.hdl`` and what each may import of the others. The
 #: IR (``graph``) imports none: both cores build from it, neither from the other.
 HDL_ALLOWED = {
-    "modes": set(), "provenance": set(), "graph": set(),
-    "datapath": {"modes"},
-    "blocks": {"datapath", "modes"},
-    "pipelined": {"graph", "blocks", "datapath", "modes"},
-    "sequenced": {"graph", "blocks", "datapath", "modes"},
-    "generate": {"blocks", "datapath", "modes", "pipelined", "provenance", "sequenced"},
+    "provenance": set(), "graph": set(),
+    "datapath": set(),
+    "blocks": {"datapath"},
+    "pipelined": {"graph", "blocks", "datapath"},
+    "sequenced": {"graph", "blocks", "datapath"},
+    "generate": {"blocks", "datapath", "pipelined", "provenance", "sequenced"},
     "soc": {"pipelined", "provenance", "sequenced"},               # the IK peripheral wraps a core
-    "board": {"datapath", "modes", "pipelined", "sequenced"},      # a core behind the UART link
-    "formal": {"blocks", "datapath", "generate", "modes", "pipelined", "sequenced", "soc"},
+    "board": {"datapath", "pipelined", "sequenced"},               # a core behind the UART link
+    "formal": {"blocks", "datapath", "generate", "pipelined", "sequenced", "soc"},
 }
 
 
@@ -212,13 +212,13 @@ def test_no_import_circle_in_hdl():
 #: Words that spell an operation of the IR but mean something else where they appear, by module
 #: (what they are there). Everything else spells an operation only in ``ik5r.hdl.graph.ops``.
 OP_HOMONYMS = {
-    # a block of ik5r.hdl.modes.Block (its value) and the block's own keys
-    "atan2": {"ik5r.hdl.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
+    # a block of ik5r.core.modes.Block (its value) and the block's own keys
+    "atan2": {"ik5r.core.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
               "ik5r.hdl.blocks.acos", "ik5r.hdl.blocks.cordic", "ik5r.tools.bench",
               "ik5r.tools.commands.sweep", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
               "ik5r.tools.report.hdl", "ik5r.tools.sweep_record", "ik5r.tools.testbench.blocks"},
     # the same, and the sequenced engine's square-root unit
-    "sqrt": {"ik5r.hdl.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
+    "sqrt": {"ik5r.core.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
              "ik5r.hdl.blocks.sqrt", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
              "ik5r.hdl.sequenced.units", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
              "ik5r.tools.report.hdl", "ik5r.tools.testbench.blocks"},

@@ -5,8 +5,8 @@ from __future__ import annotations
 from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Dsp, Products
 
-from ..modes import Dsp, Products
 from .cordic import add_atan2
 from ..datapath.adders import adders_for
 from ..datapath.stages import Datapath
@@ -48,7 +48,7 @@ class Acos(StreamBlock):
     constants : Constants
     arch : ``"pipelined"`` or ``"iterative"``
     dsp : ``"generic"`` or ``"ecp5"``
-        Multipliers of the pipelined arch (see :data:`~ik5r.hdl.modes.DSPS`).
+        Multipliers of the pipelined arch (see :data:`~ik5r.core.modes.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """

@@ -179,7 +179,7 @@ class Rotate(StreamBlock):
     dsp : ``"generic"`` or ``"ecp5"``
         Pipelined arch: the partial products as ``*`` or as ECP5 ``MULT18X18D`` instances using
         their input and output registers, the micro-rotations as ``CCU2C`` chains (see
-        :data:`~ik5r.hdl.modes.DSPS`).
+        :data:`~ik5r.core.modes.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """

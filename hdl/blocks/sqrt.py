@@ -5,8 +5,8 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Dsp
 
-from ..modes import Dsp
 from ..datapath.adders import adders_for
 from ..datapath.stages import Datapath
 from ..datapath.expr import drop

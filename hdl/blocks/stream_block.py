@@ -8,10 +8,10 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import ARCHS, DSPS, Arch, Dsp
 
 from ..datapath.build import build
 from ..datapath.stages import check_steps_per_stage
-from ..modes import ARCHS, DSPS, Arch, Dsp
 
 __all__ = ["StreamBlock", "check_common", "micro_steps"]
 

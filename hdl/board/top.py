@@ -14,8 +14,8 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.core import link as L
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Dsp
 
-from ..modes import Dsp
 from .decoder import FrameDecoder
 from .encoder import FrameEncoder
 from .uart import UartRx, UartTx, divider
@@ -64,7 +64,7 @@ class BoardLink(wiring.Component):
     decoder's replies to the frame encoder and out on ``tx``; an ID frame leaves after reset.
     ``led_activity`` is lit while bytes come or go (stretched), ``led_error`` after an error
     frame or a UART framing error. Formats: 8N1 at ``baud`` with a ``clock_hz`` clock.
-    ``dsp`` (:class:`~ik5r.hdl.modes.Dsp`) maps a pipelined core's multipliers: ``"ecp5"`` on an
+    ``dsp`` (:class:`~ik5r.core.modes.Dsp`) maps a pipelined core's multipliers: ``"ecp5"`` on an
     ECP5 board, where the generic products would each take a DSP, narrow ones included.
     Latency: the core's plus the frames' time on the line. Throughput: the line's (a pose frame
     is 62 bytes, a joints frame 30) unless the core is slower; the ID frame's credits bound the

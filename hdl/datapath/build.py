@@ -8,7 +8,8 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Mux, Signal, Value
 from amaranth.lib.fifo import SyncFIFOBuffered
 
-from ..modes import ARCHS, DSPS, Arch, Dsp
+from ik5r.core.modes import ARCHS, DSPS, Arch, Dsp
+
 from .stages import SharedStage, Stage
 from .products import DspBudget, Product
 from .stash import Stashes, build_stash

@@ -59,9 +59,10 @@ from typing import Callable
 
 from amaranth.hdl import Shape, Signal
 
+from ik5r.core.modes import PRODUCTS, Arch, Products
+
 from .adders import Ecp5Adders, GenericAdders, adders_for   # noqa: F401 (cordic.py imports them here)
 from .expr import drop
-from ..modes import PRODUCTS, Arch, Products
 from .stash import Stashed, Stashes
 from .tracing import MissingValue, Traced, retraced, trace_stages
 

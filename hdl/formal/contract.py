@@ -76,7 +76,8 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
 from amaranth.hdl._ast import AnySeq
 
-from ..modes import Arch
+from ik5r.core.modes import Arch
+
 from ..datapath.stages import Datapath, SharedStage, Stage
 from ..sequenced.engine import SequencedIKCore
 from ..blocks.stream_block import StreamBlock

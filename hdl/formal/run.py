@@ -31,9 +31,9 @@ from pathlib import Path
 from amaranth.back import rtlil
 
 from ik5r.core.fxconfig import constants, load_config
+from ik5r.core.modes import ARCHS, BLOCKS, Arch, CoreArch
 
 from ..generate import build
-from ..modes import ARCHS, BLOCKS, Arch, CoreArch
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract, find_signal
 from .fifo import FifoLemma
 from .sequenced import DATA_REGISTERS

@@ -26,8 +26,8 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import CoreArch
 
-from ..modes import CoreArch
 from . import isa as X
 from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, tagged_fields
 from ..datapath.expr import select

@@ -28,7 +28,7 @@ class DesignOptions:
     """What else shapes the Verilog: the tag field, the multipliers, the word-serial wrapper."""
 
     tag_width: int = 0
-    dsp: str = "generic"            # hdl.modes.DSPS; only the pipelined arch maps primitives
+    dsp: str = "generic"            # core.modes.DSPS; only the pipelined arch maps primitives
     serial: int | None = None       # compact IK core: beats of its word-serial wrapper
     rotations_per_stage: int = 1    # pipelined arch: CORDIC micro-rotations per register stage
     max_dsp: int | None = None      # pipelined arch, dsp="ecp5": cap on MULT18X18D (the rest in LUTs)

@@ -56,7 +56,7 @@ class SynthOptions:
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
-    dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
+    dsp: str | None = None          # multipliers (core.modes.DSPS); None: ecp5 on ECP5, else generic
     rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
     max_dsp: int | None = None      # pipelined, ECP5 DSPs: at most this many MULT18X18D (the rest in LUTs)
     wide_product: bool = False      # compact IK core: the 16 x 31 product step

@@ -96,7 +96,7 @@ def register(subparsers) -> None:
 def _check(args) -> tuple[list[str], list[str], list[int]]:
     from ik5r.core.errors import InputError
     from ik5r.hdl.generate import BLOCKS
-    from ik5r.hdl.modes import ARCH_NAMES, ARCHS
+    from ik5r.core.modes import ARCH_NAMES, ARCHS
     from ik5r.tools.sweep_record import DEFAULT_WIDTHS
 
     blocks = args.blocks or (["ik"] if "ik" in BLOCKS else ["atan2"])

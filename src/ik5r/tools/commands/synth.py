@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
-from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.core.modes import ARCH_NAMES, DSPS
 from ik5r.tools import cliopts
 from ik5r.tools.design import add_arm_argument
 

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import FixedConfig, parse_config
-from ik5r.hdl.modes import Block
+from ik5r.core.modes import Block
 
 from .html import Section, esc, para, table
 from .provenance import config_hash
