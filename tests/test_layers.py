@@ -104,7 +104,8 @@ def test_hardware_choices_are_named_once():
     from ik5r.core import modes
 
     lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
-                                            modes.DSPS, modes.PRODUCTS, modes.BLOCKS)}
+                                            modes.DSPS, modes.PRODUCTS, modes.BLOCKS, modes.TARGETS,
+                                            modes.BOARD_CORES)}
     found = []
     for module, path in all_modules().items():
         if module == "ik5r.core.modes":
@@ -212,16 +213,11 @@ def test_no_import_circle_in_hdl():
 #: Words that spell an operation of the IR but mean something else where they appear, by module
 #: (what they are there). Everything else spells an operation only in ``ik5r.hdl.graph.ops``.
 OP_HOMONYMS = {
-    # a block of ik5r.core.modes.Block (its value) and the block's own keys
-    "atan2": {"ik5r.core.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
-              "ik5r.hdl.blocks.acos", "ik5r.hdl.blocks.cordic", "ik5r.tools.bench",
-              "ik5r.tools.commands.sweep", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
-              "ik5r.tools.report.hdl", "ik5r.tools.sweep_record", "ik5r.tools.testbench.blocks"},
-    # the same, and the sequenced engine's square-root unit
-    "sqrt": {"ik5r.core.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
-             "ik5r.hdl.blocks.sqrt", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
-             "ik5r.hdl.sequenced.units", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
-             "ik5r.tools.report.hdl", "ik5r.tools.testbench.blocks"},
+    # a block of ik5r.core.modes.Block (its value); the acos chain's split point before its atan2
+    "atan2": {"ik5r.core.modes", "ik5r.hdl.blocks.acos"},
+    # the same block; the sequenced engine's square-root unit; a port name the sqrt testbench accepts
+    "sqrt": {"ik5r.core.modes", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+             "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
     # the engine's ALU decode lines; a rotation block's port name
     "sub": {"ik5r.hdl.sequenced.engine", "ik5r.hdl.sequenced.units"},
     "sat": {"ik5r.hdl.sequenced.engine", "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
@@ -265,3 +261,57 @@ def test_a_stray_operation_string_is_found(tmp_path):
     lower.write_text('def f(n):\n    return n.op == "mulc"\n')
     found = _op_strings({"ik5r.hdl.sequenced.lower": lower})
     assert found == {("ik5r.hdl.sequenced.lower", "mulc"): [2]}
+
+
+#: Words that spell a mode of ``ik5r.core.modes`` (a value of one of its enums) but mean something
+#: else where they appear, by module. Everything else names a mode through the enums.
+MODE_HOMONYMS = {
+    # the config TOML's [ik] table
+    "ik": {"ik5r.core.fxconfig", "ik5r.tools.sweep"},
+    # the IR's operations (ik5r.hdl.graph.ops.Op), and the homonyms of OP_HOMONYMS above
+    "atan2": {"ik5r.hdl.graph.ops", "ik5r.hdl.blocks.acos"},
+    "sqrt": {"ik5r.hdl.graph.ops", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+             "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
+    # the design option of the word-serial wrapper (its beat bits) and the result keys it leaves
+    "serial": {"ik5r.hdl.generate", "ik5r.hdl.sequenced.engine", "ik5r.tools.commands.sim",
+               "ik5r.tools.design", "ik5r.tools.results", "ik5r.tools.synth", "ik5r.tools.testbench.job",
+               "ik5r.tools.testbench.runner", "ik5r.tools.testbench.serial"},
+}
+
+
+def _mode_strings(mods) -> dict:
+    """{(module, word): lines} of every string constant that is a value of an enum of
+    ``ik5r.core.modes``, outside that module."""
+    import ast
+    from enum import StrEnum
+
+    from ik5r.core import modes
+
+    words = {str(member) for enum in vars(modes).values()
+             if isinstance(enum, type) and issubclass(enum, StrEnum) and enum is not StrEnum for member in enum}
+    found: dict = {}
+    for module, path in sorted(mods.items()):
+        if module == "ik5r.core.modes":
+            continue
+        for n in ast.walk(ast.parse(path.read_text())):
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value in words:
+                found.setdefault((module, n.value), []).append(n.lineno)
+    return found
+
+
+def test_a_mode_is_spelled_in_one_module():
+    """Blocks, architectures, DSP mappings, FPGA families and board cores are named once, in
+    ``ik5r.core.modes``: no string constant of ``src/``, ``hdl/`` or ``firmware_model/`` spells
+    one elsewhere (the CLI's choices are built from its tuples), but the homonyms above; and
+    every homonym listed is still there."""
+    found = _mode_strings(all_modules())
+    allowed = {(m, word) for word, modules in MODE_HOMONYMS.items() for m in modules}
+    assert set(found) - allowed == set()
+    assert allowed - set(found) == set()
+
+
+def test_a_stray_mode_string_is_found(tmp_path):
+    synth = tmp_path / "synth.py"
+    synth.write_text('def f(design):\n    return design.arch == "pipelined" and design.dsp != "ecp5"\n')
+    found = _mode_strings({"ik5r.tools.synth": synth})
+    assert found == {("ik5r.tools.synth", "pipelined"): [2], ("ik5r.tools.synth", "ecp5"): [2]}

@@ -5,7 +5,7 @@ from __future__ import annotations
 from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
-from ik5r.core.modes import Dsp, Products
+from ik5r.core.modes import Block, Dsp, Products
 
 from .cordic import add_atan2
 from ..datapath.adders import adders_for
@@ -81,7 +81,7 @@ class Acos(StreamBlock):
         :func:`~ik5r.hdl.datapath.stages.steps_per_stage`)."""
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
-        dp = Datapath("acos", products=products, adders=adders, inputs=("x",),
+        dp = Datapath(Block.ACOS, products=products, adders=adders, inputs=("x",),
                       outputs=("angle", "sine", "saturated"), steps_per_stage=steps_per_stage)
         dp.declare(ac_x=signed(width))
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Arch, Block, Dsp
 
 from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop, rshift_round, saturate
@@ -109,12 +110,12 @@ class Atan2(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 magnitude: bool = True, dsp: str = "generic", rotations_per_stage: int = 1):
+                 magnitude: bool = True, dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1):
         if not isinstance(magnitude, bool):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
             c = constants.cfg
-            dp = Datapath("atan2", adders=adders_for(dsp), inputs=("y", "x"),
+            dp = Datapath(Block.ATAN2, adders=adders_for(dsp), inputs=("y", "x"),
                           steps_per_stage=micro_steps(arch, rotations_per_stage),
                           outputs=("angle", "magnitude", "zero") if magnitude else ("angle", "zero"))
             add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
@@ -184,11 +185,11 @@ class Rotate(StreamBlock):
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic",
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = Dsp.GENERIC,
                  rotations_per_stage: int = 1):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self.chain(k, skewed=arch == "pipelined", adders=adders_for(dsp),
+            dp = self.chain(k, skewed=arch == Arch.PIPELINED, adders=adders_for(dsp),
                             steps_per_stage=micro_steps(arch, rotations_per_stage))
             word = signed(c.width)
             in_fields = {"x": (word, None, "abscissa, same format as y"),
@@ -222,7 +223,7 @@ class Rotate(StreamBlock):
         """
         c = k.cfg
         width, guard = c.width, c.guard_bits
-        dp = Datapath("rotate", adders=adders, inputs=("x", "y", "angle"),
+        dp = Datapath(Block.ROTATE, adders=adders, inputs=("x", "y", "angle"),
                       outputs=("x", "y", "saturated"), steps_per_stage=steps_per_stage)
         z_bound = rotate_z_bound(k)
         dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),

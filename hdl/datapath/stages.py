@@ -175,13 +175,13 @@ class SharedStage:
 _STEPS_PER_STAGE = contextvars.ContextVar("ik5r_steps_per_stage", default=1)
 
 
-def check_steps_per_stage(value, arch: str = "pipelined") -> int:
+def check_steps_per_stage(value, arch: str = Arch.PIPELINED) -> int:
     """``value`` if it is a valid count of micro-steps per stage for ``arch``, else raises:
     a positive int; more than 1 only in the pipelined architecture (the iterative one runs one
     step per clock on one register set)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ValueError(f"steps per stage must be a positive integer, got {value!r}")
-    if value != 1 and arch != "pipelined":
+    if value != 1 and arch != Arch.PIPELINED:
         raise ValueError(f"{value} steps per stage apply to the pipelined architecture, not {arch!r}")
     return value
 
