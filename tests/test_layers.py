@@ -104,7 +104,7 @@ def test_hardware_choices_are_named_once():
     from ik5r.core import modes
 
     lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
-                                            modes.DSPS, modes.PRODUCTS, modes.BLOCKS, modes.TARGETS,
+                                            modes.DSPS, modes.BLOCKS, modes.TARGETS,
                                             modes.BOARD_CORES)}
     found = []
     for module, path in all_modules().items():

@@ -14,7 +14,7 @@ from ik5r.core.modes import Arch, Block, Dsp
 from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop, rshift_round, saturate
 from ..datapath.products import add_products
-from .cordic_steps import (add_magnitude, atan2_coarse, atan2_normalisation, atan2_widths, cordic_unit,
+from .cordic_steps import (add_magnitude, atan2_coarse, atan2_normalisation, atan2_widths, cordic_step,
                            rotate_z_bound, skewed_rotation)
 from .stream_block import StreamBlock, micro_steps
 
@@ -42,7 +42,7 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     dp.add("at_lzc", byte_counts)
     dp.add("at_norm", normalise_shift_bytes)
     dp.add("at_norm_fine", normalise_shift_fine)
-    dp.add_micro_steps("at_it", None, c.iterations, cordic_unit(k, rotate=False, adders=dp.adders))
+    dp.add_micro_steps("at_it", cordic_step(k, rotate=False, adders=dp.adders), c.iterations)
     nearest = c.round_nearest
 
     def angle(s):
@@ -210,9 +210,8 @@ class Rotate(StreamBlock):
         read ``cx``, ``cy``, ``cz``: the IK core's constant rotations start there).
         ``adders``: the add/subtract mapping (generic when None). ``skewed`` (pipelined): the
         micro-rotations as
-        :func:`skewed_rotation` (one stage more, a shorter critical path), else on
-        ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in a
-        ``share_units`` datapath). ``steps_per_stage``: micro-rotations
+        :func:`skewed_rotation` (one stage more, a shorter critical path), else
+        ``cordic_step(k, rotate=True)`` (one step per clock). ``steps_per_stage``: micro-rotations
         per pipeline stage (None: the context's, :func:`~ik5r.hdl.datapath.stages.steps_per_stage`).
 
         Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
@@ -234,7 +233,7 @@ class Rotate(StreamBlock):
         if skewed:
             dp.add_micro_steps("ro_it", *skewed_rotation(k, dp.adders))
         else:
-            dp.add_micro_steps("ro_it", None, c.iterations, cordic_unit(k, rotate=True, adders=dp.adders))
+            dp.add_micro_steps("ro_it", cordic_step(k, rotate=True, adders=dp.adders), c.iterations)
         unguard, clip = _rotation_back(k)
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)

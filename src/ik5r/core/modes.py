@@ -1,6 +1,6 @@
-"""The names of the hardware's choices, defined once: blocks, architectures, DSP mappings,
-multiplier schedules, FPGA families and the board link's cores, as string enums (a member equals
-its name: ``Arch.PIPELINED == "pipelined"``, so JSON records and CLI choices keep their strings).
+"""The names of the hardware's choices, defined once: blocks, architectures, DSP mappings, FPGA
+families and the board link's cores, as string enums (a member equals its name:
+``Arch.PIPELINED == "pipelined"``, so JSON records and CLI choices keep their strings).
 
 No other module of ``src/``, ``hdl/`` or ``firmware_model/`` spells one of these names as a string
 (``tests/test_layers.py`` scans for them). They live in the core layer because the register map
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from enum import StrEnum
 
-__all__ = ["Block", "Arch", "CoreArch", "Dsp", "Products", "Target", "BoardCore", "BLOCKS", "ARCHS",
-           "CORE_ARCHS", "ARCH_NAMES", "DSPS", "PRODUCTS", "TARGETS", "BOARD_CORES"]
+__all__ = ["Block", "Arch", "CoreArch", "Dsp", "Target", "BoardCore", "BLOCKS", "ARCHS", "CORE_ARCHS",
+           "ARCH_NAMES", "DSPS", "TARGETS", "BOARD_CORES"]
 
 
 class Block(StrEnum):
@@ -49,13 +49,6 @@ class Dsp(StrEnum):
     ECP5 = "ecp5"
 
 
-class Products(StrEnum):
-    """How a datapath multiplies: all partial products at once, or one 18 x 18 partial product
-    per clock into an accumulator."""
-    PARALLEL = "parallel"
-    SEQUENTIAL = "sequential"
-
-
 class Target(StrEnum):
     """The FPGA families the synthesis flows place for (``ik5r synth --target``)."""
     ECP5 = "ecp5"
@@ -77,6 +70,5 @@ CORE_ARCHS = tuple(a.value for a in CoreArch)
 #: Every architecture name a command accepts (``iterative`` and ``compact`` both name the small one).
 ARCH_NAMES = tuple(dict.fromkeys(ARCHS + CORE_ARCHS))
 DSPS = tuple(d.value for d in Dsp)
-PRODUCTS = tuple(p.value for p in Products)
 TARGETS = tuple(t.value for t in Target)
 BOARD_CORES = tuple(c.value for c in BoardCore)
