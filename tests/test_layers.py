@@ -9,7 +9,8 @@ A layer is a folder whose name is its import name, so a module's layer is its pa
               (src/ik5r/numeric/)
     core      ik5r.core (src/ik5r/core/): fxconfig, arm, chain, reference, status, csvio, errors,
               fixedpoint (+ _np), pose_fields, cbuild, ik (the IK body, written once on the
-              fixed-point words); with the data ik5r.data and ik5r.configs
+              fixed-point words), modes (the hardware's choices as enums); with the data
+              ik5r.data and ik5r.configs
 
 A layer imports only its own and the layers below it; firmware, hdl and numeric sit side by side:
 none imports another (the fixed-point words firmware and hdl share are ``ik5r.core.fixedpoint``).
