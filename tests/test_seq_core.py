@@ -47,8 +47,14 @@ def _engine_words(fields, i, tag):
     return words + [flags]
 
 
-@pytest.mark.parametrize("cfg, wide", (("q18", False), ("q32", False), ("q32w", False),
-                                       ("q18", True), ("q32w", True)))
+#: The interpreter takes 5-10 CPU s a program: the default run takes q18 (both product steps) and the
+#: default core's q32w program; q32's and the q32w wide step's in the slow set.
+INTERPRETER_SLOW = {("q32", False), ("q32w", True)}
+
+
+@pytest.mark.parametrize("cfg, wide", [
+    pytest.param(cfg, wide, marks=(pytest.mark.slow,) if (cfg, wide) in INTERPRETER_SLOW else ())
+    for cfg, wide in (("q18", False), ("q32", False), ("q32w", False), ("q18", True), ("q32w", True))])
 def test_program_on_interpreter(cfg, wide):
     """Every directed pose and 200 random ones (all branches, with and without n, o); also the
     program of the wide product step (16 x 31-bit limb products)."""
