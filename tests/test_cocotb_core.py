@@ -9,15 +9,16 @@ unreachable, invalid and full-scale cases); every output bit (q1..q5, status) an
 order and loss.
 
 The core is large (q32 pipelined: ~250 stages) and Icarus runs it at tens of cycles per second, so
-the default run keeps to: pipelined q18 on Icarus, compact (the sequenced engine) q18 on Icarus
-and q32w on Verilator, the pipelined core of
-q32w (the default config: 38-bit internal format) on Verilator, and the ECP5 variant (MULT18X18D
-and CCU2C chains) of the q32w pipelined core (the README's headline design) on Icarus with 16 + 16
-random poses besides the directed set (Icarus simulates its carry cells slowly). Where a pose is
-slow to simulate (that variant, the compact core) the stream run takes every fourth directed
-pose and the bulk run the other three in four. The other ECP5 cases are in the slow set (q32 on Icarus, 100 + 300 random poses; every
-config on Verilator: every carry cell simulated makes its Verilator build ~8 minutes and its run
-~60 poses/s).
+the default run takes each core once on each simulator: on Verilator both cores of q32w (the default
+config: 38-bit internal format), on Icarus the ECP5 variant (MULT18X18D and CCU2C chains) of the q18
+pipelined core, with 16 + 16 random poses besides the directed set (Icarus simulates its carry cells
+slowly; q18's 18-bit words already split into a DSP limb and a narrow LUT limb). The compact core's
+Icarus run is its word-serial wrapper's (tests/test_cocotb_serial.py: the same engine inside). Where a
+pose is slow to simulate (the ECP5 variant, the compact core) the stream run takes every fourth
+directed pose and the bulk run the other three in four. The other cases are in the slow set: the
+generic cores on Icarus (pipelined q18: 100 + 300 random poses), the ECP5 variant of q32w on Icarus
+(the README's headline design: ~3 CPU minutes of Icarus) and of q32, every ECP5 config on Verilator
+(every carry cell simulated makes its Verilator build ~8 minutes and its run ~60 poses/s).
 ``IK5R_SIM_FULL=1`` runs all 18 cases (both archs, q18, q32 and q32w, both simulators, and the
 ECP5-DSP variant).
 """
@@ -39,19 +40,17 @@ CONFIGS = ("q18", "q32", "q32w")
 SIMS = ("icarus", "verilator")
 FULL = os.environ.get("IK5R_SIM_FULL", "") not in ("", "0")
 CASE_KEYS = ("arch", "config", "dsp", "sim")     # sim_pool (conftest.py)
-# "compact" = the sequenced engine (hdl/sequenced/engine.py): q18 on Icarus, the default config q32w on
-# Verilator.
-DEFAULT = {("pipelined", "q18", "generic", "icarus"), ("compact", "q18", "generic", "icarus"),
-           ("compact", "q32w", "generic", "verilator"),
-           ("pipelined", "q32w", "generic", "verilator"), ("pipelined", "q32w", "ecp5", "icarus")}
+# "compact" = the sequenced engine (hdl/sequenced/engine.py).
+DEFAULT = {("compact", "q32w", "generic", "verilator"), ("pipelined", "q32w", "generic", "verilator"),
+           ("pipelined", "q18", "ecp5", "icarus")}
 
 
 def _sizes(arch: str, config: str, dsp: str, sim: str) -> tuple[int, int]:
     """(stream, bulk) random poses, each plus the directed set."""
-    if arch == "pipelined" and (config, dsp, sim) == ("q32w", "ecp5", "icarus") and not FULL:
-        # The headline design in the default run: Icarus simulates its ~900 CCU2C carry chains
-        # at ~25 cycles a CPU second, so a handful of random poses besides the directed set (the
-        # generic cores take thousands on Verilator).
+    if arch == "pipelined" and (dsp, sim) == ("ecp5", "icarus") and config != "q32" and not FULL:
+        # Icarus simulates the ECP5 variant's carry chains (~900 CCU2C chains at q32w) at ~25 cycles
+        # a CPU second: a handful of random poses besides the directed set (the generic cores take
+        # thousands on Verilator).
         return 16, 16
     if arch == "pipelined":
         return (100, 300) if sim == "icarus" and not FULL else (500, 3000)

@@ -342,22 +342,37 @@ def test_primitive_models_lint(tmp_path):
     assert code == 0 and "%Warning" not in stderr, stderr[:3000]
 
 
-@pytest.mark.parametrize("cfg", CONFIGS + ("q32w",))
-def test_verilator_lint(cfg, tmp_path):
+#: (config, part): the blocks at each word config; the IK core's variants at q18 and at q32w (q32's
+#: words on a 38-bit internal format: the widest core) except its ECP5 variant (~1 CPU minute to
+#: generate), which is linted at q18; q32's IK core (the same generator as q32w's) and q32w's ECP5
+#: variant in the slow set.
+LINT_CASES = [("q18", "blocks"), ("q18", "ik"), ("q32", "blocks"), ("q32w", "ik-generic"),
+              pytest.param("q32", "ik", marks=pytest.mark.slow), pytest.param("q32w", "ik-ecp5", marks=pytest.mark.slow)]
+
+
+def _lint_variants(k, part: str) -> list[tuple[str, dict]]:
+    """(block, options) to lint: the blocks (and their ECP5 variants), or the IK core's variants."""
+    if part == "blocks":
+        variants = [(block, {}) for block in BLOCKS if block != "ik"]
+        variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
+        return variants + [(block, {"dsp": "ecp5"}) for block in ("atan2", "rotate", "acos")]
+    # The ECP5 variant, with the model of the primitive it instantiates (linted with it), and the
+    # compact core's word-serial wrapper.
+    ecp5 = [("ik", {"dsp": "ecp5"})]
+    generic = [("ik", {}), ("ik", {"serial": 16})]
+    return {"ik": generic + ecp5, "ik-generic": generic, "ik-ecp5": ecp5}[part]
+
+
+@pytest.mark.parametrize("cfg,part", LINT_CASES)
+def test_verilator_lint(cfg, part, tmp_path):
     verilator = _verilator()
     if verilator is None:
         pytest.fail("verilator not found (the dev extra installs it)", pytrace=False)
     k = _k(cfg)
+    # Only the IK core has an internal format; its blocks are the word config's.
+    assert part != "blocks" or not k.cfg.internal_guard_bits
     stubs = {dsp: _port_stubs(models, tmp_path) for dsp, models in PRIMITIVE_MODELS.items()}
-    variants = [(block, {}) for block in BLOCKS]
-    variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
-    # The ECP5 variants, with the model of the primitive they instantiate (linted with them).
-    variants += [(block, {"dsp": "ecp5"}) for block in ("atan2", "rotate", "acos", "ik")]
-    variants += [("ik", {"serial": 16})]       # the compact core's word-serial wrapper
-    if k.cfg.internal_guard_bits:
-        # Only the IK core has an internal format; its blocks are the word config's.
-        variants = [(block, options) for block, options in variants if block == "ik"]
-    for block, options in variants:
+    for block, options in _lint_variants(k, part):
         archs = ("pipelined",) if "dsp" in options else ("compact",) if "serial" in options else archs_of(block)
         for arch in archs:
             # The testbenches' tag width on the pipelined ones: the cocotb runs convert the same

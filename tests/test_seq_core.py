@@ -47,8 +47,14 @@ def _engine_words(fields, i, tag):
     return words + [flags]
 
 
-@pytest.mark.parametrize("cfg, wide", (("q18", False), ("q32", False), ("q32w", False),
-                                       ("q18", True), ("q32w", True)))
+#: The interpreter takes 5-10 CPU s a program: the default run takes q18 (both product steps) and the
+#: default core's q32w program; q32's and the q32w wide step's in the slow set.
+INTERPRETER_SLOW = {("q32", False), ("q32w", True)}
+
+
+@pytest.mark.parametrize("cfg, wide", [
+    pytest.param(cfg, wide, marks=(pytest.mark.slow,) if (cfg, wide) in INTERPRETER_SLOW else ())
+    for cfg, wide in (("q18", False), ("q32", False), ("q32w", False), ("q18", True), ("q32w", True))])
 def test_program_on_interpreter(cfg, wide):
     """Every directed pose and 200 random ones (all branches, with and without n, o); also the
     program of the wide product step (16 x 31-bit limb products)."""
@@ -151,8 +157,15 @@ def test_adder_sources_checked():
         seq_isa.run(prog, [0] * (len(INPUT_WORDS) + 1))
 
 
-@pytest.mark.parametrize("cfg, wide", (("q18", False), ("q32", False), ("q32w", False),
-                                       ("q18", True), ("q32w", True)))
+#: Amaranth's simulator takes 15-25 CPU s a case: the default run takes the wide product step at q18
+#: (the default core's Verilog is simulated by cocotb, tests/test_cocotb_core.py); the other cases in
+#: the slow set.
+FULL_RATE_DEFAULT = {("q18", True)}
+
+
+@pytest.mark.parametrize("cfg, wide", [
+    pytest.param(cfg, wide, marks=() if (cfg, wide) in FULL_RATE_DEFAULT else (pytest.mark.slow,))
+    for cfg, wide in (("q18", False), ("q32", False), ("q32w", False), ("q18", True), ("q32w", True))])
 def test_core_full_rate_and_stalls(cfg, wide):
     k = _k(cfg)
     step = {"q18": 12, "q32": 40, "q32w": 24}[cfg]
