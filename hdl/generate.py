@@ -20,9 +20,9 @@ from amaranth.hdl import Shape
 from amaranth.lib import wiring
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, Block, CoreArch
 
 from .datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
-from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 from .provenance import arm_hash, verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
@@ -33,7 +33,7 @@ __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build"
 
 def archs_of(block: str) -> tuple[str, ...]:
     """The architectures ``block`` comes in: (the fast one, the small one)."""
-    return CORE_ARCHS if block == "ik" else ARCHS
+    return CORE_ARCHS if block == Block.IK else ARCHS
 
 
 def resolve_arch(block: str, arch: str) -> str:
@@ -60,20 +60,20 @@ def module_name(block: str, arch: str, **options) -> str:
 def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **options):
     """The Amaranth component of ``block`` (options: ``magnitude`` for atan2, ``frac`` or
     ``radicand_bits`` for sqrt; defaults: magnitude on, sqrt of a length word)."""
-    if block == "atan2":
+    if block == Block.ATAN2:
         from .blocks.cordic import Atan2
         return Atan2(constants=constants, arch=arch, tag_width=tag_width,
                      magnitude=options.pop("magnitude", True), **options)
-    if block == "rotate":
+    if block == Block.ROTATE:
         from .blocks.cordic import Rotate
         return Rotate(constants=constants, arch=arch, tag_width=tag_width, **options)
-    if block == "sqrt":
+    if block == Block.SQRT:
         from .blocks.sqrt import Sqrt
         return Sqrt(constants=constants, arch=arch, tag_width=tag_width, **options)
-    if block == "acos":
+    if block == Block.ACOS:
         from .blocks.acos import Acos
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
-    if block == "ik":
+    if block == Block.IK:
         if arch == CoreArch.COMPACT:
             from .sequenced.engine import SequencedIKCore, SerialIK
             serial = options.pop("serial", None)
@@ -160,9 +160,9 @@ def portmap(component, block: str, arch: str, constants: Constants, name: str | 
                   "fields": _fields(component.out_fields)},
         },
         "options": dict(getattr(component, "options", {})),
-        "model": {"atan2": "model.cordic_atan2", "rotate": "model.cordic_rotate",
-                  "sqrt": "model.sqrt_word / model.isqrt", "acos": "model.cordic_acos",
-                  "ik": "model.ik_solve"}[block],
+        "model": {Block.ATAN2: "model.cordic_atan2", Block.ROTATE: "model.cordic_rotate",
+                  Block.SQRT: "model.sqrt_word / model.isqrt", Block.ACOS: "model.cordic_acos",
+                  Block.IK: "model.ik_solve"}[block],
         "notes": ("Handshake: a transfer happens on a rising clk edge with valid & ready high. "
                   "Output o stays valid and stable until taken. frac = null: the field takes "
                   "any format common to the fields so marked."),

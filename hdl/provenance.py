@@ -24,6 +24,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Block
 
 __all__ = ["HEADER_END", "verilog_header", "board_header", "strip_header", "body_sha256", "config_hash",
            "arm_hash", "tool_versions", "source_commit"]
@@ -31,8 +32,8 @@ __all__ = ["HEADER_END", "verilog_header", "board_header", "strip_header", "body
 #: The last line of the header; everything after it is the body Amaranth wrote.
 HEADER_END = "// ik5r-header-end\n"
 #: The model function each block is bit-exact against (``ik5r.firmware_model.model``).
-MODEL_OF = {"atan2": "cordic_atan2", "rotate": "cordic_rotate", "sqrt": "sqrt_word / isqrt",
-            "acos": "cordic_acos", "ik": "ik_solve"}
+MODEL_OF = {Block.ATAN2: "cordic_atan2", Block.ROTATE: "cordic_rotate", Block.SQRT: "sqrt_word / isqrt",
+            Block.ACOS: "cordic_acos", Block.IK: "ik_solve"}
 
 
 def strip_header(text: str) -> str:
@@ -101,7 +102,7 @@ def _format_lines(block: str, constants: Constants) -> list[str]:
     lines = [f"formats: {c.width}-bit signed words; fraction bits: length {c.frac_length}, unit "
              f"{c.frac_unit}, angle {c.frac_angle}; CORDIC {c.iterations} iterations, "
              f"{c.guard_bits} guard bits, {c.angle_guard_bits} angle guard bits; rounding {c.rounding}"]
-    if block != "ik":
+    if block != Block.IK:
         pass            # the blocks run on the words; only the IK core has an internal format
     elif c.internal_guard_bits:
         i = c.internal()
@@ -119,7 +120,7 @@ def _error_lines(block: str, constants: Constants) -> list[str]:
     c = constants.cfg
     model = f"ik5r.firmware_model.model.{MODEL_OF[block]}"
     lines = [f"error bound: 0 LSB against {model} (bit-exact on every output field)"]
-    if block != "sqrt":
+    if block != Block.SQRT:
         residual = math.atan(2.0 ** -(c.iterations - 1))
         lines.append(f"  model vs exact: CORDIC angle residual after {c.iterations} iterations "
                      f"<= atan(2^-{c.iterations - 1}) = {residual:.3e} rad, plus the rounding of each "
@@ -171,7 +172,7 @@ def board_header(link, name: str, comment: str = "//") -> str:
         f"ik5r {__version__}; core {link.core_name}, clock {link.clock_hz} Hz, baud {link.baud}",
         f"config: {c.name} (numbers and arm: sha256 {config_hash(constants)})",
         f"arm: {arm.name} (DH numbers and limits: sha256 {arm_hash(constants)}; reach {arm.reach:.6g} cm)",
-        *_format_lines("ik", constants),
+        *_format_lines(Block.IK, constants),
         f"ID frame words: {', '.join(str(word) for word in link.id)}",
         f"tools: amaranth {tools['amaranth']}; yosys {tools['yosys']}",
         f"source: {source_commit()}",

@@ -22,7 +22,7 @@ import os
 
 import pytest
 
-from ik5r.hdl.modes import ARCHS, Block
+from ik5r.core.modes import ARCHS, Block
 
 pytestmark = pytest.mark.sim
 

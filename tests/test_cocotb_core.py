@@ -31,7 +31,7 @@ import pytest
 
 from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware_model.vectors import directed_poses
-from ik5r.hdl.modes import CORE_ARCHS
+from ik5r.core.modes import CORE_ARCHS
 
 pytestmark = pytest.mark.sim
 

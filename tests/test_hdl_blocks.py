@@ -32,7 +32,7 @@ from ik5r.hdl.datapath.stages import OUTPUT_FIFO_LATENCY
 from ik5r.hdl.datapath.ecp5 import ecp5_add_sub_verilog
 from ik5r.hdl.datapath.expr import add_sub
 from ik5r.hdl.generate import BLOCKS, archs_of, generate, module_name
-from ik5r.hdl.modes import ARCHS
+from ik5r.core.modes import ARCHS
 from ik5r.hdl.blocks.sqrt import Sqrt
 from ik5r.tools.testbench.amaranth_stream import (
     check_output_held,

@@ -9,7 +9,8 @@ A layer is a folder whose name is its import name, so a module's layer is its pa
               (src/ik5r/numeric/)
     core      ik5r.core (src/ik5r/core/): fxconfig, arm, chain, reference, status, csvio, errors,
               fixedpoint (+ _np), pose_fields, cbuild, ik (the IK body, written once on the
-              fixed-point words); with the data ik5r.data and ik5r.configs
+              fixed-point words), modes (the hardware's choices as enums); with the data
+              ik5r.data and ik5r.configs
 
 A layer imports only its own and the layers below it; firmware, hdl and numeric sit side by side:
 none imports another (the fixed-point words firmware and hdl share are ``ik5r.core.fixedpoint``).
@@ -98,16 +99,17 @@ def test_cache_key_closures_follow_the_imports():
 
 
 def test_hardware_choices_are_named_once():
-    """No module but ``ik5r.hdl.modes`` spells out a list of architectures, DSP mappings or blocks."""
+    """No module but ``ik5r.core.modes`` spells out a list of architectures, DSP mappings or blocks."""
     import ast
 
-    from ik5r.hdl import modes
+    from ik5r.core import modes
 
     lists = {frozenset(names) for names in (modes.ARCHS, modes.CORE_ARCHS, modes.ARCH_NAMES,
-                                            modes.DSPS, modes.PRODUCTS, modes.BLOCKS)}
+                                            modes.DSPS, modes.BLOCKS, modes.TARGETS,
+                                            modes.BOARD_CORES)}
     found = []
     for module, path in all_modules().items():
-        if module == "ik5r.hdl.modes":
+        if module == "ik5r.core.modes":
             continue
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, (ast.Tuple, ast.List, ast.Set)) and len(node.elts) > 1 and all(
@@ -120,15 +122,15 @@ def test_hardware_choices_are_named_once():
 #: The subpackages (and top modules) of ``ik5r.hdl`` and what each may import of the others. The
 #: IR (``graph``) imports none: both cores build from it, neither from the other.
 HDL_ALLOWED = {
-    "modes": set(), "provenance": set(), "graph": set(),
-    "datapath": {"modes"},
-    "blocks": {"datapath", "modes"},
-    "pipelined": {"graph", "blocks", "datapath", "modes"},
-    "sequenced": {"graph", "blocks", "datapath", "modes"},
-    "generate": {"blocks", "datapath", "modes", "pipelined", "provenance", "sequenced"},
+    "provenance": set(), "graph": set(),
+    "datapath": set(),
+    "blocks": {"datapath"},
+    "pipelined": {"graph", "blocks", "datapath"},
+    "sequenced": {"graph", "blocks", "datapath"},
+    "generate": {"blocks", "datapath", "pipelined", "provenance", "sequenced"},
     "soc": {"pipelined", "provenance", "sequenced"},               # the IK peripheral wraps a core
-    "board": {"datapath", "modes", "pipelined", "sequenced"},      # a core behind the UART link
-    "formal": {"blocks", "datapath", "generate", "modes", "pipelined", "sequenced", "soc"},
+    "board": {"datapath", "pipelined", "sequenced"},               # a core behind the UART link
+    "formal": {"blocks", "datapath", "generate", "pipelined", "sequenced", "soc"},
 }
 
 
@@ -212,16 +214,11 @@ def test_no_import_circle_in_hdl():
 #: Words that spell an operation of the IR but mean something else where they appear, by module
 #: (what they are there). Everything else spells an operation only in ``ik5r.hdl.graph.ops``.
 OP_HOMONYMS = {
-    # a block of ik5r.hdl.modes.Block (its value) and the block's own keys
-    "atan2": {"ik5r.hdl.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
-              "ik5r.hdl.blocks.acos", "ik5r.hdl.blocks.cordic", "ik5r.tools.bench",
-              "ik5r.tools.commands.sweep", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
-              "ik5r.tools.report.hdl", "ik5r.tools.sweep_record", "ik5r.tools.testbench.blocks"},
-    # the same, and the sequenced engine's square-root unit
-    "sqrt": {"ik5r.hdl.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
-             "ik5r.hdl.blocks.sqrt", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
-             "ik5r.hdl.sequenced.units", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
-             "ik5r.tools.report.hdl", "ik5r.tools.testbench.blocks"},
+    # a block of ik5r.core.modes.Block (its value); the acos chain's split point before its atan2
+    "atan2": {"ik5r.core.modes", "ik5r.hdl.blocks.acos"},
+    # the same block; the sequenced engine's square-root unit; a port name the sqrt testbench accepts
+    "sqrt": {"ik5r.core.modes", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+             "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
     # the engine's ALU decode lines; a rotation block's port name
     "sub": {"ik5r.hdl.sequenced.engine", "ik5r.hdl.sequenced.units"},
     "sat": {"ik5r.hdl.sequenced.engine", "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
@@ -265,3 +262,57 @@ def test_a_stray_operation_string_is_found(tmp_path):
     lower.write_text('def f(n):\n    return n.op == "mulc"\n')
     found = _op_strings({"ik5r.hdl.sequenced.lower": lower})
     assert found == {("ik5r.hdl.sequenced.lower", "mulc"): [2]}
+
+
+#: Words that spell a mode of ``ik5r.core.modes`` (a value of one of its enums) but mean something
+#: else where they appear, by module. Everything else names a mode through the enums.
+MODE_HOMONYMS = {
+    # the config TOML's [ik] table
+    "ik": {"ik5r.core.fxconfig", "ik5r.tools.sweep"},
+    # the IR's operations (ik5r.hdl.graph.ops.Op), and the homonyms of OP_HOMONYMS above
+    "atan2": {"ik5r.hdl.graph.ops", "ik5r.hdl.blocks.acos"},
+    "sqrt": {"ik5r.hdl.graph.ops", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+             "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
+    # the design option of the word-serial wrapper (its beat bits) and the result keys it leaves
+    "serial": {"ik5r.hdl.generate", "ik5r.hdl.sequenced.engine", "ik5r.tools.commands.sim",
+               "ik5r.tools.design", "ik5r.tools.results", "ik5r.tools.synth", "ik5r.tools.testbench.job",
+               "ik5r.tools.testbench.runner", "ik5r.tools.testbench.serial"},
+}
+
+
+def _mode_strings(mods) -> dict:
+    """{(module, word): lines} of every string constant that is a value of an enum of
+    ``ik5r.core.modes``, outside that module."""
+    import ast
+    from enum import StrEnum
+
+    from ik5r.core import modes
+
+    words = {str(member) for enum in vars(modes).values()
+             if isinstance(enum, type) and issubclass(enum, StrEnum) and enum is not StrEnum for member in enum}
+    found: dict = {}
+    for module, path in sorted(mods.items()):
+        if module == "ik5r.core.modes":
+            continue
+        for n in ast.walk(ast.parse(path.read_text())):
+            if isinstance(n, ast.Constant) and isinstance(n.value, str) and n.value in words:
+                found.setdefault((module, n.value), []).append(n.lineno)
+    return found
+
+
+def test_a_mode_is_spelled_in_one_module():
+    """Blocks, architectures, DSP mappings, FPGA families and board cores are named once, in
+    ``ik5r.core.modes``: no string constant of ``src/``, ``hdl/`` or ``firmware_model/`` spells
+    one elsewhere (the CLI's choices are built from its tuples), but the homonyms above; and
+    every homonym listed is still there."""
+    found = _mode_strings(all_modules())
+    allowed = {(m, word) for word, modules in MODE_HOMONYMS.items() for m in modules}
+    assert set(found) - allowed == set()
+    assert allowed - set(found) == set()
+
+
+def test_a_stray_mode_string_is_found(tmp_path):
+    synth = tmp_path / "synth.py"
+    synth.write_text('def f(design):\n    return design.arch == "pipelined" and design.dsp != "ecp5"\n')
+    found = _mode_strings({"ik5r.tools.synth": synth})
+    assert found == {("ik5r.tools.synth", "pipelined"): [2], ("ik5r.tools.synth", "ecp5"): [2]}

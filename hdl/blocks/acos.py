@@ -5,8 +5,8 @@ from __future__ import annotations
 from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Block, Dsp
 
-from ..modes import Dsp, Products
 from .cordic import add_atan2
 from ..datapath.adders import adders_for
 from ..datapath.stages import Datapath
@@ -48,7 +48,7 @@ class Acos(StreamBlock):
     constants : Constants
     arch : ``"pipelined"`` or ``"iterative"``
     dsp : ``"generic"`` or ``"ecp5"``
-        Multipliers of the pipelined arch (see :data:`~ik5r.hdl.modes.DSPS`).
+        Multipliers of the pipelined arch (see :data:`~ik5r.core.modes.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """
@@ -68,7 +68,7 @@ class Acos(StreamBlock):
                          out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage)
 
     @staticmethod
-    def chain(k: Constants, products: str = Products.PARALLEL, radicand_bits: int | None = None, *,
+    def chain(k: Constants, radicand_bits: int | None = None, *,
               adders=None, steps_per_stage: int | None = None) -> Datapath:
         """The arc cosine as a chain: input ``x``; outputs ``angle``, ``sine``, ``saturated``.
         Split points (the IK core composes the parts): ``"factors"`` in front of 1 -+ x (reads
@@ -81,7 +81,7 @@ class Acos(StreamBlock):
         :func:`~ik5r.hdl.datapath.stages.steps_per_stage`)."""
         c = k.cfg
         width, fu, one = c.width, c.frac_unit, k.one_u
-        dp = Datapath("acos", products=products, adders=adders, inputs=("x",),
+        dp = Datapath(Block.ACOS, adders=adders, inputs=("x",),
                       outputs=("angle", "sine", "saturated"), steps_per_stage=steps_per_stage)
         dp.declare(ac_x=signed(width))
 

@@ -8,8 +8,7 @@ datapath, as the IK core does with the blocks' chains:
   stages: their iterated stages (micro-rotations, square-root digits) are aligned, the
   non-iterated stages before / between / after them are padded with pass-through stages, and the
   stage functions of one cycle are composed (each chain reads only its own keys). An iterated
-  stage shorter than its partners is frozen by a step guard, so both architectures work. In a
-  datapath that shares its functional units the chains run one after the other instead.
+  stage shorter than its partners is frozen by a step guard, so both architectures work.
 * **Selecting stages.** :func:`add_selecting`: a stage whose values are selected by compares,
   registered a stage earlier in the pipelined core.
 """
@@ -44,16 +43,12 @@ def namespaced(chain: Datapath, prefix: str) -> Datapath:
                 inner, outer = split(s)
                 outer.update({prefix + key: value for key, value in fn(inner, i).items()})
                 return outer
-            shared = None if stage.shared is None else stage.shared.prefixed(prefix)
-            if shared is not None:
-                run.shared = shared
         else:
             def run(s, fn=fn):
                 inner, outer = split(s)
                 outer.update({prefix + key: value for key, value in fn(inner).items()})
                 return outer
-            shared = None
-        out.append(stage.with_fn(run, name=f"{prefix.rstrip('_').lower()}_{stage.name}", shared=shared))
+        out.append(stage.with_fn(run, name=f"{prefix.rstrip('_').lower()}_{stage.name}"))
     return out
 
 
@@ -122,19 +117,6 @@ def _guarded(fn, count):
 
 
 def append_chains(dp: Datapath, name: str, *chains: Datapath) -> None:
-    """Append ``chains`` to ``dp``: side by side (see the module docstring), or one after the
-    other in a datapath that shares its functional units (``share_units``: the chains' CORDIC
-    steps then run on one unit)."""
-    if not dp.share_units:
-        _append_parallel(dp, name, *chains)
-        return
-    for chain in chains:
-        dp.declare(**chain.shapes)
-        dp.stages.extend(stage.with_fn(stage.fn, name=f"{name}_{stage.name}", shared=stage.shared)
-                         for stage in chain.stages)
-
-
-def _append_parallel(dp: Datapath, name: str, *chains: Datapath) -> None:
     """Append ``chains`` to ``dp`` side by side (see the module docstring)."""
     segs = [_segments(chain) for chain in chains]
     for chain in chains:

@@ -9,11 +9,12 @@ from __future__ import annotations
 from amaranth.hdl import Mux, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Arch, Block, Dsp
 
 from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop, rshift_round, saturate
 from ..datapath.products import add_products
-from .cordic_steps import (add_magnitude, atan2_coarse, atan2_normalisation, atan2_widths, cordic_unit,
+from .cordic_steps import (add_magnitude, atan2_coarse, atan2_normalisation, atan2_widths, cordic_step,
                            rotate_z_bound, skewed_rotation)
 from .stream_block import StreamBlock, micro_steps
 
@@ -41,7 +42,7 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     dp.add("at_lzc", byte_counts)
     dp.add("at_norm", normalise_shift_bytes)
     dp.add("at_norm_fine", normalise_shift_fine)
-    dp.add_micro_steps("at_it", None, c.iterations, cordic_unit(k, rotate=False, adders=dp.adders))
+    dp.add_micro_steps("at_it", cordic_step(k, rotate=False, adders=dp.adders), c.iterations)
     nearest = c.round_nearest
 
     def angle(s):
@@ -109,12 +110,12 @@ class Atan2(StreamBlock):
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 magnitude: bool = True, dsp: str = "generic", rotations_per_stage: int = 1):
+                 magnitude: bool = True, dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1):
         if not isinstance(magnitude, bool):
             raise TypeError(f"magnitude must be a bool, got {magnitude!r}")
         if isinstance(constants, Constants):
             c = constants.cfg
-            dp = Datapath("atan2", adders=adders_for(dsp), inputs=("y", "x"),
+            dp = Datapath(Block.ATAN2, adders=adders_for(dsp), inputs=("y", "x"),
                           steps_per_stage=micro_steps(arch, rotations_per_stage),
                           outputs=("angle", "magnitude", "zero") if magnitude else ("angle", "zero"))
             add_atan2(dp, constants, y="y", x="x", magnitude=magnitude, zero=True)
@@ -179,16 +180,16 @@ class Rotate(StreamBlock):
     dsp : ``"generic"`` or ``"ecp5"``
         Pipelined arch: the partial products as ``*`` or as ECP5 ``MULT18X18D`` instances using
         their input and output registers, the micro-rotations as ``CCU2C`` chains (see
-        :data:`~ik5r.hdl.modes.DSPS`).
+        :data:`~ik5r.core.modes.DSPS`).
     tag_width : int
         Width of the optional ``tag`` field (0: none).
     """
 
-    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = "generic",
+    def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0, dsp: str = Dsp.GENERIC,
                  rotations_per_stage: int = 1):
         if isinstance(constants, Constants):
             k, c = constants, constants.cfg
-            dp = self.chain(k, skewed=arch == "pipelined", adders=adders_for(dsp),
+            dp = self.chain(k, skewed=arch == Arch.PIPELINED, adders=adders_for(dsp),
                             steps_per_stage=micro_steps(arch, rotations_per_stage))
             word = signed(c.width)
             in_fields = {"x": (word, None, "abscissa, same format as y"),
@@ -209,9 +210,8 @@ class Rotate(StreamBlock):
         read ``cx``, ``cy``, ``cz``: the IK core's constant rotations start there).
         ``adders``: the add/subtract mapping (generic when None). ``skewed`` (pipelined): the
         micro-rotations as
-        :func:`skewed_rotation` (one stage more, a shorter critical path), else on
-        ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in a
-        ``share_units`` datapath). ``steps_per_stage``: micro-rotations
+        :func:`skewed_rotation` (one stage more, a shorter critical path), else
+        ``cordic_step(k, rotate=True)`` (one step per clock). ``steps_per_stage``: micro-rotations
         per pipeline stage (None: the context's, :func:`~ik5r.hdl.datapath.stages.steps_per_stage`).
 
         Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);
@@ -222,7 +222,7 @@ class Rotate(StreamBlock):
         """
         c = k.cfg
         width, guard = c.width, c.guard_bits
-        dp = Datapath("rotate", adders=adders, inputs=("x", "y", "angle"),
+        dp = Datapath(Block.ROTATE, adders=adders, inputs=("x", "y", "angle"),
                       outputs=("x", "y", "saturated"), steps_per_stage=steps_per_stage)
         z_bound = rotate_z_bound(k)
         dp.declare(cx=signed(width + guard + 3), cy=signed(width + guard + 3),
@@ -233,7 +233,7 @@ class Rotate(StreamBlock):
         if skewed:
             dp.add_micro_steps("ro_it", *skewed_rotation(k, dp.adders))
         else:
-            dp.add_micro_steps("ro_it", None, c.iterations, cordic_unit(k, rotate=True, adders=dp.adders))
+            dp.add_micro_steps("ro_it", cordic_step(k, rotate=True, adders=dp.adders), c.iterations)
         unguard, clip = _rotation_back(k)
         dp.add("ro_unguard", unguard)
         dp.add("ro_clip", clip)

@@ -1,5 +1,5 @@
 """The steps the CORDIC blocks of :mod:`ik5r.hdl.blocks.cordic` are made of: the micro-rotation
-(as a functional unit a ``share_units`` datapath shares, and skewed for the pipelined rotation), the
+(one step per clock, and skewed for the pipelined rotation), the
 register widths and bounds, and the vectoring datapath's coarse rotation, normalisation and
 magnitude stages. :mod:`ik5r.hdl.blocks.cordic` composes them into :class:`Atan2` and
 :class:`Rotate` and their chains.
@@ -14,7 +14,7 @@ from ik5r.core.fxconfig import Constants
 from ..datapath.adders import GenericAdders
 from ..datapath.expr import asr, drop, leading_zeros, table_entry
 from ..datapath.products import add_products
-from ..datapath.stages import Datapath, SharedStage
+from ..datapath.stages import Datapath
 
 
 def atan2_widths(k: Constants) -> dict:
@@ -35,44 +35,31 @@ def rotate_z_bound(k: Constants) -> int:
     return (1 << (c.width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
 
 
-def cordic_unit(k: Constants, *, rotate: bool, adders=None) -> SharedStage:
-    """The circular CORDIC micro-rotation as a functional unit (shared in a ``share_units`` datapath).
-
-    Keys ``cx``, ``cy``, ``cz`` and ``rotate``: vectoring (``rotate`` 0: turn towards y = 0, by
-    the sign of y; :func:`~ik5r.hdl.blocks.cordic.add_atan2`) or rotation (``rotate`` 1: drive z to 0, by the sign of z;
-    :class:`~ik5r.hdl.blocks.cordic.Rotate`). Its registers are wide enough for both (see their bounds). With ``rotate``
-    a constant the step is exactly the vectoring or the rotation one; as a value (the shared unit)
-    both in one: direction d = rotate ? z >= 0 : y < 0, then x -+ (y >> i), y +- (x >> i),
-    z -+ step, which is each of them for its value of ``rotate``. ``adders``: the datapath's
-    add/subtract mapping (generic when None).
+def cordic_step(k: Constants, *, rotate: bool, adders=None):
+    """The circular CORDIC micro-rotation ``fn(state, i)`` on the keys ``cx``, ``cy``, ``cz``:
+    vectoring (``rotate`` False: turn towards y = 0, by the sign of y;
+    :func:`~ik5r.hdl.blocks.cordic.add_atan2`) or rotation (``rotate`` True: drive z to 0, by the
+    sign of z; :class:`~ik5r.hdl.blocks.cordic.Rotate`). ``adders``: the datapath's add/subtract
+    mapping (generic when None).
     """
     add_sub = (adders or GenericAdders()).add_sub
-    c = k.cfg
-    xy = signed(c.width + c.guard_bits + 3)
-    z_width = max(atan2_widths(k)["cz"].width, rotate_z_bound(k).bit_length() + 1)
-    shapes = {"cx": xy, "cy": xy, "cz": signed(z_width), "rotate": unsigned(1)}
 
     def micro_rotation(s, i):
-        xs, ys, z, mode = s["cx"], s["cy"], s["cz"], s["rotate"]
+        xs, ys, z = s["cx"], s["cy"], s["cz"]
         step = table_entry(k.atan_table, i)
-        if isinstance(mode, bool):
-            if mode:
-                neg = z[-1]       # z < 0: rotate clockwise
-                return dict(s,
-                            cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
-                            cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
-                            cz=add_sub(z, step, ~neg))         # z +- step
-            down = ys[-1]     # ys < 0: rotate the other way
+        if rotate:
+            neg = z[-1]       # z < 0: rotate clockwise
             return dict(s,
-                        cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
-                        cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
-                        cz=add_sub(z, step, down))             # z -+ step
-        down = Mux(mode, ~z[-1], ys[-1])
-        return dict(s, cx=add_sub(xs, asr(ys, i), down), cy=add_sub(ys, asr(xs, i), ~down),
-                    cz=add_sub(z, step, down))
+                        cx=add_sub(xs, asr(ys, i), ~neg),  # xs +- (ys >> i)
+                        cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
+                        cz=add_sub(z, step, ~neg))         # z +- step
+        down = ys[-1]     # ys < 0: rotate the other way
+        return dict(s,
+                    cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
+                    cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
+                    cz=add_sub(z, step, down))             # z -+ step
 
-    return SharedStage("cordic", micro_rotation,
-                       {"cx": "cx", "cy": "cy", "cz": "cz", "rotate": rotate}, shapes)
+    return micro_rotation
 
 
 def skewed_rotation(k: Constants, adders):
@@ -81,7 +68,7 @@ def skewed_rotation(k: Constants, adders):
     iterations) and (x, y) through micro-rotation i - 1 (from stage 1), by the sign of z_(i-1)
     that stage i - 1 copied into ``cneg`` (for y) and ``cpos`` (for x).
 
-    The same arithmetic as ``cordic_unit(k, rotate=True)``, one stage later. Why: there, one
+    The same arithmetic as ``cordic_step(k, rotate=True)``, one stage later. Why: there, one
     flip-flop (the sign of z) steers three adders (x, y and z, ~110 LUTs), and its route was the
     pipelined Rotate's slowest path. Here the sign of z steers the z adder only; x and y read
     copies registered a stage later, one each (``cpos`` is the complement, so the two copies

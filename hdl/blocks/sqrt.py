@@ -5,8 +5,8 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Block, Dsp
 
-from ..modes import Dsp
 from ..datapath.adders import adders_for
 from ..datapath.stages import Datapath
 from ..datapath.expr import drop
@@ -134,7 +134,7 @@ class Sqrt(StreamBlock):
         if isinstance(constants, Constants):
             c = constants.cfg
             width = c.width
-            dp = Datapath("sqrt", adders=adders_for(dsp), steps_per_stage=micro_steps(arch, rotations_per_stage))
+            dp = Datapath(Block.SQRT, adders=adders_for(dsp), steps_per_stage=micro_steps(arch, rotations_per_stage))
             if radicand_bits is None:
                 if frac is None:
                     frac = c.frac_length

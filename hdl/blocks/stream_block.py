@@ -8,10 +8,10 @@ from amaranth.lib import data, stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import ARCHS, DSPS, Arch, Dsp
 
 from ..datapath.build import build
 from ..datapath.stages import check_steps_per_stage
-from ..modes import ARCHS, DSPS, Arch, Dsp
 
 __all__ = ["StreamBlock", "check_common", "micro_steps"]
 
@@ -19,7 +19,7 @@ __all__ = ["StreamBlock", "check_common", "micro_steps"]
 def micro_steps(arch, rotations_per_stage) -> int:
     """A block's ``rotations_per_stage`` argument, validated for its ``arch`` (see
     :func:`~ik5r.hdl.datapath.stages.check_steps_per_stage`)."""
-    return check_steps_per_stage(rotations_per_stage, arch if arch in ARCHS else "pipelined")
+    return check_steps_per_stage(rotations_per_stage, arch if arch in ARCHS else Arch.PIPELINED)
 
 
 def check_common(constants, arch, tag_width, dsp=Dsp.GENERIC):

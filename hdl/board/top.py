@@ -14,15 +14,14 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.core import link as L
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import BOARD_CORES, BoardCore, CoreArch, Dsp
 
-from ..modes import Dsp
 from .decoder import FrameDecoder
 from .encoder import FrameEncoder
 from .uart import UartRx, UartTx, divider
 
-__all__ = ["BoardLink", "CORES", "id_words", "credits"]
+__all__ = ["BoardLink", "id_words", "credits"]
 
-CORES = tuple(L.CORES)
 TAG_BITS = 8
 #: Bit times of silence inside a frame before the decoder gives up on it (a truncated frame).
 TIMEOUT_BITS = 256
@@ -45,15 +44,15 @@ def id_words(constants: Constants, core: str, clock_hz: int, baud: int, fifo_byt
 def _core(constants: Constants, core: str, dsp: str):
     """The IK core with 32-bit word streams (``SerialIK`` takes them as 32-bit beats); ``dsp``
     maps the pipelined core's multipliers and adders (the others multiply sequentially)."""
-    if core == "serial":
+    if core == BoardCore.SERIAL:
         from ..sequenced.engine import SerialIK
         return SerialIK(constants=constants, tag_width=TAG_BITS, beat_bits=32)
     from .adapt import WordCore
-    if core == "sequenced":
+    if core == BoardCore.SEQUENCED:
         from ..sequenced.engine import SequencedIKCore
         return WordCore(core=SequencedIKCore(constants=constants, tag_width=TAG_BITS))
     from ..pipelined.core import IKCore
-    return WordCore(core=IKCore(constants=constants, arch="pipelined", tag_width=TAG_BITS, dsp=dsp))
+    return WordCore(core=IKCore(constants=constants, arch=CoreArch.PIPELINED, tag_width=TAG_BITS, dsp=dsp))
 
 
 class BoardLink(wiring.Component):
@@ -64,7 +63,7 @@ class BoardLink(wiring.Component):
     decoder's replies to the frame encoder and out on ``tx``; an ID frame leaves after reset.
     ``led_activity`` is lit while bytes come or go (stretched), ``led_error`` after an error
     frame or a UART framing error. Formats: 8N1 at ``baud`` with a ``clock_hz`` clock.
-    ``dsp`` (:class:`~ik5r.hdl.modes.Dsp`) maps a pipelined core's multipliers: ``"ecp5"`` on an
+    ``dsp`` (:class:`~ik5r.core.modes.Dsp`) maps a pipelined core's multipliers: ``"ecp5"`` on an
     ECP5 board, where the generic products would each take a DSP, narrow ones included.
     Latency: the core's plus the frames' time on the line. Throughput: the line's (a pose frame
     is 62 bytes, a joints frame 30) unless the core is slower; the ID frame's credits bound the
@@ -73,8 +72,8 @@ class BoardLink(wiring.Component):
 
     def __init__(self, *, constants: Constants, core: str, clock_hz: int, baud: int, fifo_bytes: int = 512,
                  dsp: str = Dsp.GENERIC):
-        if core not in CORES:
-            raise ValueError(f"core must be one of {CORES}, got {core!r}")
+        if core not in BOARD_CORES:
+            raise ValueError(f"core must be one of {BOARD_CORES}, got {core!r}")
         if isinstance(fifo_bytes, bool) or not isinstance(fifo_bytes, int) or credits(fifo_bytes) < 1:
             raise ValueError(f"fifo_bytes must hold a pose frame, got {fifo_bytes!r}")
         self.constants, self.core_name, self.clock_hz, self.baud = constants, core, clock_hz, baud

@@ -3,7 +3,8 @@ pipelined build places stage by stage (:attr:`~.stages.Datapath.adders`)."""
 
 from __future__ import annotations
 
-from ..modes import DSPS, Dsp
+from ik5r.core.modes import DSPS, Dsp
+
 from .expr import add_sub
 
 __all__ = ["GenericAdders", "Ecp5Adders", "adders_for"]

@@ -1,15 +1,16 @@
 """The two elaborations of a :class:`~ik5r.hdl.datapath.stages.Datapath`: pipelined (one register set
 per stage and step, an output FIFO and credits) and iterative (one item in flight, iterated
-stages fed back, optionally one shared register set per functional unit). See
+stages fed back). See
 :mod:`.datapath` for what each architecture is; both evaluate the same expressions."""
 
 from __future__ import annotations
 
-from amaranth.hdl import Cat, Const, Mux, Signal, Value
+from amaranth.hdl import Cat, Mux, Signal, Value
 from amaranth.lib.fifo import SyncFIFOBuffered
 
-from ..modes import ARCHS, DSPS, Arch, Dsp
-from .stages import SharedStage, Stage
+from ik5r.core.modes import ARCHS, DSPS, Arch, Dsp
+
+from .stages import Stage
 from .products import DspBudget, Product
 from .stash import Stashes, build_stash
 
@@ -131,25 +132,6 @@ def build_pipelined(dp, m, inputs, payload_of, i, o, dsp, budget: DspBudget):
 
 # --- iterative ----------------------------------------------------------------------------------
 
-def _shared_stage(m, stage, shared, units, state, load, stage_valid, leave):
-    unit = units.get(shared.unit)
-    if unit is None:
-        unit = units[shared.unit] = _SharedUnit(shared, stage.count)
-    if unit.count != stage.count or unit.shapes != shared.shapes:
-        raise ValueError(f"stage {stage.name!r}: unit {shared.unit!r} used with other counts/shapes")
-    inputs = {u: state[k] if isinstance(k, str) else Const(k, shared.shapes[u])
-              for u, k in shared.binding.items()}
-    unit.users.append((load, inputs, stage_valid, leave))
-    done = stage_valid & (unit.step == stage.count)
-    with m.If(leave):
-        m.d.sync += stage_valid.eq(0)
-    with m.If(load):
-        m.d.sync += stage_valid.eq(1)
-    regs = dict(state)
-    regs.update({k: unit.regs[u] for u, k in shared.binding.items() if isinstance(k, str)})
-    return regs, done
-
-
 def _registered_stage(dp, m, stage, state, load, stage_valid, leave):
     out = stage.fn(state)
     regs = _registers(dp, stage.name, out)
@@ -189,21 +171,14 @@ def build_iterative(dp, m, inputs, payload_of, i, o):
     state = dict(inputs)
     load = Signal(name=f"{dp.name}_accept")
     m.d.comb += load.eq(i.valid & i.ready)
-    occupied, leaves, units = [], [], {}
-    previous_shared = False
+    occupied, leaves = [], []
     for stage in map(Stage.of, dp.stages):
         if stage.count == 0:
             state = stage.fn(state)
             continue
         stage_valid = Signal(name=f"{stage.name}_valid")
         leave = Signal(name=f"{stage.name}_leave")
-        shared = stage.shared if stage.iterated and dp.share_units else None
-        if previous_shared and (stage.iterated or stage.count != 1):
-            raise ValueError(f"stage {stage.name!r} follows a shared stage: must be a registered one")
-        previous_shared = shared is not None
-        if shared is not None:
-            state, done = _shared_stage(m, stage, shared, units, state, load, stage_valid, leave)
-        elif not stage.iterated:
+        if not stage.iterated:
             state, done = _registered_stage(dp, m, stage, state, load, stage_valid, leave)
         else:
             state, done = _iterated_stage(dp, m, stage, state, load, stage_valid, leave)
@@ -211,8 +186,6 @@ def build_iterative(dp, m, inputs, payload_of, i, o):
         leaves.append((leave, done))
         load = Signal(name=f"{stage.name}_next")
         m.d.comb += load.eq(done)
-    for unit in units.values():
-        unit.elaborate(m)
     # The last stage leaves on an output transfer; the others as soon as they are done.
     for leave, done in leaves[:-1]:
         m.d.comb += leave.eq(done)
@@ -227,31 +200,3 @@ def build_iterative(dp, m, inputs, payload_of, i, o):
     for field, value in payload_of(state).items():
         m.d.comb += getattr(o.payload, field).eq(value)
 
-
-class _SharedUnit:
-    """The registers, step counter and logic of one shared functional unit (iterative build)."""
-
-    def __init__(self, shared: SharedStage, count: int):
-        self.fn, self.count, self.shapes = shared.fn, count, shared.shapes
-        self.regs = {u: Signal(shape, name=f"unit_{shared.unit}_{u}", reset_less=True)
-                     for u, shape in shared.shapes.items()}
-        self.step = Signal(range(count + 1), name=f"unit_{shared.unit}_step")
-        self.users = []       # (load, inputs, stage_valid, leave)
-
-    def elaborate(self, m):
-        source = dict(self.regs)
-        for load, inputs, _, _ in reversed(self.users):
-            source = {u: Mux(load, inputs[u], value) if u in inputs else value
-                      for u, value in source.items()}
-        out = self.fn(source, self.step)
-        loading = Cat(*(load for load, _, _, _ in self.users)).any()
-        active = Cat(*(valid for _, _, valid, _ in self.users)).any()
-        leaving = Cat(*(leave for _, _, _, leave in self.users)).any()
-        with m.If(leaving):
-            m.d.sync += self.step.eq(0)
-        with m.If(loading):
-            m.d.sync += [self.regs[u].eq(out[u]) for u in self.regs]
-            m.d.sync += self.step.eq(1)
-        with m.Elif(active & (self.step != self.count)):
-            m.d.sync += [self.regs[u].eq(out[u]) for u in self.regs]
-            m.d.sync += self.step.eq(self.step + 1)

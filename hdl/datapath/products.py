@@ -1,16 +1,15 @@
 """Multipliers of the ik5r datapaths, built from 17 x 17 partial products (one 18 x 18 DSP each):
 :func:`add_products` appends the stages of one or more parallel multipliers to a
-:class:`~ik5r.hdl.datapath.stages.Datapath`, either all partial products at once and an adder tree
-(``products="parallel"``) or one partial product per clock step into an accumulator
-(``products="sequential"``). A partial product of registered operands is a :class:`Product`,
-which the pipelined build with ``dsp="ecp5"`` maps to a ``MULT18X18D``."""
+:class:`~ik5r.hdl.datapath.stages.Datapath`, all partial products at once and an adder tree. A
+partial product of registered operands is a :class:`Product`, which the pipelined build with
+``dsp="ecp5"`` maps to a ``MULT18X18D``."""
 
 from __future__ import annotations
 
 from amaranth.hdl import Const, Mux, Shape, Signal, Value, ValueCastable, signed, unsigned
 
 from .ecp5 import MULT_BITS, mult18x18d
-from .expr import drop, extend, select
+from .expr import drop, extend
 
 __all__ = ["LIMB_BITS", "NARROW_ROWS", "DspBudget", "Product", "add_products"]
 
@@ -146,15 +145,7 @@ def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
     partial sums (one adder level), until one sum per multiplier is left under ``out_key``.
     ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and ``drop_keys``
     are removed from the state at stage 1. Returns the number of stages.
-
-    In a ``products="sequential"`` datapath, stage 1 also clears one accumulator per multiplier,
-    and one iterated stage adds one 18 x 18 signed partial product per step (the limb pair and
-    its weight chosen by the step index): one DSP per multiplier instead of one per partial
-    product, for as many steps as the largest multiplier has partial products. The sum is the
-    same exact integer, so the two forms agree bit for bit.
     """
-    if dp.products == "sequential":
-        return _add_products_sequential(dp, prefix, specs, parallel, drop_keys)
     # A square (b the same expression as a): one operand register, each cross term once.
     specs = [(a_of, a_shape, SQUARE if _is_square(a_of, a_shape, b) else b, out_key)
              for a_of, a_shape, b, out_key in specs]
@@ -226,18 +217,15 @@ def _partial_products(prefix, index, a_shape, b) -> list:
     return terms
 
 
-def _operands_stage(prefix, operands, parallel, drop_keys, clear=None):
-    """Stage 1: the operands ``{prefix}{index}_a`` (and ``_b``) of ``operands`` ``[(a_of, b)]``
-    (each followed by its accumulator ``clear[index]`` set to 0), then ``parallel``'s work;
-    ``drop_keys`` dropped."""
+def _operands_stage(prefix, operands, parallel, drop_keys):
+    """Stage 1: the operands ``{prefix}{index}_a`` (and ``_b``) of ``operands`` ``[(a_of, b)]``,
+    then ``parallel``'s work; ``drop_keys`` dropped."""
     def run(state):
         out = drop(state, *drop_keys)
         for index, (a_of, b) in enumerate(operands):
             out[f"{prefix}{index}_a"] = a_of(state)
             if isinstance(b, tuple):
                 out[f"{prefix}{index}_b"] = b[0](state)
-            if clear is not None:
-                out[clear[index]] = Const(0, 1)
         if parallel is not None:
             out.update(parallel(state))
         return out
@@ -305,73 +293,4 @@ def _add_adder_tree(dp, prefix, trees) -> int:
                              for group in groups]
                    for out_key, groups in plan.items() if len(groups) > 1}
     return depth
-
-
-def _sequential_steps(a_shape, b):
-    """The steps ``(a_range, b_part, shift)`` of one sequential multiplier and b's width."""
-    steps = []
-    if isinstance(b, int):
-        if b < 0:
-            raise ValueError("constant multiplier must be non-negative")
-        b_width = max(b.bit_length(), 1) + 1
-        for a_range in _limbs(a_shape):
-            for b_lo in range(0, max(b.bit_length(), 1), LIMB_BITS):
-                b_part = (b >> b_lo) & ((1 << LIMB_BITS) - 1)
-                if b_part:
-                    steps.append((a_range, b_part, a_range[0] + b_lo))
-    else:
-        b_width = Shape.cast(b[1]).width + 1
-        for a_range in _limbs(a_shape):
-            for b_range in _limbs(Shape.cast(b[1])):
-                steps.append((a_range, b_range, a_range[0] + b_range[0]))
-    return steps, b_width
-
-
-def _accumulate_stage(prefix, plans):
-    def run(state, step):
-        out = dict(state)
-        for index, (_, b, out_key, steps) in enumerate(plans):
-            a = state[f"{prefix}{index}_a"]
-            b_value = None if isinstance(b, int) else state[f"{prefix}{index}_b"]
-
-            def b_limb(b_part):
-                if isinstance(b_part, int):
-                    return Const(b_part, signed(LIMB_BITS + 1))
-                return _limb18(b_value, *b_part)
-
-            if isinstance(step, int):
-                if step >= len(steps):
-                    continue
-                a_range, b_part, shift = steps[step]
-                term = (_limb18(a, *a_range) * b_limb(b_part)).shift_left(shift)
-            else:
-                # Past the last step the b operand is 0, so the term is 0.
-                product = (select([_limb18(a, *a_range) for a_range, _, _ in steps], step)
-                           * select([b_limb(b_part) for _, b_part, _ in steps], step))
-                term = select([product.shift_left(shift) for _, _, shift in steps], step)
-            out[out_key] = state[out_key] + term
-        return out
-    return run
-
-
-def _add_products_sequential(dp, prefix, specs, parallel, drop_keys):
-    """The ``products="sequential"`` form of :func:`add_products`."""
-    plans = []
-    for index, (a_of, a_shape, b, out_key) in enumerate(specs):
-        a_shape = Shape.cast(a_shape)
-        steps, b_width = _sequential_steps(a_shape, b)
-        # Any partial sum of the terms is below 2**(a_width + b_width) in magnitude.
-        dp.declare(**{out_key: signed(a_shape.width + 1 + b_width + 1),
-                      f"{prefix}{index}_a": a_shape})
-        if not isinstance(b, int):
-            dp.declare(**{f"{prefix}{index}_b": b[1]})
-        plans.append((a_of, b, out_key, steps))
-    count = max(len(steps) for *_, steps in plans)
-    dp.add(f"{prefix}_op", _operands_stage(prefix, [(a_of, b) for a_of, b, _, _ in plans],
-                                           parallel, drop_keys,
-                                           clear=[out_key for _, _, out_key, _ in plans]))
-    dp.add_iter(f"{prefix}_acc", _accumulate_stage(prefix, plans), count)
-    dp.add_wiring(lambda state: drop(state, *(f"{prefix}{index}_{side}" for index in range(len(plans))
-                                              for side in "ab")))
-    return 1 + count
 

@@ -25,21 +25,14 @@ Both architectures evaluate literally the same expressions on the same widths, s
 bit for bit; the widths are derived from :class:`~ik5r.core.fxconfig.Constants` with proofs of no
 overflow in the comments of each block.
 
-Three options make a datapath smaller or faster without changing a bit of its results:
-
-* ``Datapath(products="sequential")``: each multiplier of
-  :func:`~ik5r.hdl.datapath.products.add_products` is one 18 x 18 DSP stepped over its partial products
-  into an accumulator, instead of one DSP per partial product and an adder tree.
-* ``Datapath(share_units=True)``: in the iterative architecture, every stage of one functional
-  unit (:meth:`Datapath.add_shared_iter`, e.g. the CORDIC micro-rotation) runs on one set of
-  registers and one copy of the logic (eight CORDICs, one unit). No shipped core uses this
-  or ``products="sequential"`` since the staged IK core went (the small IK core, ``compact``, is
-  the sequenced engine of ``hdl.sequenced``, which has no datapath of stages).
-* ``Datapath(adders=adders_for("ecp5"))`` built with ``dsp="ecp5"`` (pipelined): each partial
-  product is an ECP5 ``MULT18X18D`` whose input and output registers are the two pipeline
-  registers around it, and each ``dp.adders.add_sub`` (the CORDIC micro-rotations) is a
-  ``CCU2C`` carry chain whose own LUTs take the direction. The mapping is the datapath's
-  :attr:`Datapath.adders`, passed explicitly to whatever builds its stage functions.
+One option maps a datapath to the FPGA's primitives without changing a bit of its results:
+``Datapath(adders=adders_for("ecp5"))`` built with ``dsp="ecp5"`` (pipelined): each partial
+product is an ECP5 ``MULT18X18D`` whose input and output registers are the two pipeline
+registers around it, and each ``dp.adders.add_sub`` (the CORDIC micro-rotations) is a ``CCU2C``
+carry chain whose own LUTs take the direction. The mapping is the datapath's
+:attr:`Datapath.adders`, passed explicitly to whatever builds its stage functions. (The small IK
+core, ``compact``, is the sequenced engine of ``hdl.sequenced``, which has no datapath of
+stages.)
 
 Chains. A datapath doubles as a *chain* that another one composes (the IK core runs the
 blocks' chains side by side): it declares its ``inputs`` and ``outputs`` and names split points
@@ -59,13 +52,14 @@ from typing import Callable
 
 from amaranth.hdl import Shape, Signal
 
+from ik5r.core.modes import Arch
+
 from .adders import Ecp5Adders, GenericAdders, adders_for   # noqa: F401 (cordic.py imports them here)
 from .expr import drop
-from ..modes import PRODUCTS, Arch, Products
 from .stash import Stashed, Stashes
 from .tracing import MissingValue, Traced, retraced, trace_stages
 
-__all__ = ["StageKind", "Stage", "SharedStage", "GenericAdders", "Ecp5Adders", "adders_for",
+__all__ = ["StageKind", "Stage", "GenericAdders", "Ecp5Adders", "adders_for",
            "Datapath", "OUTPUT_FIFO_LATENCY", "traced_view", "retraced", "steps_per_stage",
            "check_steps_per_stage"]
 
@@ -90,13 +84,12 @@ class StageKind(enum.Enum):
 @dataclass(frozen=True)
 class Stage:
     """One stage of a :class:`Datapath`. ``count``: its register stages (1 registered, n
-    iterated, 0 wiring); ``shared``: the functional unit of a shared iterated stage; ``stash``
-    and ``keys``: the handle and the keys of a stash or unstash stage."""
+    iterated, 0 wiring); ``stash`` and ``keys``: the handle and the keys of a stash or unstash
+    stage."""
     name: str
     kind: StageKind
     fn: Callable
     count: int = 1
-    shared: SharedStage | None = None
     stash: Stashed | None = None
     keys: tuple = ()
 
@@ -122,9 +115,9 @@ class Stage:
             return self.fn(state, stashes.get(self.stash, self.keys, latency))
         return self.fn(state)
 
-    def with_fn(self, fn, *, name: str | None = None, shared=None) -> "Stage":
-        """The same kind and count with another function (and name, unit)."""
-        return replace(self, fn=fn, name=self.name if name is None else name, shared=shared)
+    def with_fn(self, fn, *, name: str | None = None) -> "Stage":
+        """The same kind and count with another function (and name)."""
+        return replace(self, fn=fn, name=self.name if name is None else name)
 
     def __iter__(self):
         """``(name, fn, count, iterated)``: the tuple form ``hdl/formal`` reads."""
@@ -138,33 +131,7 @@ class Stage:
         name, fn, count, iterated = item
         kind = (StageKind.ITERATED if iterated else
                 StageKind.WIRING if count == 0 else StageKind.REGISTERED)
-        return Stage(name, kind, fn, count, getattr(fn, "shared", None) if iterated else None)
-
-
-class SharedStage:
-    """What an iterated stage made by :meth:`Datapath.add_shared_iter` is: ``fn(unit_state, i)``
-    of the functional unit ``unit`` (with register shapes ``shapes``) on the state keys (or
-    constants) of ``binding`` (unit key -> state key | int)."""
-
-    def __init__(self, unit, fn, binding, shapes):
-        self.unit, self.fn, self.binding, self.shapes = unit, fn, dict(binding), dict(shapes)
-
-    def prefixed(self, prefix: str) -> "SharedStage":
-        return SharedStage(self.unit, self.fn, {u: prefix + k if isinstance(k, str) else k
-                                                for u, k in self.binding.items()}, self.shapes)
-
-    def stage_fn(self):
-        """The stage as a plain ``fn(state, i) -> state`` (the unit's keys bound to the state's)."""
-        def run(state, i):
-            inner = {u: state[k] if isinstance(k, str) else k for u, k in self.binding.items()}
-            result = self.fn(inner, i)
-            out = dict(state)
-            for u, k in self.binding.items():
-                if isinstance(k, str):
-                    out[k] = result[u]
-            return out
-        run.shared = self
-        return run
+        return Stage(name, kind, fn, count)
 
 
 # --- micro-steps per pipeline stage ------------------------------------------------------------
@@ -174,13 +141,13 @@ class SharedStage:
 _STEPS_PER_STAGE = contextvars.ContextVar("ik5r_steps_per_stage", default=1)
 
 
-def check_steps_per_stage(value, arch: str = "pipelined") -> int:
+def check_steps_per_stage(value, arch: str = Arch.PIPELINED) -> int:
     """``value`` if it is a valid count of micro-steps per stage for ``arch``, else raises:
     a positive int; more than 1 only in the pipelined architecture (the iterative one runs one
     step per clock on one register set)."""
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
         raise ValueError(f"steps per stage must be a positive integer, got {value!r}")
-    if value != 1 and arch != "pipelined":
+    if value != 1 and arch != Arch.PIPELINED:
         raise ValueError(f"{value} steps per stage apply to the pipelined architecture, not {arch!r}")
     return value
 
@@ -228,16 +195,8 @@ class Datapath:
     ``outputs`` name the keys it reads from and leaves to its composer.
     """
 
-    def __init__(self, name: str, *, products: str = Products.PARALLEL, share_units: bool = False,
-                 adders=None, inputs=(), outputs=(), steps_per_stage: int | None = None):
-        if products not in PRODUCTS:
-            raise ValueError(f"products must be one of {PRODUCTS}, got {products!r}")
+    def __init__(self, name: str, *, adders=None, inputs=(), outputs=(), steps_per_stage: int | None = None):
         self.name = name
-        #: How :func:`~ik5r.hdl.datapath.products.add_products` builds a multiplier in this datapath.
-        self.products = products
-        #: Whether the iterative build gives all stages of one functional unit
-        #: (:meth:`add_shared_iter`) one register set and one copy of its logic.
-        self.share_units = share_units
         #: What ``add_sub`` of this datapath's stages builds (:func:`adders_for`).
         self.adders = adders if adders is not None else GenericAdders()
         self.inputs, self.outputs = tuple(inputs), tuple(outputs)
@@ -262,26 +221,14 @@ class Datapath:
     def add_iter(self, name, fn, count: int):
         self.append(Stage(name, StageKind.ITERATED, fn, count))
 
-    def add_shared_iter(self, name, unit: SharedStage, count: int):
-        """``add_iter`` of a functional unit's step (see :class:`SharedStage`). Pipelined, and
-        iterative without ``share_units``: the same as ``add_iter``. Iterative with
-        ``share_units``: every stage of the same ``unit.unit`` uses one set of the unit's
-        registers and one copy of ``unit.fn`` (one item in flight, so one user at a time); the
-        other keys are not copied (their registers hold until the item leaves). A shared stage
-        must be followed by a registered, non-iterated stage, which takes its results."""
-        self.append(Stage(name, StageKind.ITERATED, unit.stage_fn(), count, unit))
-
-    def add_micro_steps(self, name, fn, count: int, unit: SharedStage | None = None):
+    def add_micro_steps(self, name, fn, count: int):
         """A block's micro-steps (CORDIC micro-rotations, square-root digits): ``count`` steps
         ``fn(state, i)``, :attr:`steps_per_stage` of them per register stage (the last one
-        fewer), or with one per stage and a ``unit``, :meth:`add_shared_iter` of it."""
+        fewer)."""
         if self.steps_per_stage == 1:
-            if unit is not None:
-                self.add_shared_iter(name, unit, count)
-            else:
-                self.add_iter(name, fn, count)
+            self.add_iter(name, fn, count)
             return
-        self.add_iter(name, *_grouped(unit.stage_fn() if unit is not None else fn, count, self.steps_per_stage))
+        self.add_iter(name, *_grouped(fn, count, self.steps_per_stage))
 
     def add_wiring(self, fn):
         self.append(Stage("wiring", StageKind.WIRING, fn, 0))
@@ -327,8 +274,7 @@ class Datapath:
                                f"(it has {sorted(self.marks)})")
             return self.marks[mark]
         lo, hi = index(start, 0), index(stop, len(self.stages))
-        out = Datapath(f"{self.name}[{start}:{stop}]", products=self.products,
-                       share_units=self.share_units, adders=self.adders,
+        out = Datapath(f"{self.name}[{start}:{stop}]", adders=self.adders,
                        steps_per_stage=self.steps_per_stage)
         out.shapes = dict(self.shapes)
         out.stages = list(self.stages[lo:hi])

@@ -6,9 +6,9 @@ sequenced engine, :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`, see :mod:
 
 **Data abstraction.** The contract is about control, and the datapaths (dozens of adders and
 multipliers a stage, up to 190 stages) would drown a solver. :func:`abstract_datapath` keeps the
-component's own :class:`~ik5r.hdl.datapath.stages.Datapath`: the same stages, counts, iterated and shared
-stages, stashes and the same ``Datapath.build`` (valid chain, credits, output FIFO, step counters,
-shared-unit sequencing), but every value a stage computes, except the ``tag``, is a free value
+component's own :class:`~ik5r.hdl.datapath.stages.Datapath`: the same stages, counts, iterated
+stages, stashes and the same ``Datapath.build`` (valid chain, credits, output FIFO, step
+counters), but every value a stage computes, except the ``tag``, is a free value
 (``$anyseq``) of the register's shape. So the registers, their enables and the tag path are the
 component's, the data they load is arbitrary (the sequenced core: its data memory, step-angle ROM
 and data registers, cut by the job's Yosys script): a property proved here holds for any data, in
@@ -76,8 +76,9 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 # Amaranth 0.5 keeps its formal free values in _ast (no public alias yet); they become $anyseq.
 from amaranth.hdl._ast import AnySeq
 
-from ..modes import Arch
-from ..datapath.stages import Datapath, SharedStage, Stage
+from ik5r.core.modes import Arch
+
+from ..datapath.stages import Datapath, Stage
 from ..sequenced.engine import SequencedIKCore
 from ..blocks.stream_block import StreamBlock
 from .iterative import track_item
@@ -111,12 +112,6 @@ def _free(values: dict, shapes: dict, keep) -> dict:
             for key, value in values.items()}
 
 
-def _free_unit(shared: SharedStage, keep) -> SharedStage:
-    def fn(inner, i):
-        return _free(shared.fn(inner, i), shared.shapes, keep)
-    return SharedStage(shared.unit, fn, shared.binding, shared.shapes)
-
-
 def abstract_datapath(dp: Datapath, keep=("tag",)) -> Datapath:
     """A copy of ``dp`` with the same stages whose computed values (all but ``keep``) are free.
 
@@ -132,9 +127,6 @@ def abstract_datapath(dp: Datapath, keep=("tag",)) -> Datapath:
         if iterated:
             def run(s, i, fn=fn):
                 return _free(fn(s, i), shapes, keep)
-            shared = getattr(fn, "shared", None)
-            if shared is not None:
-                run.shared = _free_unit(shared, keep)
         else:
             def run(s, fn=fn):
                 return _free(fn(s), shapes, keep)

@@ -4,17 +4,16 @@ k-induction.
 An iterative build (:func:`~ik5r.hdl.datapath.build.build_iterative`) holds one item: a stage's
 ``<stage>_valid`` bit says the item is in it, and with no output held it moves on as soon as
 the stage is done: a registered stage after one cycle, an iterated one after ``count`` (its
-``<stage>_step``, or the ``unit_<unit>_step`` of the functional unit it shares, counts 1 ..
-``count``). So the item is, ``w`` cycles after its input transfer (``w`` + 1 cycles, counted as
-the marks' ``waiting``, see :meth:`.contract.StreamContract._marks`), in the stage ``s`` with
+``<stage>_step`` counts 1 .. ``count``). So the item is, ``w`` cycles after its input transfer
+(``w`` + 1 cycles, counted as the marks' ``waiting``, see
+:meth:`.contract.StreamContract._marks`), in the stage ``s`` with
 ``base(s) <= w < base(s) + count(s)`` (``base``: the register stages before ``s``) at step
 ``w - base(s) + 1``, until the last stage is done and it waits on ``o``.
 
 Its tag is in the tag register of the nearest stage at or before ``s`` that has one: every
 stage's registers are loaded only when the item enters it, and one item is inside, so they
 hold until the next item. That register is ``s``'s own, or an earlier one where the tag is not
-in the stage's state: a shared unit's stage carries only the unit's values (the others stay in
-the stage before).
+in the stage's state.
 
 :func:`track_item` asserts that, for each mark: in an occupied stage the tag is the mark iff
 the mark is inside, the tag is never 3, a mark inside has an occupied stage, and while it is
@@ -47,8 +46,7 @@ def _places(dut, inner: Module, find) -> list:
         if not stage.iterated:
             position, step = base, None
         else:
-            shared = stage.shared if dp.share_units else None
-            step = find(inner, f"unit_{shared.unit}_step" if shared else f"{stage.name}_step")
+            step = find(inner, f"{stage.name}_step")
             position = base + step - 1
         places.append((valid, tag, position, step, stage.count))
         base += stage.count

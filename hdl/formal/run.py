@@ -31,9 +31,9 @@ from pathlib import Path
 from amaranth.back import rtlil
 
 from ik5r.core.fxconfig import constants, load_config
+from ik5r.core.modes import ARCHS, BLOCKS, Arch, Block, CoreArch
 
 from ..generate import build
-from ..modes import ARCHS, BLOCKS, Arch, CoreArch
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract, find_signal
 from .fifo import FifoLemma
 from .sequenced import DATA_REGISTERS
@@ -44,14 +44,14 @@ __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION",
 
 #: (block, arch) of every component the contract is proved for. The IK core's "compact" arch is
 #: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`).
-JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for arch in ARCHS) + (
-    ("ik", Arch.PIPELINED), ("ik", CoreArch.COMPACT))
+JOBS = tuple((block, arch) for block in BLOCKS if block != Block.IK for arch in ARCHS) + (
+    (Block.IK, Arch.PIPELINED), (Block.IK, CoreArch.COMPACT))
 
 #: Jobs whose ``order`` group is proved by k-induction too (a ghost queue of the tags inside, see
 #: :mod:`.sequenced`), and whose fault self-test is by k-induction: the sequenced core, where an item
 #: needs latency = 520 clocks to come out and a BMC step costs seconds (BMC to 2 x 520 is out of
 #: reach, so is a counterexample from reset).
-INDUCTION_ONLY = {("ik", CoreArch.COMPACT)}
+INDUCTION_ONLY = {(Block.IK, CoreArch.COMPACT)}
 
 #: Jobs whose ``order`` group is proved by k-induction (all of them): the sequenced core's, the
 #: pipelined blocks' and IK core's (the marks tracked through the delay line, :mod:`.pipelined`,
@@ -102,7 +102,7 @@ def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
 #: proving them again (:attr:`.contract.StreamContract.control_assumed`): the pipelined IK core,
 #: whose ``control`` job proves them (k-induction, ~35 CPU s); the order job is then a lemma user
 #: of that job, listed in its :attr:`Result.lemmas`.
-ORDER_ASSUMES_CONTROL = {("ik", Arch.PIPELINED)}
+ORDER_ASSUMES_CONTROL = {(Block.IK, Arch.PIPELINED)}
 
 #: Depth of the k-induction of the ``control`` group (its base case is BMC to the same depth).
 INDUCTION_DEPTH = 2

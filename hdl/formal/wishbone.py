@@ -37,6 +37,7 @@ from amaranth.lib.wiring import In, Out
 
 from ik5r.core import regmap as R
 from ik5r.core.fxconfig import constants, load_config
+from ik5r.core.modes import CoreArch
 
 from ..pipelined.core import core_fields
 from ..soc.periph import ADDR_WIDTH, IKPeripheral
@@ -79,7 +80,7 @@ class WishboneHarness(wiring.Component):
         if mutation not in (None, *MUTATIONS):
             raise ValueError(f"mutation must be one of {MUTATIONS} or None, got {mutation!r}")
         self.mutation = mutation
-        self.dut = _FreeCorePeripheral(constants=constants(load_config(config)), core="compact")
+        self.dut = _FreeCorePeripheral(constants=constants(load_config(config)), core=CoreArch.COMPACT)
         self.assert_names = {}
         super().__init__({"cyc": In(1), "stb": In(1), "we": In(1), "adr": In(ADDR_WIDTH),
                           "dat_w": In(32), "sel": In(4), "glitch": In(1)})

@@ -13,12 +13,12 @@ ready; values needed many stages later wait in the stash (:mod:`~ik5r.hdl.datapa
 from __future__ import annotations
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Arch, CoreArch, Dsp
 
 from ..datapath.adders import adders_for
 from ..datapath.stages import steps_per_stage
 from ..graph.inputs import core_fields
 from .graph import graph_datapath
-from ..modes import Arch, CoreArch, Dsp
 from ..blocks.stream_block import StreamBlock, micro_steps
 
 __all__ = ["IKCore"]

@@ -18,6 +18,7 @@ from collections import defaultdict
 from amaranth.hdl import Const, Mux
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Block
 from ik5r.core.status import FIXED_WIDTH
 
 from ..graph.ops import Op
@@ -202,7 +203,7 @@ def _grouped(segments, width) -> list:
 def _assemble(sched, keys, ready, uses, leaf_at, joints, end) -> Datapath:
     """The datapath: stage t runs the unit steps of clock t, ORs the status bits known at t and
     drops the values read for the last time; the stash's put and take wiring between stages."""
-    dp = Datapath("ik", adders=sched.ctx.adders)
+    dp = Datapath(Block.IK, adders=sched.ctx.adders)
     active, wiring = defaultdict(list), defaultdict(list)
     for unit in sched.units:
         dp.declare(**unit.shapes)

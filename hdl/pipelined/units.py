@@ -211,7 +211,7 @@ class Ctx:
         # ``last`` in the chain's last (registered) stage: an output not needed is not registered.
         *body, end = inner.stages
         return Unit(name, reads, list(outputs.values()),
-                    [_wiring(first), *body, end.with_fn(compose(end.fn, last), shared=end.shared)],
+                    [_wiring(first), *body, end.with_fn(compose(end.fn, last))],
                     shapes=inner.shapes)
 
 

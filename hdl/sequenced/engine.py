@@ -26,8 +26,8 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import CoreArch
 
-from ..modes import CoreArch
 from . import isa as X
 from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, tagged_fields
 from ..datapath.expr import select
@@ -250,7 +250,7 @@ class SequencedIKCore(wiring.Component):
         _check_tag(tag_width, 26)
         _check_wide(wide_product)
         self._engine = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
-        self.constants, self.arch, self.tag_width = constants, "sequenced", tag_width
+        self.constants, self.arch, self.tag_width = constants, CoreArch.COMPACT, tag_width
         in_fields, out_fields = tagged_fields(constants, tag_width)
         self.in_fields, self.out_fields = in_fields, out_fields
         self.cycles_per_result = self._engine.cycles

@@ -14,12 +14,13 @@ from amaranth.lib.wiring import In, Out
 import ik5r
 from ik5r.core import regmap as R
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import CoreArch, Dsp
 
 __all__ = ["WishboneSignature", "IKPeripheral", "PERIPHERAL_CORES", "ADDR_WIDTH", "generate_peripheral",
            "peripheral_verilog"]
 
 #: Cores the peripheral wraps (``CORE.KIND`` of the map).
-PERIPHERAL_CORES = tuple(R.CORE_KINDS)
+PERIPHERAL_CORES = tuple(map(str, R.CORE_KINDS))
 #: Word-address bits the slave decodes (its window: :data:`ik5r.core.regmap.MAP_BYTES`).
 ADDR_WIDTH = (R.MAP_BYTES // 4 - 1).bit_length()
 _POSE_FIELDS = ("px", "py", "pz", "ax", "ay", "az", "nx", "ny", "nz", "ox", "oy", "oz", "q5_default")
@@ -34,11 +35,11 @@ class WishboneSignature(wiring.Signature):
 
 
 def _core(constants: Constants, kind: str, dsp: str):
-    if kind == "compact":
+    if kind == CoreArch.COMPACT:
         from ..sequenced.engine import SequencedIKCore
         return SequencedIKCore(constants=constants, tag_width=R.TAG_BITS)
     from ..pipelined.core import IKCore
-    return IKCore(constants=constants, arch="pipelined", tag_width=R.TAG_BITS, dsp=dsp)
+    return IKCore(constants=constants, arch=CoreArch.PIPELINED, tag_width=R.TAG_BITS, dsp=dsp)
 
 
 def _pack(register: R.Register, values: dict):
@@ -78,7 +79,7 @@ class IKPeripheral(wiring.Component):
     and a result waiting).
     """
 
-    def __init__(self, *, constants: Constants, core: str = "compact", dsp: str = "generic"):
+    def __init__(self, *, constants: Constants, core: str = CoreArch.COMPACT, dsp: str = Dsp.GENERIC):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         if core not in PERIPHERAL_CORES:
@@ -178,7 +179,7 @@ class IKPeripheral(wiring.Component):
         return values
 
 
-def generate_peripheral(constants: Constants, core: str = "compact", *, name: str = "ik5r_periph") -> str:
+def generate_peripheral(constants: Constants, core: str = CoreArch.COMPACT, *, name: str = "ik5r_periph") -> str:
     """Verilog of the peripheral alone (top module ``name``: ports ``clk``, ``rst``, ``bus__*``,
     ``irq``), with a header comment saying what it is (no time stamp: deterministic)."""
     return peripheral_verilog(IKPeripheral(constants=constants, core=core), name=name)

@@ -29,6 +29,8 @@ import hashlib
 import json
 from dataclasses import asdict, dataclass
 
+from .modes import CoreArch
+
 __all__ = ["Field", "Register", "REGISTERS", "ACCESS", "POSE_REGISTERS", "JOINT_REGISTERS",
            "ID_MAGIC", "CORE_KINDS", "BUILD_VALUES", "END", "TAG_BITS", "MAP_BYTES", "by_name", "id_values"]
 
@@ -38,7 +40,7 @@ TAG_BITS = 8
 #: "IK5R" in ASCII, the first ID word.
 ID_MAGIC = 0x494B_3552
 #: Core kinds in ``CORE.KIND``.
-CORE_KINDS = {"compact": 0, "pipelined": 1}
+CORE_KINDS = {CoreArch.COMPACT: 0, CoreArch.PIPELINED: 1}
 #: Bytes of address space the peripheral decodes (offsets at and beyond the last register are
 #: unmapped up to here; the SoC decides what lies outside).
 MAP_BYTES = 0x1000
@@ -158,7 +160,7 @@ def id_values(constants, version: str, kind: str, capacity: int) -> dict[str, in
     """Reset values of the ID registers for a core of ``kind`` on ``constants`` (a
     :class:`ik5r.core.fxconfig.Constants`), generator ``version`` ('major.minor.patch')."""
     if kind not in CORE_KINDS:
-        raise ValueError(f"kind must be one of {tuple(CORE_KINDS)}, got {kind!r}")
+        raise ValueError(f"kind must be one of {tuple(map(str, CORE_KINDS))}, got {kind!r}")
     major, minor, patch = (int(part) for part in (version.split(".") + ["0", "0"])[:3])
     cfg = {k: v for k, v in asdict(constants.cfg).items() if k not in ("name", "source")}
     arm = constants.arm.id_fields()

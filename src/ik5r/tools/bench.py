@@ -33,6 +33,7 @@ import numpy as np
 from ik5r.core import reference
 from ik5r.core.arm import Arm, load_arm
 from ik5r.core.fxconfig import Constants, constants, load_config
+from ik5r.core.modes import Arch, Block, CoreArch
 from ik5r.firmware_model.poses import PoseBatch
 
 
@@ -125,10 +126,11 @@ def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
 #: (:mod:`.testbench.harness`), full rate, one simulator process per CPU; the others: the cocotb
 #: bulk run (random idles and back-pressure). The pipelined core takes a pose per clock (its rate
 #: is the simulator's cycle rate), the compact core one per ``cycles_per_result`` clocks.
-SIM_RUNS = (("atan2", "pipelined", "verilator-harness", 2_000_000), ("atan2", "pipelined", "verilator", 200_000),
-            ("atan2", "pipelined", "icarus", 5_000), ("ik", "pipelined", "verilator-harness", 1_000_000),
-            ("ik", "compact", "verilator-harness", 20_000),
-            ("ik", "pipelined", "verilator", 20_000), ("ik", "pipelined", "icarus", 300))
+SIM_RUNS = ((Block.ATAN2, Arch.PIPELINED, "verilator-harness", 2_000_000),
+            (Block.ATAN2, Arch.PIPELINED, "verilator", 200_000), (Block.ATAN2, Arch.PIPELINED, "icarus", 5_000),
+            (Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000),
+            (Block.IK, CoreArch.COMPACT, "verilator-harness", 20_000),
+            (Block.IK, CoreArch.PIPELINED, "verilator", 20_000), (Block.IK, CoreArch.PIPELINED, "icarus", 300))
 
 
 def _simulate(block: str, arch: str, config: str, sim: str, vectors: int) -> dict:
@@ -155,7 +157,7 @@ def simulation_speeds(config: str, simulators=None, previous=()) -> list[dict]:
     and cocotb on both simulators. ``simulators``: only these run, the rows of the others taken
     from ``previous``."""
     rows = []
-    kept = {(r["block"], r.get("arch", "pipelined"), r["simulator"]): r for r in previous}
+    kept = {(r["block"], r.get("arch", Arch.PIPELINED), r["simulator"]): r for r in previous}
     for block, arch, sim, vectors in SIM_RUNS:
         if simulators is not None and sim not in simulators and (block, arch, sim) in kept:
             rows.append(kept[block, arch, sim])
@@ -268,7 +270,7 @@ def table(result: dict) -> str:
                  for key, base in (("x_rtb_ik_LM", "rtb"), ("x_ikpy", "ikpy"))]
         lines.append(f"| {name} | {cpu} | {wall} | {ratio[0]} | {ratio[1]} |")
     ci = result.get("c_instructions")
-    core = next((r for r in result["simulation"] if r["block"] == "ik"), None)
+    core = next((r for r in result["simulation"] if r["block"] == Block.IK), None)
     if ci:
         lines.append("")
         lines.append(f"C solver: {ci['instructions_per_solve']:,.0f} instructions per solve "
@@ -285,7 +287,7 @@ def table(result: dict) -> str:
         cycles = f"{r['sim_cpu_cycles_per_second']:,.0f}" if r.get("sim_cpu_cycles_per_second") else "–"
         load = f"{r['load_average']:.1f}" if r.get("load_average") is not None else "–"
         jobs = f", {r['jobs']} processes" if r.get("jobs") else ""
-        lines.append(f"| {r['block']} {r.get('arch', 'pipelined')} | {sim}{jobs} | {r['vectors']:,} | "
+        lines.append(f"| {r['block']} {r.get('arch', Arch.PIPELINED)} | {sim}{jobs} | {r['vectors']:,} | "
                      f"{r['mismatches']} | {r['vectors_per_second']:,.0f} | {total} | {cpu} | {cycles} | {load} | "
                      f"{r['build_seconds']:.0f} |")
     return "\n".join(lines + cli_table(result.get("cli") or []))

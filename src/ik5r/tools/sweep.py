@@ -46,6 +46,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from ik5r.core.fxconfig import FixedConfig, parse_config
+from ik5r.core.modes import Arch, Target
 from ik5r.hdl.generate import resolve_arch
 
 from .sweep_outputs import CSV_FIELDS, pareto_flags, write_outputs  # noqa: F401 (the API of old)
@@ -217,7 +218,7 @@ def _plan(configs, blocks, archs, poses, seed, opts, synth_cache, timeout, cache
                     pending.append(Task("synth", (cfg.name, block, arch), path, call, cfg.width))
     # Longest first (wide pipelined synthesis), so the workers end together.
     pending.sort(key=lambda t: (t.kind != "synth", -t.width,
-                                t.kind == "synth" and t.ident[2] != "pipelined"))
+                                t.kind == "synth" and t.ident[2] != Arch.PIPELINED))
     return errors, synths, pending, opts_key, tools
 
 
@@ -302,7 +303,7 @@ def _point(cfg: FixedConfig, block, arch, err: dict, syn: dict) -> dict:
     p.update({k: syn[k] for k in SYNTH_FIELDS if k in syn})
     if "error" in syn:
         p["synth_error"] = syn["error"]
-    if syn.get("target") == "ecp5" and syn.get("luts") is not None:
+    if syn.get("target") == Target.ECP5 and syn.get("luts") is not None:
         # Estimate from the counts (the 85k P&R packing): LUT sites, FFs, DSPs, EBRs.
         p["fits_ecp5_25k_est"] = all(syn[k] <= cap for k, cap in ECP5_25K.items())
     p["error_from_cache"] = bool(err.get("from_cache"))
@@ -362,7 +363,7 @@ def run_sweep(options: SweepOptions = SweepOptions(), *, arm=None, out_dir="buil
     }
     meta["elapsed_s"] = round(time.perf_counter() - start, 2)
     record = SweepRecord(meta, tuple(points))
-    write_outputs(record, out_dir, freq_floor=150.0 if "pipelined" in archs else None)
+    write_outputs(record, out_dir, freq_floor=150.0 if Arch.PIPELINED in archs else None)
     log(f"sweep: {len(points)} point(s) in {meta['elapsed_s']:.1f} s -> {out_dir}/sweep.csv, "
         f"sweep.json, index.html and plots")
     return record

@@ -5,6 +5,8 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+from ik5r.core.modes import Arch
+
 CSV_FIELDS = (
     "name", "block", "arch", "width", "frac_length", "frac_unit", "frac_angle", "iterations",
     "guard_bits", "angle_guard_bits", "internal_guard_bits", "poses", "position_err_max_cm",
@@ -38,7 +40,7 @@ def _plots(points: list[dict], out_dir: Path, freq_floor: float | None) -> list[
     import matplotlib.pyplot as plt
 
     groups = sorted({(p["block"], p["arch"]) for p in points})
-    style = {"markers": {"pipelined": "o", "iterative": "s"},
+    style = {"markers": {Arch.PIPELINED: "o", Arch.ITERATIVE: "s"},
              "colours": {g: f"C{i}" for i, g in enumerate(groups)}, "groups": groups}
     return [_error_vs_luts(points, out_dir, plt, style), _fmax_vs_width(points, out_dir, plt, style, freq_floor),
             _error_vs_width(points, out_dir, plt)]

@@ -12,6 +12,8 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ik5r.core.modes import Arch, Block
+
 from .synth import DEFAULT_CACHE, SynthOptions
 
 DEFAULT_WIDTHS = (16, 18, 20, 24, 28, 32)
@@ -31,8 +33,8 @@ class SweepOptions:
     widths: tuple[int, ...] = DEFAULT_WIDTHS
     iterations: tuple[int, ...] | None = None
     guard_bits: tuple[int, ...] | None = None
-    blocks: tuple[str, ...] = ("atan2",)
-    archs: tuple[str, ...] = ("pipelined",)
+    blocks: tuple[str, ...] = (Block.ATAN2,)
+    archs: tuple[str, ...] = (Arch.PIPELINED,)
     synth: bool = True
     poses: int = DEFAULT_POSES
     seed: int = 0

@@ -29,6 +29,7 @@ from importlib import metadata
 from pathlib import Path
 
 from ik5r.core.errors import InputError
+from ik5r.core.modes import Arch, Block, CoreArch, Dsp, Target
 
 from .synth_figures import _cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow
 from .synth_options import TARGETS, SynthOptions  # noqa: F401 (this module's API of old)
@@ -118,7 +119,7 @@ ICE40_BEAT_BITS = 16
 
 def _yosys_script(target: str, module: str) -> str:
     # iCE40: -dsp maps the multipliers to SB_MAC16 (without it Yosys builds them from LUTs).
-    synth = TARGETS[target]["yosys"] + (" -dsp" if target == "ice40" else "")
+    synth = TARGETS[target]["yosys"] + (" -dsp" if target == Target.ICE40 else "")
     return (f"read_verilog -sv design.v\n"
             f"{synth} -top {module} -json netlist.json\n"
             f"tee -q -o stat.json stat -json\n")
@@ -131,7 +132,7 @@ def _nextpnr_args(opts: SynthOptions) -> list[str]:
             "--placer", opts.placer, "--router", opts.router, "--seed", str(opts.seed),
             "--threads", str(opts.threads),
             "--log", "nextpnr.log", "--quiet"]
-    if opts.target == "ecp5":
+    if opts.target == Target.ECP5:
         args += ["--speed", str(opts.speed), "--out-of-context"]
     else:
         args += ["--pcf-allow-unconstrained"]
@@ -147,20 +148,20 @@ def _design(design, opts: SynthOptions):
         text, pmap = soc_design(design.constants, design.arch)
         return design, {}, text, pmap
     # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-    dsp = opts.dsp if design.arch == "pipelined" else "generic"
+    dsp = opts.dsp if design.arch == Arch.PIPELINED else Dsp.GENERIC
     serial = None
-    if design.block == "ik" and design.arch == "compact" and opts.target == "ice40":
+    if design.block == Block.IK and design.arch == CoreArch.COMPACT and opts.target == Target.ICE40:
         # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
         # (16-bit beats: 38 IOs, within the UP5K's SG48 package).
         serial = ICE40_BEAT_BITS
-    if opts.rotations_per_stage != 1 and design.arch != "pipelined":
+    if opts.rotations_per_stage != 1 and design.arch != Arch.PIPELINED:
         raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {design.arch}")
-    if opts.wide_product and (design.block, design.arch) != ("ik", "compact"):
+    if opts.wide_product and (design.block, design.arch) != (Block.IK, CoreArch.COMPACT):
         raise InputError("--wide-product", f"applies to the compact IK core, not to {design.block} {design.arch}")
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
                             tag_width=opts.tag_width, dsp=dsp, serial=serial,
                             rotations_per_stage=opts.rotations_per_stage, wide_product=opts.wide_product,
-                            max_dsp=opts.max_dsp if dsp == "ecp5" else None)
+                            max_dsp=opts.max_dsp if dsp == Dsp.ECP5 else None)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
 
@@ -192,7 +193,7 @@ def _cached(folder: Path, key: str, design, opts: SynthOptions) -> dict | None:
     except (OSError, ValueError):
         pass
     result.setdefault("pnr_error", None)
-    result.setdefault("dsp", "generic")
+    result.setdefault("dsp", Dsp.GENERIC)
     return result
 
 
@@ -259,7 +260,7 @@ def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict
         "width": cfg.width, "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
         "speed_grade": opts.speed, "freq_target_mhz": opts.freq_mhz, "placer": opts.placer,
-        "router": opts.router, "seed": opts.seed, "out_of_context": opts.target == "ecp5",
+        "router": opts.router, "seed": opts.seed, "out_of_context": opts.target == Target.ECP5,
         **figures,
         "fmax_mhz": fmax,
         "timing_met": None if fmax is None else fmax >= opts.freq_mhz,

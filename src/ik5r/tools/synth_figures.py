@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ik5r.core.modes import Target
+
 
 def _overflow(log_path: Path) -> str | None:
     """The nextpnr message saying the design does not fit the device, if that is why it failed."""
@@ -66,7 +68,7 @@ def _figures(target: str, cells: dict, report: dict | None) -> dict:
     used = {k: v.get("used", 0) for k, v in (report or {}).get("utilization", {}).items()}
     avail = {k: v.get("available", 0) for k, v in (report or {}).get("utilization", {}).items()}
     util = {k: {"used": used[k], "available": avail[k]} for k in used if used[k]}
-    if target == "ecp5":
+    if target == Target.ECP5:
         lut4 = cells.get("LUT4", 0)
         carry = cells.get("CCU2C", 0)
         # TRELLIS_COMB: LUT4 sites occupied after packing (logic LUTs, both halves of each carry

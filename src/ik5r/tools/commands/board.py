@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
+from ik5r.core.modes import BOARD_CORES
 
 
 def register(subparsers) -> None:
@@ -30,7 +31,7 @@ def register(subparsers) -> None:
     parser.add_argument("--arm", default=None, metavar="ARM.toml",
                         help="arm description TOML (default: the arm of record)")
     parser.add_argument("--baud", type=int, default=None, help="UART baud rate (default: 3000000)")
-    parser.add_argument("--core", choices=("serial", "sequenced", "pipelined"), default=None,
+    parser.add_argument("--core", choices=BOARD_CORES, default=None,
                         help="the IK core (default: the board's)")
     parser.add_argument("--seed", type=int, default=1, help="nextpnr seed (default: 1)")
     parser.add_argument("-o", "--output", default=None, metavar="DIR",

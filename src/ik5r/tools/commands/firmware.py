@@ -56,7 +56,7 @@ def register(subparsers) -> None:
     parser.add_argument("--no-directed", action="store_true", help="random poses only")
     parser.add_argument("--cycle-limit", type=int, default=None, metavar="CYCLES",
                         help="cycles per solve after which the CPU counts as hung (default: 1,000,000)")
-    parser.add_argument("--peripheral", choices=tuple(CORE_KINDS), default=None,
+    parser.add_argument("--peripheral", choices=tuple(map(str, CORE_KINDS)), default=None,
                         help="add the IK core on the CPU's bus (ik5r.hdl.soc.periph) and run the "
                              "firmware that solves every pose on it (ik5r_hw_solve) and in software "
                              "(ik5r_solve); cycles are then those of the hardware call")

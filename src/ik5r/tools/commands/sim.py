@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
-from ik5r.hdl.modes import ARCH_NAMES, BLOCKS, DSPS
+from ik5r.core.modes import ARCH_NAMES, BLOCKS, DSPS, Arch, Block, CoreArch, Dsp
 from ik5r.tools import cliopts
 from ik5r.tools.design import add_arm_argument
 
@@ -67,7 +67,7 @@ def register(subparsers) -> None:
         "sim", help="simulate a hardware block under cocotb against the bit-accurate model",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--block", required=True, choices=_blocks(), help="block to simulate")
-    parser.add_argument("--arch", choices=ARCH_NAMES, default="pipelined",
+    parser.add_argument("--arch", choices=ARCH_NAMES, default=Arch.PIPELINED,
                         help="architecture (default: pipelined); for the IK core (--block ik) "
                              "'compact' is its iterative elaboration, the same as 'iterative'")
     parser.add_argument("--vectors", type=_count, default=10000, metavar="N",
@@ -87,7 +87,7 @@ def register(subparsers) -> None:
                              "(default: random)")
     parser.add_argument("--waves", action="store_true", help="record FST waves (also WAVES=1)")
     parser.add_argument("--tag-width", type=int, default=8, metavar="N", help="tag field width (default: 8)")
-    parser.add_argument("--dsp", choices=DSPS, default="generic",
+    parser.add_argument("--dsp", choices=DSPS, default=Dsp.GENERIC,
                         help="primitives of the pipelined arch: generic operators, or ECP5 "
                              "MULT18X18D (with their registers) and CCU2C instances (simulated "
                              "with their models in hdl/sim/) (default: generic)")
@@ -109,7 +109,7 @@ def run(args) -> int:
     from ik5r.tools.design import Design
     from ik5r.tools.testbench.runner import default_simulator, run_block
 
-    if args.serial is not None and (args.block != "ik" or args.arch not in ("compact", "iterative")):
+    if args.serial is not None and (args.block != Block.IK or args.arch not in (CoreArch.COMPACT, Arch.ITERATIVE)):
         print("ik5r sim: --serial is the compact IK core's wrapper: use it with --block ik --arch compact",
               file=sys.stderr)
         return 2

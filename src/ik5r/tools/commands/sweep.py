@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ik5r.core.modes import ARCH_NAMES, ARCHS, TARGETS, Block, CoreArch, Target
 from ik5r.tools import cliopts
 
 
@@ -77,7 +78,7 @@ def register(subparsers) -> None:
                              "LocalCluster of --jobs processes)")
     parser.add_argument("--jobs", type=int, default=None, metavar="N",
                         help="worker processes of the LocalCluster (default: os.cpu_count())")
-    parser.add_argument("--target", choices=("ecp5", "ice40"), default="ecp5")
+    parser.add_argument("--target", choices=TARGETS, default=Target.ECP5)
     parser.add_argument("--device", default=None, help="device (default: 85k / hx8k)")
     parser.add_argument("--speed", type=int, default=None, help="ECP5 speed grade (default: 6)")
     parser.add_argument("--freq", type=float, default=150.0, metavar="MHZ",
@@ -96,14 +97,13 @@ def register(subparsers) -> None:
 def _check(args) -> tuple[list[str], list[str], list[int]]:
     from ik5r.core.errors import InputError
     from ik5r.hdl.generate import BLOCKS
-    from ik5r.hdl.modes import ARCH_NAMES, ARCHS
     from ik5r.tools.sweep_record import DEFAULT_WIDTHS
 
-    blocks = args.blocks or (["ik"] if "ik" in BLOCKS else ["atan2"])
+    blocks = args.blocks or [Block.IK]
     for block in blocks:
         if block not in BLOCKS:
             raise InputError("--blocks", f"block {block!r} not available (have {', '.join(BLOCKS)})")
-    archs = args.archs or (["compact"] if blocks == ["ik"] else list(ARCHS))
+    archs = args.archs or ([CoreArch.COMPACT] if blocks == [Block.IK] else list(ARCHS))
     for arch in archs:
         if arch not in ARCH_NAMES:
             raise InputError("--arch", f"must be one of {', '.join(ARCH_NAMES)}, got {arch!r}")

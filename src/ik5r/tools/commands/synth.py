@@ -15,31 +15,31 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
-from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.core.modes import ARCH_NAMES, BLOCKS, DSPS, TARGETS, Arch, Block, CoreArch, Target
 from ik5r.tools import cliopts
 from ik5r.tools.design import add_arm_argument
 
-BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "cpu", "all")
+BLOCK_CHOICES = (*BLOCKS, "cpu", "all")
 ARCH_CHOICES = (*ARCH_NAMES, "all")
 
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "synth", help="LUTs, FFs, DSPs and Fmax of a block (Yosys + nextpnr)", description=__doc__)
-    parser.add_argument("--block", choices=BLOCK_CHOICES, default="atan2",
+    parser.add_argument("--block", choices=BLOCK_CHOICES, default=Block.ATAN2,
                         help="block (default: atan2; all: every available block; cpu: the soft "
                              "CPU SoC running the C solver, see --cpu)")
     parser.add_argument("--cpu", default=None, metavar="NAME",
                         help="with --block cpu: vexriscv (rv32im) or vexriscv_min (rv32i) "
                              "(default: both); NAME+compact or NAME+pipelined: the SoC with the IK "
                              "peripheral and the firmware that calls it")
-    parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
+    parser.add_argument("--arch", choices=ARCH_CHOICES, default=Arch.PIPELINED,
                         help="architecture (default: pipelined; iterative and compact are the "
                              "same choice: one item in flight; all: both)")
     parser.add_argument("--config", default=None, metavar="CFG",
                         help=f"fixed-point config TOML or shipped name (default: {DEFAULT_CONFIG})")
     add_arm_argument(parser)
-    parser.add_argument("--target", choices=("ecp5", "ice40"), default="ecp5",
+    parser.add_argument("--target", choices=TARGETS, default=Target.ECP5,
                         help="FPGA family (default: ecp5)")
     parser.add_argument("--device", default=None,
                         help="device: ecp5 12k|25k|45k|85k|um-85k|..., ice40 hx8k|up5k|... "
@@ -105,7 +105,7 @@ def run(args) -> int:
 
     blocks, cpus = _blocks_and_cpus(args)
     # The config and the arm, loaded once; an arm the config cannot hold is refused here (exit 2).
-    base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
+    base = Design.resolve(Block.IK, CoreArch.PIPELINED, config=args.config, arm=args.arm)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
                         seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp,

@@ -13,11 +13,11 @@ import json
 from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
-from ik5r.hdl.modes import ARCH_NAMES, DSPS
+from ik5r.core.modes import ARCH_NAMES, BLOCKS, DSPS, Arch, Block, CoreArch, Dsp
 from ik5r.tools import cliopts
 from ik5r.tools.design import add_arm_argument
 
-BLOCK_CHOICES = ("atan2", "acos", "sqrt", "rotate", "ik", "all")
+BLOCK_CHOICES = (*BLOCKS, "all")
 ARCH_CHOICES = (*ARCH_NAMES, "all")
 
 
@@ -42,12 +42,12 @@ def register(subparsers) -> None:
     add_arm_argument(parser)
     parser.add_argument("--block", choices=BLOCK_CHOICES, default="all",
                         help="block to generate (default: all)")
-    parser.add_argument("--arch", choices=ARCH_CHOICES, default="pipelined",
+    parser.add_argument("--arch", choices=ARCH_CHOICES, default=Arch.PIPELINED,
                         help="pipelined (1 result/cycle); iterative or compact: the small one (blocks: 1 "
                              "step/cycle; IK core: compact); all: both (default: pipelined)")
     parser.add_argument("--tag-width", type=_tag_width, default=0, metavar="N",
                         help="width of the tag field carried through each block (default: 0)")
-    parser.add_argument("--dsp", choices=DSPS, default="generic",
+    parser.add_argument("--dsp", choices=DSPS, default=Dsp.GENERIC,
                         help="primitives of the pipelined arch (with --arch all, the others stay generic): "
                              "generic operators (any FPGA), or ECP5 "
                              "MULT18X18D instances using their input and output registers and CCU2C "
@@ -65,31 +65,31 @@ def run(args) -> int:
     from ik5r.hdl.generate import BLOCKS, archs_of, resolve_arch
     from ik5r.tools.design import Design
 
-    if args.dsp != "generic" and args.arch not in ("pipelined", "all"):
+    if args.dsp != Dsp.GENERIC and args.arch not in (Arch.PIPELINED, "all"):
         raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
                                   f"not to --arch {args.arch}")
-    if args.arch not in ("pipelined", "all"):
+    if args.arch not in (Arch.PIPELINED, "all"):
         cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
-    cliopts.max_dsp_option(args, "pipelined" if args.arch == "all" else args.arch, args.dsp)
+    cliopts.max_dsp_option(args, Arch.PIPELINED if args.arch == "all" else args.arch, args.dsp)
     if args.block != "all" and args.arch != "all":
         cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
     # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
-    base = Design.resolve("ik", "pipelined", config=args.config, arm=args.arm)
+    base = Design.resolve(Block.IK, CoreArch.PIPELINED, config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     for block in blocks:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
             # With --arch all, the small architectures are generic (they have no primitive mapping).
-            dsp = args.dsp if arch == "pipelined" else "generic"
+            dsp = args.dsp if arch == Arch.PIPELINED else Dsp.GENERIC
             per_stage = 1
-            if args.arch != "all" or arch == "pipelined":
+            if args.arch != "all" or arch == Arch.PIPELINED:
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
             # --wide-product: the compact IK core's option (of --block all / --arch all, that core).
-            wide = {"wide_product": True} if args.wide_product and (block, arch) == ("ik", "compact") else {}
+            wide = {"wide_product": True} if args.wide_product and (block, arch) == (Block.IK, CoreArch.COMPACT) else {}
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
                                     dsp=dsp, rotations_per_stage=per_stage, **wide,
-                                    **(cliopts.max_dsp_option(args, arch, dsp) if dsp == "ecp5" else {}))
+                                    **(cliopts.max_dsp_option(args, arch, dsp) if dsp == Dsp.ECP5 else {}))
             text, pmap = design.verilog()
             module = pmap["module"]
             (out_dir / f"{module}.v").write_text(text)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Block
 
 from .html import Section, esc, para, table
 
@@ -76,7 +77,7 @@ def section(k: Constants, software: dict, sim_results: list[dict]) -> Section:
     rows = [(f"{p['a']} vs {p['b']}", p["items"], *(p["field_mismatches"][f] for f in FIELDS))
             for p in software["pairs"]]
     for r in data["hdl"]:
-        if r["block"] == "ik":
+        if r["block"] == Block.IK:
             fields = r["field_mismatches"] or {}
             rows.append((f"HDL core ({r['arch']}, {r['simulator']}) vs vectorised model", r["vectors"],
                          *(fields.get(f, "–") for f in FIELDS)))

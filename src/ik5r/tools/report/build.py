@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ik5r.core.arm import Arm, load_arm
 from ik5r.core.fxconfig import FixedConfig, load_config
+from ik5r.core.modes import Block, CoreArch
 
 from . import hardware, plots, provenance
 from . import worst as worst_poses
@@ -282,7 +283,7 @@ def _glance(fig: dict, sections: list[Section]) -> Section:
                      f"{verdict(total == 0)} ({total:,} mismatching items)"))
         data["total_mismatches"] = total
     core = next((r for r in by_key.get("hardware", {}).get("rows", [])
-                 if r["block"] == "ik" and r["arch"] == "pipelined"), None)
+                 if r["block"] == Block.IK and r["arch"] == CoreArch.PIPELINED), None)
     if core:
         rows.append(("pipelined IK core (committed record)",
                      f"{fmt(core['fmax_mhz'])} MHz on {esc(core['device'])}, latency {core['latency_cycles']} "

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ik5r.core.arm import Arm, load_arm
 from ik5r.core.fxconfig import load_config
+from ik5r.core.modes import Block, CoreArch
 
 from . import hardware, provenance
 from .html import Section, image, jsonable, para, render_page, table
@@ -23,7 +24,7 @@ from .sampling import compute
 def config_row(fig: dict, cfg) -> dict:
     ts, je = fig["task_space"], fig["joint_error"]
     records, _ = hardware.records_for(cfg)
-    core = next((r for r in records if r.get("block") == "ik" and r.get("arch") == "pipelined"), None)
+    core = next((r for r in records if r.get("block") == Block.IK and r.get("arch") == CoreArch.PIPELINED), None)
     return {
         "config": cfg.name, "config_hash": provenance.config_hash(cfg), "width": cfg.width,
         "internal_guard_bits": cfg.internal_guard_bits, "iterations": cfg.iterations,

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ik5r.core.fxconfig import FixedConfig, parse_config
-from ik5r.hdl.modes import Block
+from ik5r.core.modes import Arch, Block, Dsp
 
 from .html import Section, esc, para, table
 from .provenance import config_hash
@@ -52,14 +52,14 @@ def records_for(cfg: FixedConfig, directory: Path | None = None) -> tuple[list[d
         else:
             stale.append(path.name)
     order = {b: i for i, b in enumerate(BLOCK_ORDER)}
-    own.sort(key=lambda r: (order.get(r.get("block"), 99), r.get("arch") != "pipelined", r.get("device", "")))
+    own.sort(key=lambda r: (order.get(r.get("block"), 99), r.get("arch") != Arch.PIPELINED, r.get("device", "")))
     return own, stale
 
 
 def row_of(r: dict) -> dict:
     """The figures of one record the report shows (JSON and table)."""
     return {
-        "block": r.get("block"), "arch": r.get("arch"), "primitives": r.get("dsp", "generic"),
+        "block": r.get("block"), "arch": r.get("arch"), "primitives": r.get("dsp", Dsp.GENERIC),
         "device": f"{r.get('target')} {r.get('device')} ({r.get('package')}, speed {r.get('speed_grade')})",
         "latency_cycles": r.get("latency_cycles"), "cycles_per_pose": r.get("cycles_per_result"),
         "lut4_sites": r.get("luts"), "ffs": r.get("ffs"), "dsps": r.get("dsps"), "brams": r.get("brams"),

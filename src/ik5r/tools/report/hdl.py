@@ -17,12 +17,14 @@ from pathlib import Path
 
 from ik5r.core.arm import Arm, load_arm
 from ik5r.core.fxconfig import FixedConfig, load_config
+from ik5r.core.modes import Arch, Block
 
 from . import bitaccuracy
 from .build import build_report
 from .html import Section, esc, jsonable, para
 
-BLOCKS = ("atan2", "rotate", "sqrt", "acos")
+#: The arithmetic blocks (the IK core is written first, on its own).
+BLOCKS = tuple(b for b in Block if b != Block.IK)
 
 
 def write_verilog(cfg: FixedConfig, arm: Arm, out_dir: Path) -> list[dict]:
@@ -34,13 +36,13 @@ def write_verilog(cfg: FixedConfig, arm: Arm, out_dir: Path) -> list[dict]:
 
     out_dir.mkdir(parents=True, exist_ok=True)
     written = []
-    for block in ("ik", *BLOCKS):
-        design = Design.resolve(block, "pipelined", config=cfg, arm=arm, tag_width=DEFAULT_TAG_WIDTH)
+    for block in (Block.IK, *BLOCKS):
+        design = Design.resolve(block, Arch.PIPELINED, config=cfg, arm=arm, tag_width=DEFAULT_TAG_WIDTH)
         text, pmap = design.verilog()
         verilog, portmap = out_dir / f"{pmap['module']}.v", out_dir / f"{pmap['module']}.json"
         verilog.write_text(text)
         portmap.write_text(json.dumps(pmap, indent=2) + "\n")
-        written.append({"block": block, "arch": "pipelined", "module": pmap["module"], "design": design,
+        written.append({"block": block, "arch": Arch.PIPELINED, "module": pmap["module"], "design": design,
                         "verilog": verilog, "portmap": portmap,
                         "latency_cycles": pmap.get("latency_cycles"),
                         "cycles_per_result": pmap.get("cycles_per_result")})
@@ -56,10 +58,10 @@ def simulate(modules: list[dict], out_dir: Path, simulator: str, hdl_poses: int,
     results = []
     for m in modules:
         block = m["block"]
-        count, what = (hdl_poses, "random reachable poses") if block == "ik" else (block_vectors, "vectors")
+        count, what = (hdl_poses, "random reachable poses") if block == Block.IK else (block_vectors, "vectors")
         log(f"{block} under cocotb on {simulator}: {count:,} {what} + the edge set")
         result = run_block(m["design"], simulator, stream_vectors=min(count, 500), bulk_vectors=count, seed=1,
-                           progress=progress and block == "ik", verilog=m["verilog"], portmap=m["portmap"],
+                           progress=progress and block == Block.IK, verilog=m["verilog"], portmap=m["portmap"],
                            cflags="-O0")   # as the test suite builds them: ~4x faster to compile, one cache
         name = f"{block}_{result['arch']}_{simulator}.json"
         (out_dir / name).write_text(json.dumps(jsonable(result), indent=2) + "\n")

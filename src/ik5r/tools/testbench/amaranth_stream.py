@@ -9,6 +9,8 @@ import random
 
 from amaranth.sim import Simulator
 
+from ik5r.core.modes import Arch
+
 
 def run_stream(dut, inputs, **options):
     """Send ``inputs`` (dicts of field values) through ``dut``; returns
@@ -115,6 +117,6 @@ def check_output_held(dut, inputs, expected, result):
     assert accepted[:dut.capacity] == list(range(dut.capacity))
     assert accepted[dut.capacity] >= hold
     assert produced[0] == hold
-    if dut.arch == "pipelined":
+    if dut.arch == Arch.PIPELINED:
         assert accepted[dut.capacity:] == list(range(hold + 1, hold + 1 + len(inputs) - dut.capacity))
         assert produced == list(range(hold, hold + len(inputs)))

@@ -20,6 +20,7 @@ import numpy as np
 
 from ik5r.core import status as st
 from ik5r.core.fxconfig import Constants
+from ik5r.core.modes import Block
 from ik5r.core.pose_fields import SOLUTION_NAMES
 from ik5r.firmware_model import model as M
 from ik5r.firmware_model import vector as V
@@ -132,7 +133,7 @@ def _rotate_scalar(x, pm, k):
 
 
 def _rotate_random(rng, n, pm, k):
-    f = _field_of(pm, BLOCKS["rotate"], "angle")
+    f = _field_of(pm, BLOCKS[Block.ROTATE], "angle")
     lo, hi = max(f.lo, -k.pi_a - 4), min(f.hi, k.pi_a + 4)      # |angle| <= pi + a few LSB
     return {"x": _words(rng, n, k.word_min, k.word_max, k), "y": _words(rng, n, k.word_min, k.word_max, k),
             "angle": rng.integers(lo, hi, n, endpoint=True)}
@@ -160,7 +161,7 @@ def _rotate_err(x, got, pm, k):
 # ---- sqrt ------------------------------------------------------------------------------------
 
 def _sqrt_frac(pm, k):
-    bi, _ = BLOCKS["sqrt"].bind(pm)
+    bi, _ = BLOCKS[Block.SQRT].bind(pm)
     return _frac(pm, bi["x"], "i", k.cfg.frac_length)
 
 
@@ -173,12 +174,12 @@ def _sqrt_scalar(x, pm, k):
 
 
 def _sqrt_random(rng, n, pm, k):
-    f = _field_of(pm, BLOCKS["sqrt"], "x")
+    f = _field_of(pm, BLOCKS[Block.SQRT], "x")
     return {"x": _words(rng, n, 0, min(f.hi, k.word_max), k)}
 
 
 def _sqrt_edges(pm, k):
-    f = _field_of(pm, BLOCKS["sqrt"], "x")
+    f = _field_of(pm, BLOCKS[Block.SQRT], "x")
     hi = min(f.hi, k.word_max)
     fr = _sqrt_frac(pm, k)
     vals = [0, 1, 2, 3, 4, hi, hi - 1, hi // 2, 1 << fr, (1 << fr) - 1, (1 << fr) + 1, 4 << fr] + \
@@ -354,21 +355,21 @@ def _ik_err(x, got, pm, k):
 
 
 BLOCKS: dict[str, BlockSpec] = {
-    "atan2": BlockSpec("atan2", {"y": ("y", "y_in"), "x": ("x", "x_in")},
+    Block.ATAN2: BlockSpec(Block.ATAN2, {"y": ("y", "y_in"), "x": ("x", "x_in")},
                        {"angle": ("angle", "angle_a", "theta", "z"), "magnitude": ("magnitude", "mag", "r"),
                         "zero": ("zero", "is_zero")},
                        _atan2_vec, _atan2_scalar, _atan2_random, _atan2_edges, _atan2_err),
-    "rotate": BlockSpec("rotate", {"x": ("x", "x_in"), "y": ("y", "y_in"), "angle": ("angle", "angle_a", "z")},
+    Block.ROTATE: BlockSpec(Block.ROTATE, {"x": ("x", "x_in"), "y": ("y", "y_in"), "angle": ("angle", "angle_a", "z")},
                         {"x": ("x", "x_out"), "y": ("y", "y_out"), "saturated": ("saturated", "sat", "flags")},
                         _rotate_vec, _rotate_scalar, _rotate_random, _rotate_edges, _rotate_err),
-    "sqrt": BlockSpec("sqrt", {"x": ("x", "radicand", "value")}, {"root": ("root", "y", "sqrt", "result")},
+    Block.SQRT: BlockSpec(Block.SQRT, {"x": ("x", "radicand", "value")}, {"root": ("root", "y", "sqrt", "result")},
                       _sqrt_vec, _sqrt_scalar, _sqrt_random, _sqrt_edges, _sqrt_err),
-    "acos": BlockSpec("acos", {"x": ("x", "x_u", "c")},
+    Block.ACOS: BlockSpec(Block.ACOS, {"x": ("x", "x_u", "c")},
                       {"angle": ("angle", "angle_a"), "sine": ("sine", "sine_u", "sin", "s"),
                        "saturated": ("saturated", "sat", "flags")},
                       _acos_vec, _acos_scalar, _acos_random, _acos_edges, _acos_err),
     # The IK core: fields are the roles (ik5r.firmware_model.FIELDS, IK_OUTPUTS).
-    "ik": BlockSpec("ik", {name: (name,) for name in FIELDS},
+    Block.IK: BlockSpec(Block.IK, {name: (name,) for name in FIELDS},
                     {name: (name,) for name in IK_OUTPUTS},
                     _ik_vec, _ik_scalar, _ik_random, _ik_edges, _ik_err),
 }

@@ -22,6 +22,7 @@ from importlib import resources
 from pathlib import Path
 
 from ik5r.core.cbuild import path_lock
+from ik5r.core.modes import Block, CoreArch, Dsp
 
 from ..design import Design
 
@@ -59,7 +60,7 @@ def default_simulator() -> str:
 
 
 def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int = DEFAULT_TAG_WIDTH,
-               dsp: str = "generic", serial: int | None = None, rotations_per_stage: int = 1) -> Design:
+               dsp: str = Dsp.GENERIC, serial: int | None = None, rotations_per_stage: int = 1) -> Design:
     """:meth:`Design.resolve` with the testbench's default tag field (8 bits: order and loss)."""
     return Design.resolve(block, arch, config=config, arm=arm, tag_width=tag_width, dsp=dsp, serial=serial,
                           rotations_per_stage=rotations_per_stage)
@@ -67,14 +68,14 @@ def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int =
 
 def build_dir_for(design: Design, sim: str) -> Path:
     o = design.options
-    variant = (("" if o.dsp == "generic" else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
+    variant = (("" if o.dsp == Dsp.GENERIC else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
                + ("" if o.rotations_per_stage == 1 else f"_rps{o.rotations_per_stage}")
                + ("_wide" if o.wide_product else ""))
     return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 
 #: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
-PRIMITIVE_MODELS = {"ecp5": [Path(str(resources.files("ik5r.hdl.sim") / f"{cell}.v"))
+PRIMITIVE_MODELS = {Dsp.ECP5: [Path(str(resources.files("ik5r.hdl.sim") / f"{cell}.v"))
                               for cell in ("MULT18X18D", "CCU2C")]}
 
 
@@ -252,7 +253,7 @@ def _serial_check(design: Design, bulk_vectors: int) -> None:
     serial = design.options.serial
     if serial is None:
         return
-    if (design.block, design.arch) != ("ik", "compact"):
+    if (design.block, design.arch) != (Block.IK, CoreArch.COMPACT):
         raise ValueError(f"serial: the word-serial wrapper is the compact IK core's (--block ik --arch compact), "
                          f"not {design.block} {design.arch}")
     if bulk_vectors:
