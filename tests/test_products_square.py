@@ -56,6 +56,7 @@ def test_square_detected_only_for_the_same_expression():
 
 
 @pytest.mark.filterwarnings("ignore::amaranth.hdl.UnusedElaboratable")
+@pytest.mark.slow        # converts the pipelined ECP5 q32w core (~15 CPU s) for this count alone
 def test_ik_core_dsps():
     """The pipelined q32w core's ECP5 variant: 12 fewer MULT18X18D than one per partial product
     (176 since the near-axis rule of issue 31 added 30; 146 before it)."""

@@ -58,8 +58,17 @@ def test_synth_q18_atan2_iterative_ecp5(tmp_path):
     again = json.loads(out.read_text())
     assert again["cached"] is True
     assert {k: again[k] for k in ("luts", "ffs", "fmax_mhz")} == {k: r[k] for k in ("luts", "ffs", "fmax_mhz")}
-    # The router is a flag of the run: router2 is a run of its own on the same netlist.
     assert r["router"] == "router1"
+
+
+@pytest.mark.slow
+def test_synth_router_is_a_flag_of_the_run(tmp_path):
+    """router2 is a run of its own on the same netlist (a second place and route: slow set)."""
+    out, cache = tmp_path / "atan2.json", tmp_path / "synth"
+    argv = ["synth", "--block", "atan2", "--arch", "iterative", "--config", "q18", "--target", "ecp5",
+            "--device", "25k", "--cache", str(cache), "--json", str(out), "-q"]
+    assert main(argv) == 0
+    r = json.loads(out.read_text())
     assert main(argv + ["--router", "router2"]) == 0
     routed2 = json.loads(out.read_text())
     assert routed2["router"] == "router2" and routed2["cached"] is False and routed2["key"] != r["key"]
