@@ -102,8 +102,8 @@ class SeqEngine(wiring.Component):
             total_bus = total_bus | term
         m.d.comb += bus.eq(total_bus)
         sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
-        cond = ((select(sources, ins.ca.as_value()) ^ ins.cai)
-                & (select(sources, ins.cb.as_value()) ^ ins.cbi))
+        cond = ((select(sources, Value.cast(ins.ca)) ^ ins.cai)
+                & (select(sources, Value.cast(ins.cb)) ^ ins.cbi))
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=ins, bus=bus)
         U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w)

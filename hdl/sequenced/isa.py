@@ -29,24 +29,24 @@ from amaranth.lib import data, enum
 from ..graph.inputs import BranchFlag
 
 
-class BusSource(enum.Enum):
+class BusSource(enum.Enum, shape=3):
     """B-bus sources (``bsel``): memory word, input word (<< guard), CORDIC x / y / z, root,
     remainder, the accumulator itself."""
     MEM, IN, CX, CY, CZ, ROOT, REM, ACC = range(8)
 
 
-class AluOp(enum.Enum):
+class AluOp(enum.Enum, shape=4):
     """Accumulator operations (``alu``)."""
     NOP, LD, ADD, SUB, NEG, CMPGT, CMPLT, SHR1, SHR4, SHR16, SATI, SATW, MLD, MACC, SETF = range(15)
 
 
-class CondSource(enum.Enum):
+class CondSource(enum.Enum, shape=3):
     """Condition sources (``ca``, ``cb``; ``cai``, ``cbi`` invert): always, F, shoulder_back,
     elbow_down, has_roll, CORDIC zero vector."""
     ONE, F, BACK, DOWN, ROLL, ZERO = range(6)
 
 
-class CordicOp(enum.Enum):
+class CordicOp(enum.Enum, shape=4):
     """CORDIC operations (``cop``): loads from the B bus (x, y; ``G``: shifted up by the CORDIC
     guard bits, x also clears z; z shifted up by the angle guard bits), the vectoring coarse
     rotation (by -+90 degrees if x < 0; latches the zero-vector flag), the rotation quadrant step
@@ -55,17 +55,17 @@ class CordicOp(enum.Enum):
     NOP, LDX, LDY, LDXG, LDYG, LDZA, COARSE, QROT, NORM8, NORM1, VEC, ROT = range(12)
 
 
-class MulLoad(enum.Enum):
+class MulLoad(enum.Enum, shape=2):
     """Multiplier operand loads (``mld``): none, MA, MB (from the B bus)."""
     NONE, A, B = range(3)
 
 
-class SqrtOp(enum.Enum):
+class SqrtOp(enum.Enum, shape=2):
     """Square root (``sq``): load the radicand from the accumulator, one digit step, two."""
     NOP, LOAD, STEP, STEP2 = range(4)
 
 
-class IoOp(enum.Enum):
+class IoOp(enum.Enum, shape=3):
     """Word ports (``io``): input word ``iw`` on the B bus, the flags word (ends the input),
     output word ``iw`` (the accumulator, before this instruction), the status word (ends the
     output)."""
