@@ -22,7 +22,7 @@ from amaranth.lib import wiring
 from ik5r.core.fxconfig import Constants
 
 from .datapath.ecp5 import ECP5_ADD_SUB_MODULE, ecp5_add_sub_verilog
-from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, Block, CoreArch, CoreBuild
+from .modes import ARCHS, BLOCKS, CORE_ARCHS, Arch, CoreArch
 from .provenance import arm_hash, verilog_header
 
 __all__ = ["BLOCKS", "ARCHS", "archs_of", "resolve_arch", "module_name", "build", "generate", "portmap"]
@@ -176,7 +176,7 @@ def generate(block: str, arch: str, constants: Constants, tag_width: int = 0, **
     ``options`` go to the block's constructor (``magnitude=False`` for atan2, ``frac=`` or
     ``radicand_bits=`` for sqrt) and into the module name when given.
     """
-    if arch not in archs_of(block) and not (block == Block.IK and arch == CoreBuild.STAGED):
+    if arch not in archs_of(block):
         raise ValueError(f"{block}: arch must be one of {archs_of(block)}, got {arch!r}")
     name = module_name(block, arch, **options)
     header_options = dict(options)

@@ -198,8 +198,8 @@ def test_traced_graph_checks_only_limited_sides():
 
     def limit_leaves(arm):
         k = Constants(load_config("q32w"), arm)
-        _, status, _ = trace(k)
-        return [leaf for leaf in status.flat() if leaf[1] == st.OUT_OF_LIMITS], core_fields(k)[1]["status"][0]
+        _, events, _ = trace(k)
+        return [leaf for leaf in events if leaf.bit == st.OUT_OF_LIMITS], core_fields(k)[1]["status"][0]
 
     leaves, shape = limit_leaves(load_arm("hu-5r"))
     assert leaves == [] and shape.width == 6

@@ -81,7 +81,7 @@ def test_a_baud_rate_the_clock_cannot_make_is_one_line_exit_2(capsys):
 def test_board_table_is_rendered_from_the_records(tmp_path):
     import json
 
-    from ik5r.tools.results import board_part
+    from ik5r.tools.results_board import board_part
 
     board = tmp_path / "board"
     board.mkdir()
@@ -94,7 +94,7 @@ def test_board_table_is_rendered_from_the_records(tmp_path):
     (board / "sim_link_q32w.json").write_text(json.dumps(
         {"poses": 5000, "config": "q32w", "differing_words": 0, "poses_per_s": 4800.0, "baud": 3_000_000,
          "line_poses_per_s": 4838.7}))
-    lines = board_part(tmp_path)
+    lines = board_part(tmp_path, [record])   # the records of this checkout's RTLIL (see test_results)
     assert "| icebreaker | serial | q32w | 12 | 3,000,000 | 17.2 | met | 4,524 | 22 | – | 104,090 | 4,839 | 16,238 |" in lines
     assert any("5,000 q32w poses, 0 differing words, 4,800 poses/s" in line and "99.2%" in line for line in lines)
 

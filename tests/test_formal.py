@@ -4,7 +4,7 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 
 * ``control`` (hold, conservation, reset, credits): k-induction (depth 2, every reachable state)
   on the real component with its data abstracted, for every block (atan2, rotate, sqrt, acos;
-  pipelined and iterative) and IK core build (pipelined, staged, compact); the pipelined IK
+  pipelined and iterative) and IK core (pipelined, compact); the pipelined IK
   core's (~40 CPU s: the occupancy by ghost prefix counters) too.
 * ``order`` (two marked items: none invented or duplicated, B not before A, A not lost):
   k-induction for the pipelined blocks (the marks tracked through the delay line, the FIFO's
@@ -12,8 +12,8 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
   the FIFO lemma, proved first for the block's FIFO: acos's, a 65-deep FIFO, ~25 CPU s), for the
   pipelined IK core (the same, its tag followed through its stash RAM by a ghost delay line that
   the stash lemma justifies: ``hdl/formal/stash.py``, and its FIFO by the FIFO lemma at depth
-  257; ~20 CPU s with both lemmas), for the iterative blocks and the staged core (their one
-  item's stage, step and tag register: ``hdl/formal/iterative.py``) and for the compact core
+  257; ~20 CPU s with both lemmas), for the iterative blocks (their one item's stage, step and
+  tag register: ``hdl/formal/iterative.py``) and for the compact core
   (the sequenced engine, against a ghost queue of the tags inside: ``hdl/formal/sequenced.py``).
 * the stash lemma (the real stash RAM code, at the pipelined core's distance and width, is a
   delay line), by k-induction in seconds (default run); the FIFO lemma (the real output FIFO
@@ -23,9 +23,9 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 
 The self-test: each injected fault (a broken hold, a lost item, a changed held payload) must make
 the control proof fail with a counterexample from reset on the assertion it breaks (BMC); a
-broken hold must break the order induction of a pipelined block, of an iterative block, of the
-staged core and of the pipelined IK core (a flipped output tag too: the iterative block and both
-IK cores: the pipelined one's in the slow set), and the control induction of the compact core
+broken hold must break the order induction of a pipelined block, of an iterative block and of
+the pipelined IK core (a flipped output tag too: the iterative block and the pipelined IK core,
+in the slow set), and the control induction of the compact core
 (slow set); a stash lemma
 claiming a distance one off must fail; the FIFO lemma on the core's FIFO must fail (by induction
 and by BMC from reset) without each of its assumptions or with its read assumption at the wrong
@@ -139,7 +139,7 @@ def test_injected_fault_fails_the_proof(proofs, mutation, block, arch):
 #: The sequenced compact core's self-test: by k-induction (a counterexample from reset needs an
 #: item through the whole program, see run.INDUCTION_ONLY). The faulty core's proof must not go
 #: through: the induction step fails on the assertion the fault breaks. Slow set (about a CPU
-#: minute; the default run's broken-hold self-tests are the blocks' and the other cores').
+#: minute; the default run's broken-hold self-tests are the blocks' and the pipelined core's).
 SEQUENCED_MUTANTS = [pytest.param("ready_glitch", "ik", "compact", id="ready_glitch-ik-compact",
                                   marks=pytest.mark.slow)]
 
@@ -156,7 +156,7 @@ def test_injected_fault_breaks_the_induction(proofs, mutation, block, arch):
 #: its FIFO while the output is held, so the items counted inside and the marks' places no
 #: longer agree (the induction step, or a counterexample from reset, fails).
 #: A tag fault (``tag_flip``: the output tag's LSB inverted on its way out, the component
-#: intact) must break the order induction of the IK cores and of an iterative block (their
+#: intact) must break the order induction of the pipelined IK core and of an iterative block (their
 #: tracking: not vacuous); the pipelined IK core's (about a CPU minute) in the slow set, its broken
 #: hold in the default run.
 ORDER_MUTANTS = [pytest.param("order", mutation, block, arch, id=f"order-{mutation}-{block}-{arch}",
@@ -165,9 +165,7 @@ ORDER_MUTANTS = [pytest.param("order", mutation, block, arch, id=f"order-{mutati
                  for mutation, block, arch in (("ready_glitch", "sqrt", "pipelined"),
                                                ("ready_glitch", "sqrt", "iterative"),
                                                ("tag_flip", "sqrt", "iterative"),
-                                               ("ready_glitch", "ik", "staged"),
                                                ("ready_glitch", "ik", "pipelined"),
-                                               ("tag_flip", "ik", "staged"),
                                                ("tag_flip", "ik", "pipelined"))]
 ORDER_BROKEN = BROKEN["ready_glitch"] | {"fifo_refill", "mark_output", "mark_ram", "mark_a_once",
                                          "mark_b_once", "order", "a_not_lost", "mark_waiting",
@@ -194,7 +192,7 @@ def stash_links():
     # Elaborated only to read its stash links: not a design to use.
     for elaboratable in (dut, module, *(sub for sub, _ in module._named_submodules.values())):
         elaboratable._MustUse__silence = True
-    return stash_lemma_links(dut)
+    return stash_lemma_links(dut, module)
 
 
 def test_stash_lemma_proved(stash_links):

@@ -6,16 +6,13 @@ with vertical and horizontal approach, straight and folded elbow, unreachable, o
 degenerate approaches, full-scale and most negative words), for both architectures on q18 and
 q32. The pipelined core runs at full rate (exact latency, one pose per clock), then with random
 input gaps and output back-pressure (order, no loss, output held stable), then with the output held
-until it is full (exactly its capacity taken, nothing lost, full rate again once released); the
-staged elaboration (``IKCore(arch="staged")``, ``generate`` arch ``staged``; slow set) with
-back-pressure too. The ``compact`` arch of ``generate`` (the sequenced engine) is tested in
-tests/test_seq_core.py.
+until it is full (exactly its capacity taken, nothing lost, full rate again once released). The
+``compact`` arch of ``generate`` (the sequenced engine) is tested in tests/test_seq_core.py.
 """
 
 from __future__ import annotations
 
 import gc
-import re
 
 import pytest
 
@@ -32,7 +29,6 @@ from ik5r.tools.testbench.amaranth_stream import (
     run_stream,
 )
 from ik5r.tools.testbench.blocks import IK_OUTPUTS, ik_outputs
-from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, generate_cached
 
 CONFIGS = ("q18", "q32")
 #: q32w: q32's words on a 38-bit internal format (``ik.internal_guard_bits`` = 6).
@@ -99,40 +95,6 @@ def test_pipelined(cfg):
     check_output_held(dut, held_items, held_expected, held)
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("cfg", CONFIGS)
-def test_staged(cfg):
-    """IKCore's one-register-set-per-stage elaboration (``generate`` arch ``staged``; the
-    ``compact`` arch is the sequenced engine, tests/test_seq_core.py)."""
-    k = _k(cfg)
-    # One pose per `latency` cycles (~1000 cycles/s in Amaranth's simulator): the directed set and
-    # fewer random poses (the pipelined test runs 200 through the same expressions).
-    poses = poses_for(k, 60, seed=2)
-    items = inputs_of(poses, TAG_WIDTH)
-    expected = with_tags(items, expected_of(k, poses))
-    dut = IKCore(constants=k, arch="staged", tag_width=TAG_WIDTH)
-    assert dut.cycles_per_result == dut.latency
-    outputs, accepted, produced = run_stream(dut, items)
-    compare(items, expected, outputs)
-    assert [b - a for a, b in zip(accepted, produced)] == [dut.latency] * len(items)
-    assert all(b - a == dut.latency for a, b in zip(accepted, accepted[1:]))
-    outputs, _, _ = run_stream(dut, items[:12], stall_seed=6)
-    compare(items[:12], expected[:12], outputs)
-
-
-@pytest.mark.slow
-def test_staged_internal_format():
-    """The staged core on q32w's internal format: every eighth directed pose and a few random
-    ones (the pipelined test runs them all through the same expressions)."""
-    k = _k("q32w")
-    poses = concat(directed_poses(k)[::8], random_poses(k, 1, seed=4))
-    items = inputs_of(poses, TAG_WIDTH)
-    expected = with_tags(items, expected_of(k, poses))
-    dut = IKCore(constants=k, arch="staged", tag_width=TAG_WIDTH)
-    outputs, _, _ = run_stream(dut, items, stall_seed=7)
-    compare(items, expected, outputs)
-
-
 @pytest.mark.filterwarnings("ignore:.*created but never used")
 def test_no_tag_and_latency():
     k = _k("q18")
@@ -160,28 +122,9 @@ def test_constructor_validation():
         IKCore(constants=k, arch="pipelined", tag_width=-1)
     with pytest.raises(ValueError):
         IKCore(constants=k, arch="pipelined", dsp="xilinx")
-    with pytest.raises(ValueError):         # the DSP mapping is a pipelined option
-        IKCore(constants=k, arch="staged", dsp="ecp5")
+    for arch in ("compact", "iterative", "staged"):    # the compact core is the sequenced engine
+        with pytest.raises(ValueError, match="SequencedIKCore"):
+            IKCore(constants=k, arch=arch)
     gc.collect()   # the half-built components warn here (filtered), not in a later test
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("cfg", CONFIGS)
-def test_staged_shares_its_units(cfg):
-    """The staged core's structure: every CORDIC step on one shared unit (one step counter and
-    one register set for all eight), the two square roots digit-serial, each multiplier stepped
-    over its partial products; the pipelined core unrolls them all."""
-    k = _k(cfg)
-    # Through the Verilog cache: the lint test and the testbenches convert the same designs.
-    compact, _ = generate_cached("ik", "staged", k, 0)
-    steps = set(re.findall(r"^\s*reg [^;]*?(\w+_step)\b", compact, re.M))
-    assert [s for s in steps if "cordic" in s or "_it" in s] == ["unit_cordic_step"]
-    assert len([s for s in steps if s.endswith("_digit_step")]) == 2
-    # One stepped multiplier per product unit of the traced IK: 12 exact sums of products (rho's
-    # radicand, the three dot products, the seven orientation checks, the elbow's sum of squares),
-    # the arc cosine's radicand, and the three constant multiplies (c3, a3 s3, a3 c3).
-    assert len([s for s in steps if s.endswith("_acc_step")]) == 16
-    assert steps == {s for s in steps if s.endswith(("_acc_step", "_digit_step", "unit_cordic_step"))}
-    assert len(re.findall(r"^\s*reg [^;]* unit_cordic_cx\b", compact, re.M)) == 1
-    pipelined, _ = generate_cached("ik", "pipelined", k, DEFAULT_TAG_WIDTH)
-    assert "unit_cordic" not in pipelined and not re.search(r"\w+_step\b", pipelined)

@@ -55,9 +55,9 @@ def test_ik_core_header_names_the_internal_format():
 
     # The header of the core as generate() writes it, without converting the core (~30 s).
     k = constants(load_config("q32w"))
-    core = IKCore(constants=k, arch="staged")
+    core = IKCore(constants=k, arch="pipelined")
     core._MustUse__silence = True      # read for its ports and figures only, never elaborated
-    text = verilog_header(portmap(core, "ik", "compact", k), k)
+    text = verilog_header(portmap(core, "ik", "pipelined", k), k)
     i = k.cfg.internal()
     assert (f"internal format (IK): {i.width}-bit words; fraction bits: length {i.frac_length}, "
             f"unit {i.frac_unit}, angle {i.frac_angle}; CORDIC {i.iterations} iterations") in text

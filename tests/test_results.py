@@ -8,7 +8,7 @@ import os
 
 from ik5r.core.fxconfig import constants, load_config
 from ik5r.hdl.generate import generate
-from ik5r.tools import results
+from ik5r.tools import results, results_board
 
 
 def _synth_result(block="sqrt", arch="iterative", config="q18", luts=123, fmax=111.5, seed=1):
@@ -100,3 +100,42 @@ def test_the_routes_verdict_names_a_record_of_other_verilog(tmp_path):
     assert "(record of other Verilog) on the ecp5-85k" in pipelined
     assert pipelined.endswith("that record beats the soft CPU per LUT.")
     assert "| pipelined IK core (ECP5 DSP + carry primitives) (record of other Verilog) |" in text
+
+
+def test_an_older_firmware_run_never_replaces_a_newer_record(tmp_path):
+    """A build/firmware JSON older than the committed record (another worktree's run, say) is not
+    copied over it; a newer one is."""
+    build, records = tmp_path / "build", tmp_path / "records"
+    (build / "firmware").mkdir(parents=True)
+    (records / "firmware").mkdir(parents=True)
+    run, record = build / "firmware" / "cpu.json", records / "firmware" / "cpu.json"
+    run.write_text(json.dumps({"cycles": 1, "measured_at": 1_000.0}))
+    record.write_text(json.dumps({"cycles": 2, "measured_at": 2_000.0}))
+    results.collect(build, tmp_path / "none", records, tmp_path / "docs", results.VerilogOfCheckout())
+    assert json.loads(record.read_text())["cycles"] == 2
+    run.write_text(json.dumps({"cycles": 3, "measured_at": 3_000.0}))
+    assert str(record) in results.collect(build, tmp_path / "none", records, tmp_path / "docs",
+                                          results.VerilogOfCheckout())
+    assert json.loads(record.read_text())["cycles"] == 3
+
+
+def test_a_board_record_of_other_rtlil_is_left_out(tmp_path):
+    """A board record counts only if the RTLIL its bitstream was built from is what this checkout
+    hands Yosys for the same board, config, arm, baud and core."""
+    from ik5r.tools.board import BOARDS
+
+    boards = results_board.BoardOfCheckout()
+    r = {"board": "icebreaker", "core": "serial", "config": "q18", "arm": None, "baud": 3_000_000,
+         "clock_mhz": 12.0, "fmax_mhz": 20.0, "timing_met": True, "resources": {"ICESTORM_LC": {"used": 5}},
+         "bitstream_bytes": 1, "line_poses_per_s": 4_838.7, "core_poses_per_s": 1.0}
+    sha = boards.sha256(r)
+    assert len(sha) == 64 and BOARDS["icebreaker"]["core"] == "serial"
+    (tmp_path / "board").mkdir()
+    (tmp_path / "board" / "icebreaker_serial_q18.json").write_text(json.dumps(dict(r, rtlil_sha256=sha)))
+    (tmp_path / "board" / "icebreaker_serial_q32w.json").write_text(
+        json.dumps(dict(r, config="q32w", rtlil_sha256=sha)))       # q18's RTLIL: not q32w's
+    (tmp_path / "board" / "ulx3s-85f_pipelined_q18.json").write_text(json.dumps(dict(r, board="ulx3s-85f")))
+    builds, stale = results_board.board_builds(tmp_path, boards)
+    assert [b["config"] for b in builds] == ["q18"]
+    assert stale == ["board/icebreaker_serial_q32w.json", "board/ulx3s-85f_pipelined_q18.json"]
+    assert "| icebreaker | serial | q18 | 12 | 3,000,000 |" in "\n".join(results_board.board_part(tmp_path, builds))

@@ -90,11 +90,10 @@ def test_directed_status_classes_agree(name):
             "invalid"} <= seen
 
 
-@pytest.mark.parametrize("arch", ["pipelined", "compact", pytest.param("staged", marks=pytest.mark.slow)])
+@pytest.mark.parametrize("arch", ["pipelined", "compact"])
 def test_directed_status_hdl_core(arch):
     """The HDL core (Amaranth simulation, q18, ``hdl.generate``'s archs: pipelined, compact = the
-    sequenced engine, staged) on the cases' words: the model's bits, so the float's class. (The
-    staged core takes one pose per latency: in the slow set.)"""
+    sequenced engine) on the cases' words: the model's bits, so the float's class."""
     from ik5r.hdl.generate import build
     from ik5r.tools.testbench.amaranth_stream import run_stream
 

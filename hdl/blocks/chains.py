@@ -123,7 +123,7 @@ def _guarded(fn, count):
 
 def append_chains(dp: Datapath, name: str, *chains: Datapath) -> None:
     """Append ``chains`` to ``dp``: side by side (see the module docstring), or one after the
-    other in a datapath that shares its functional units (the compact core: the chains' CORDIC
+    other in a datapath that shares its functional units (``share_units``: the chains' CORDIC
     steps then run on one unit)."""
     if not dp.share_units:
         _append_parallel(dp, name, *chains)

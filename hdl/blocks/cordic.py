@@ -210,8 +210,8 @@ class Rotate(StreamBlock):
         ``adders``: the add/subtract mapping (generic when None). ``skewed`` (pipelined): the
         micro-rotations as
         :func:`skewed_rotation` (one stage more, a shorter critical path), else on
-        ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in
-        :class:`~ik5r.hdl.pipelined.core.IKCore` compact). ``steps_per_stage``: micro-rotations
+        ``cordic_unit(k, rotate=True)`` (one step per clock; shareable with vectoring in a
+        ``share_units`` datapath). ``steps_per_stage``: micro-rotations
         per pipeline stage (None: the context's, :func:`~ik5r.hdl.datapath.stages.steps_per_stage`).
 
         Bounds (W = width, g = guard_bits): after the quadrant step |x|, |y| <= 2**(W-1);

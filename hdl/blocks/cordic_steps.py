@@ -1,5 +1,5 @@
 """The steps the CORDIC blocks of :mod:`ik5r.hdl.blocks.cordic` are made of: the micro-rotation
-(as a functional unit the compact core shares, and skewed for the pipelined rotation), the
+(as a functional unit a ``share_units`` datapath shares, and skewed for the pipelined rotation), the
 register widths and bounds, and the vectoring datapath's coarse rotation, normalisation and
 magnitude stages. :mod:`ik5r.hdl.blocks.cordic` composes them into :class:`Atan2` and
 :class:`Rotate` and their chains.
@@ -36,7 +36,7 @@ def rotate_z_bound(k: Constants) -> int:
 
 
 def cordic_unit(k: Constants, *, rotate: bool, adders=None) -> SharedStage:
-    """The circular CORDIC micro-rotation as a functional unit, shared in the compact IK core.
+    """The circular CORDIC micro-rotation as a functional unit (shared in a ``share_units`` datapath).
 
     Keys ``cx``, ``cy``, ``cz`` and ``rotate``: vectoring (``rotate`` 0: turn towards y = 0, by
     the sign of y; :func:`~ik5r.hdl.blocks.cordic.add_atan2`) or rotation (``rotate`` 1: drive z to 0, by the sign of z;

@@ -11,6 +11,7 @@ from amaranth.lib.fifo import SyncFIFOBuffered
 from ..modes import ARCHS, DSPS, Arch, Dsp
 from .stages import SharedStage, Stage
 from .products import DspBudget, Product
+from .stash import Stashes, build_stash
 
 __all__ = ["build", "build_pipelined", "build_iterative"]
 
@@ -28,6 +29,8 @@ def build(dp, m, arch: str, inputs: dict, payload_of, i, o, dsp: str = Dsp.GENER
                          f"adders for {dp.adders.dsp!r} (Datapath(adders=adders_for(dsp)))")
     if arch != Arch.PIPELINED and any(getattr(Stage.of(stage).fn, "grouped", False) for stage in dp.stages):
         raise ValueError(f"datapath {dp.name!r}: micro-steps grouped per stage need the pipelined arch")
+    if arch != Arch.PIPELINED and dp.stash_spans():
+        raise ValueError(f"datapath {dp.name!r}: a stash is a delay line of the pipelined arch")
     if arch == Arch.PIPELINED:
         build_pipelined(dp, m, inputs, payload_of, i, o, dsp, DspBudget(max_dsp))
     elif arch == Arch.ITERATIVE:
@@ -96,12 +99,16 @@ def build_pipelined(dp, m, inputs, payload_of, i, o, dsp, budget: DspBudget):
     state, valid = dict(inputs), taken_in
     # What each register of the previous stage is loaded with (for the ECP5 DSP mapping).
     loaded = {}
+    # The values an unstash brings back: the outputs of the delay lines made at the end.
+    stashes, latency = Stashes(lambda key, value: Signal(value.shape(), name=f"stash_{key}")), 0
     for stage in map(Stage.of, dp.stages):
         if stage.count == 0:
-            state = stage.fn(state)
+            state = stage.wire(state, stashes, latency)
             continue
         for step in range(stage.count):
             state, valid, loaded = _pipeline_step(dp, m, stage, step, state, valid, loaded, dsp, budget)
+        latency += stage.count
+    stashes.check_empty()
 
     payload = Signal(o.payload.shape(), name=f"{dp.name}_result")
     for field, value in payload_of(state).items():
@@ -119,6 +126,7 @@ def build_pipelined(dp, m, inputs, payload_of, i, o, dsp, budget: DspBudget):
         o.payload.eq(fifo.r_data),
         fifo.r_en.eq(o.ready),
     ]
+    build_stash(m, stashes.links)
 
 
 # --- iterative ----------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""The staged datapath of the ik5r arithmetic blocks: typed stages over named values.
+"""The datapath of the ik5r arithmetic blocks: a list of typed stages over named values.
 
 Every block (:class:`~ik5r.hdl.blocks.cordic.Atan2`, :class:`~ik5r.hdl.blocks.cordic.Rotate`,
 :class:`~ik5r.hdl.blocks.sqrt.Sqrt`, :class:`~ik5r.hdl.blocks.acos.Acos`, the IK core) describes its arithmetic
@@ -32,7 +32,9 @@ Three options make a datapath smaller or faster without changing a bit of its re
   into an accumulator, instead of one DSP per partial product and an adder tree.
 * ``Datapath(share_units=True)``: in the iterative architecture, every stage of one functional
   unit (:meth:`Datapath.add_shared_iter`, e.g. the CORDIC micro-rotation) runs on one set of
-  registers and one copy of the logic (the compact IK core: eight CORDICs, one unit).
+  registers and one copy of the logic (eight CORDICs, one unit). No shipped core uses this
+  or ``products="sequential"`` since the staged IK core went (the small IK core, ``compact``, is
+  the sequenced engine of ``hdl.sequenced``, which has no datapath of stages).
 * ``Datapath(adders=adders_for("ecp5"))`` built with ``dsp="ecp5"`` (pipelined): each partial
   product is an ECP5 ``MULT18X18D`` whose input and output registers are the two pipeline
   registers around it, and each ``dp.adders.add_sub`` (the CORDIC micro-rotations) is a
@@ -58,7 +60,9 @@ from typing import Callable
 from amaranth.hdl import Shape, Signal
 
 from .adders import Ecp5Adders, GenericAdders, adders_for   # noqa: F401 (cordic.py imports them here)
+from .expr import drop
 from ..modes import PRODUCTS, Arch, Products
+from .stash import Stashed, Stashes
 from .tracing import MissingValue, Traced, retraced, trace_stages
 
 __all__ = ["StageKind", "Stage", "SharedStage", "GenericAdders", "Ecp5Adders", "adders_for",
@@ -73,24 +77,32 @@ OUTPUT_FIFO_LATENCY = 3
 
 class StageKind(enum.Enum):
     """What a stage is: registered (``fn(state)``, one register set), iterated (``fn(state, i)``,
-    ``count`` repetitions), or wiring (``fn(state)``, no register, zero latency)."""
+    ``count`` repetitions), wiring (``fn(state)``, no register, zero latency), or the two ends
+    of a stash (:mod:`.stash`, zero latency): ``stash`` takes its keys out of the state
+    (``fn(state)``), ``unstash`` brings them back (``fn(state, values)``)."""
     REGISTERED = "registered"
     ITERATED = "iterated"
     WIRING = "wiring"
+    STASH = "stash"
+    UNSTASH = "unstash"
 
 
 @dataclass(frozen=True)
 class Stage:
     """One stage of a :class:`Datapath`. ``count``: its register stages (1 registered, n
-    iterated, 0 wiring); ``shared``: the functional unit of a shared iterated stage."""
+    iterated, 0 wiring); ``shared``: the functional unit of a shared iterated stage; ``stash``
+    and ``keys``: the handle and the keys of a stash or unstash stage."""
     name: str
     kind: StageKind
     fn: Callable
     count: int = 1
     shared: SharedStage | None = None
+    stash: Stashed | None = None
+    keys: tuple = ()
 
     def __post_init__(self):
-        expected = {StageKind.REGISTERED: 1, StageKind.WIRING: 0}.get(self.kind)
+        expected = {StageKind.REGISTERED: 1, StageKind.WIRING: 0, StageKind.STASH: 0,
+                    StageKind.UNSTASH: 0}.get(self.kind)
         if expected is not None and self.count != expected:
             raise ValueError(f"stage {self.name!r}: a {self.kind.value} stage has count {expected}")
         if self.kind is StageKind.ITERATED and self.count < 1:
@@ -99,6 +111,16 @@ class Stage:
     @property
     def iterated(self) -> bool:
         return self.kind is StageKind.ITERATED
+
+    def wire(self, state, stashes: Stashes, latency: int):
+        """The state after this zero-latency stage, ``latency`` register stages into the
+        datapath: a wiring stage's function, or a stash's end moving its keys into or out of
+        ``stashes`` (the walk's own)."""
+        if self.kind is StageKind.STASH:
+            stashes.put(self.stash, state, latency)
+        elif self.kind is StageKind.UNSTASH:
+            return self.fn(state, stashes.get(self.stash, self.keys, latency))
+        return self.fn(state)
 
     def with_fn(self, fn, *, name: str | None = None, shared=None) -> "Stage":
         """The same kind and count with another function (and name, unit)."""
@@ -197,6 +219,8 @@ class Datapath:
     ``add_iter(name, fn, count)``: ``count`` repetitions of ``fn(state, i) -> state`` with ``i`` an
     int (pipelined, unrolled) or an unsigned Value (iterative, one step per clock).
     ``add_wiring(fn)``: a renaming with no register (zero latency; ``fn`` must be wiring only).
+    ``stash(*keys)`` / ``unstash(handle)``: keys set aside for many stages, not carried through
+    every register set (:mod:`.stash`).
 
     A stage's functions must be pure: they build expressions and never add statements. Values
     named by :meth:`declare` are stored in their declared shape (the blocks prove the values fit),
@@ -261,6 +285,32 @@ class Datapath:
 
     def add_wiring(self, fn):
         self.append(Stage("wiring", StageKind.WIRING, fn, 0))
+
+    def stash(self, *keys) -> Stashed:
+        """A stage taking ``keys`` out of the state until an :meth:`unstash` of the returned
+        handle brings them back, as many register stages later as lie between (:mod:`.stash`)."""
+        handle = Stashed(keys)
+        self.append(Stage("stash", StageKind.STASH, lambda s: drop(s, *handle.keys), 0,
+                          stash=handle, keys=handle.keys))
+        return handle
+
+    def unstash(self, handle: Stashed, *keys):
+        """A stage bringing ``keys`` (all that are left, if none given) of ``handle`` back."""
+        keys = handle.claim(keys)
+        self.append(Stage("unstash", StageKind.UNSTASH, lambda s, values: {**s, **values}, 0,
+                          stash=handle, keys=keys))
+
+    def stash_spans(self) -> list:
+        """``(origin, where, keys)`` of each unstash, in stage order: the keys carried from
+        register stage ``origin`` to ``where``."""
+        spans, origin, latency = [], {}, 0
+        for stage in map(Stage.of, self.stages):
+            if stage.kind is StageKind.STASH:
+                origin[stage.stash] = latency
+            elif stage.kind is StageKind.UNSTASH:
+                spans.append((origin[stage.stash], latency, stage.keys))
+            latency += stage.count
+        return spans
 
     def mark(self, name: str):
         """Name the split point after the stages added so far (see :meth:`part`)."""

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from amaranth.hdl import Signal, Value
 
+from .stash import Stashes
+
 
 class MissingValue(LookupError):
     """A stage read a key the state does not hold."""
@@ -96,13 +98,14 @@ class TraceState:
 def trace_stages(name: str, stages, values: dict) -> TraceState:
     """Run ``stages`` (:class:`~ik5r.hdl.datapath.stages.Stage` s) once on ``values``, recording
     who produced and who read each value; raises ValueError naming the key and the stage."""
-    state = TraceState(name, values)
+    state, stashes, latency = TraceState(name, values), Stashes(), 0
     for stage in stages:
         for step in range(max(stage.count, 1) if stage.iterated else 1):
             reads = set()
             traced = Traced(state.values, reads)
             try:
-                out = stage.fn(traced, step) if stage.iterated else stage.fn(traced)
+                out = (stage.fn(traced, step) if stage.iterated else
+                       stage.wire(traced, stashes, latency) if stage.count == 0 else stage.fn(traced))
             except MissingValue as error:
                 raise ValueError(f"{name}: stage {stage.name!r} reads {error.key!r}, which no "
                                  f"earlier stage produces") from None
@@ -113,4 +116,6 @@ def trace_stages(name: str, stages, values: dict) -> TraceState:
                 # the last step's values of the keys it reads count as read (e.g. the y of a
                 # vectoring CORDIC, driven to 0 and not used after).
                 state.read(reads & set(out))
+        latency += stage.count
+    stashes.check_empty()
     return state

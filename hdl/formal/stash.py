@@ -1,7 +1,7 @@
 """The stash RAM that carries the IK core's tag is a delay line: the lemma, and its use.
 
 The pipelined IK core's tag leaves the state after stage ``origin - 1`` (``select``) and comes
-back ``distance`` stages later through a :class:`~ik5r.hdl.datapath.stash.Stash` RAM ring buffer (q18:
+back ``distance`` stages later through a stash RAM ring buffer (:mod:`~ik5r.hdl.datapath.stash`; q18:
 from stage 0 to stage 185, 184 cycles, a 256-entry RAM), written every clock at a write
 pointer, read every clock ``distance - 2`` entries behind it, the read data registered twice.
 The order induction of :mod:`.pipelined` cannot see inside a RAM, and a shadow of all its
@@ -9,7 +9,7 @@ entries (as the output FIFO once had) relates nothing to the stages' valid bits.
 compositional:
 
 1. **The lemma** (:class:`StashLemma`, its own k-induction on the real
-   :meth:`~ik5r.hdl.datapath.stash.Stash.elaborate` code with the core's ``origin``, ``where`` and word
+   :func:`~ik5r.hdl.datapath.stash.build_stash` code with the core's ``origin``, ``where`` and word
    width): for every cycle ``t0``, if no reset occurs in the cycles ``t0 .. t0 + distance - 1``,
    the stash's output at ``t0 + distance`` is the word written at ``t0``. The word is a free
    input (any value every cycle), the RAM is the real one (mapped to flip-flops, nothing cut),
@@ -40,28 +40,24 @@ import os
 
 from amaranth.hdl import Assert, Assume, Elaboratable, Module, ResetSignal, Signal
 
-from ..modes import Arch
-from ..datapath.stash import REGISTER_DELAY_MAX, Stash
+from ..datapath.stash import REGISTER_DELAY_MAX, build_stash
 
 __all__ = ["StashLemma", "tag_links", "stash_tags"]
 
 
-def tag_links(dut) -> list:
-    """The stash links of ``dut`` (an elaborated pipelined IK core) that carry the tag:
-    (origin, where, lsb of the tag in the RAM word, width of the word)."""
-    stash = getattr(dut, "_stash", None)
-    if stash is None:
-        return []
+def tag_links(dut, inner, find) -> list:
+    """The stash spans of ``dut`` (a pipelined build, ``inner`` its elaborated module) that carry
+    the tag: (origin, where, lsb of the tag in the RAM word, width of the word). The keys of a
+    span share its word in the order they are taken back; their widths are those of the
+    signals the unstash drives (``stash_<key>``)."""
     groups = {}
-    for link in stash.links:
-        groups.setdefault((link[2], link[3]), []).append(link)
+    for origin, where, keys in dut._dp.stash_spans():
+        groups.setdefault((origin, where), []).extend(keys)
     found = []
-    for (origin, where), links in sorted(groups.items()):
-        lsb = 0
-        for key, value, _, _, _ in links:
-            if key == "tag":
-                found.append((origin, where, lsb, sum(len(v) for _, v, _, _, _ in links)))
-            lsb += len(value)
+    for (origin, where), keys in sorted(groups.items()):
+        if "tag" in keys:
+            widths = [len(find(inner, f"stash_{key}")) for key in keys]
+            found.append((origin, where, sum(widths[:keys.index("tag")]), sum(widths)))
     return found
 
 
@@ -91,11 +87,9 @@ class StashLemma(Elaboratable):
     def elaborate(self, platform):
         m = Module()
         origin, where = self.origin, self.where
-        stash = Stash()
         out = Signal(self.width, name="stash_out")
         # The real stash code on one link of the core's origin, where and word width.
-        stash.links = [("word", self.word, origin, where, out)]
-        stash.elaborate(m, Arch.PIPELINED)
+        build_stash(m, [("word", self.word, origin, where, out)])
         name = f"stash_{origin}_{where}"
         mem = m._named_submodules[name][0]
         wptr = rptr = None
@@ -137,7 +131,7 @@ def stash_tags(m, dut, inner, stages, find) -> list:
     a stash RAM) given the ghost delay line's registers as tags, and the ``Assume`` tying the
     stash's output to the line (module docstring). Returns the completed list."""
     stages = list(stages)
-    for origin, where, lsb, _ in tag_links(dut):
+    for origin, where, lsb, _ in tag_links(dut, inner, find):
         distance = where - origin
         source = stages[origin - 1][1]
         width = len(source)

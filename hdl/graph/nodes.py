@@ -1,19 +1,24 @@
-"""The IR of the traced IK (:mod:`.trace`): hash-consed nodes and the conditions and status
-events over them.
+"""The IR of the traced IK (:mod:`.trace`): hash-consed nodes and the conditions over them.
 
 A :class:`Node` is one operation (:class:`~.ops.Op`) on argument nodes (or integers) with
-parameters, and an interval bound of its value (``lo``, ``hi``); :class:`Graph` keeps the nodes of
-one trace, the same operation on the same operands being one node. :class:`Sop` is an exact sum
-of products, :class:`Cond` and its kinds the conditions a selection or a status bit reads,
-:class:`Status` the status leaves of the solve. Both cores read the graph through these classes.
+parameters, and an interval bound of its value (``lo``, ``hi``, by the operation's
+:class:`~.registry.OpSpec`); :class:`Graph` keeps the nodes of one trace, the same operation on
+the same operands being one node. :class:`Sop` is an exact sum of products, :class:`Cond` and its
+kinds the conditions a selection or a status bit reads (the status leaves: :mod:`.status`).
+Nodes, sums and conditions are frozen: a core keeps what it derives from them in maps of its
+own, keyed by the object. They compare by identity (hash-consing makes a node unique in its
+graph; a node's ``==`` records a condition, as the body's words do).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from ik5r.core.fxconfig import Constants
 
 from .inputs import BranchFlag
 from .ops import Op
+from .registry import SPECS
 
 
 def bits_of(lo: int, hi: int) -> int:
@@ -22,38 +27,69 @@ def bits_of(lo: int, hi: int) -> int:
 
 
 class Graph:
-    """The nodes of one trace, hash-consed."""
+    """The nodes of one trace, hash-consed (the graph grows while the body is traced; its nodes
+    do not change)."""
 
     def __init__(self, k: Constants):
         self.k, self.ki = k, k.internal
         self.guard = k.cfg.internal_guard_bits
-        self.nodes: list[Node] = []
+        self.nodes: list = []
         self._table: dict = {}
+        self._outputs: dict = {}
 
-    def node(self, op: str, args=(), params=(), lo=None, hi=None, cls=None):
-        key = (op, tuple(a if isinstance(a, int) else id(a) for a in args), params)
+    def node(self, op: Op, args=(), params=(), cls=None):
+        """The node of ``op`` on ``args`` (nodes or integers) with ``params``: the existing one
+        if there is one; its bound by the operation's :class:`~.registry.OpSpec`."""
+        spec = SPECS[op]
+        if len(args) != spec.arity or len(params) != len(spec.params):
+            raise TypeError(f"{op.name} takes {spec.arity} arguments and parameters {spec.params}")
+        # Keyed by the arguments' ids in the graph (a node's == records a condition; an integer
+        # argument is a 1-tuple, apart from every id).
+        key = (op, tuple((a,) if isinstance(a, int) else a.id for a in args), params)
         if key in self._table:
             return self._table[key]
-        n = (cls or Node)(self, op, tuple(args), params, lo, hi)
+        bound = spec.bound(self, args, params) if spec.bound else self.word_range(self.ki.cfg.width)
+        n = (cls or Node)(self, op, tuple(args), params, *bound, len(self.nodes))
         self._table[key] = n
         self.nodes.append(n)
+        if op in (Op.ROTX, Op.ROTY):
+            self._outputs.setdefault(args[0], {})["y" if op == Op.ROTY else "x"] = n
         return n
+
+    def sop(self, terms, const: int) -> "Sop":
+        """A new exact sum (not hash-consed: each is formed where the body forms it)."""
+        s = Sop(self, tuple(terms), int(const), -1 - len(self.nodes))
+        self.nodes.append(s)
+        return s
+
+    def outputs_of(self, rotation) -> dict:
+        """The x and y nodes the body took of ``rotation``: {"x": node, "y": node}, in the order
+        they were traced."""
+        return dict(self._outputs.get(rotation, {}))
 
     def word_range(self, bits: int):
         return -(1 << (bits - 1)), (1 << (bits - 1)) - 1
 
 
+@dataclass(frozen=True, eq=False, repr=False, slots=True)
 class Node:
     """A value of the traced IK (a word the engine can hold in its accumulator and memory)."""
+    g: Graph
+    op: Op
+    args: tuple
+    params: tuple
+    lo: int
+    hi: int
+    id: int
 
-    __hash__ = object.__hash__
+    @property
+    def exact(self) -> bool:
+        """The value is an exact product's (a clip of an exact sum, a sum or difference with
+        one): wider than a word, as the vocabulary's exact words hold it."""
+        return self.op in _EXACT_OPS and any(getattr(v, "exact", False) for v in self.args)
 
-    def __init__(self, g: Graph, op, args, params, lo, hi):
-        self.g, self.op, self.args, self.params = g, op, args, params
-        self.id = len(g.nodes)
-        self.lo, self.hi = (lo, hi) if lo is not None else g.word_range(g.ki.cfg.width)
-        self.events: list = []       # status events of this value (see seq_lower.attach_status)
-        self.stat = None             # (bit, gates) of a saturation's status
+    def bounds(self) -> tuple[int, int]:
+        return self.lo, self.hi
 
     @property
     def bits(self) -> int:
@@ -78,7 +114,7 @@ class Node:
         return sub(self.g, other, self)
 
     def __neg__(self):
-        return self.g.node(Op.NEG, (self,), lo=-self.hi, hi=-self.lo)
+        return self.g.node(Op.NEG, (self,))
 
     def __rshift__(self, n: int):
         if n != self.g.ki.check_shift:
@@ -107,7 +143,10 @@ class Node:
             value = value.args[0]
         return Not(compare(value, ">", 0))
 
+    __hash__ = object.__hash__
 
+
+@dataclass(frozen=True, eq=False, repr=False, slots=True)
 class Input(Node):
     """An input word (word format); ``<< guard`` is the internal word the engine reads in, and
     ``>> check_shift`` of the word format its check word."""
@@ -123,14 +162,19 @@ class Input(Node):
         return (self << self.g.guard) >> self.g.ki.check_shift
 
 
+@dataclass(frozen=True, eq=False, repr=False, slots=True)
 class Check(Node):
     """The check word of a value (its top bits: a multiplier operand only)."""
 
     def __mul__(self, other):
-        return Sop(self.g, [(self, other, False, 0)], 0)
+        return self.g.sop([(self, other, False, 0)], 0)
 
     def __lshift__(self, n: int):
-        return Sop(self.g, [(self, 1, False, n)], 0)
+        return self.g.sop([(self, 1, False, n)], 0)
+
+
+#: The operations whose value is exact when an argument's is.
+_EXACT_OPS = (Op.CLIP, Op.ADD, Op.SUB)
 
 
 def add(g, a, b):
@@ -138,8 +182,7 @@ def add(g, a, b):
         a, b = b, a
     if isinstance(b, int) and b == 0:
         return a
-    blo, bhi = (b, b) if isinstance(b, int) else (b.lo, b.hi)
-    return g.node(Op.ADD, (a, b), lo=a.lo + blo, hi=a.hi + bhi)
+    return g.node(Op.ADD, (a, b))
 
 
 def sub(g, a, b):
@@ -149,45 +192,51 @@ def sub(g, a, b):
     if (isinstance(a, int) and getattr(b, "op", None) == Op.SUB and isinstance(b.args[0], int)
             and b.args[0] == a):
         return b.args[1]
-    alo, ahi = (a, a) if isinstance(a, int) else (a.lo, a.hi)
-    blo, bhi = (b, b) if isinstance(b, int) else (b.lo, b.hi)
-    return g.node(Op.SUB, (a, b), lo=alo - bhi, hi=ahi - blo)
+    return g.node(Op.SUB, (a, b))
 
 
+@dataclass(frozen=True, eq=False, repr=False, slots=True)
 class Sop:
     """An exact sum of products (and a constant): the accumulator's wide values, which never go
     to memory. Terms: (a, b, negative, shift) for ±(a * b) << shift."""
+    g: Graph
+    terms: tuple
+    const: int
+    id: int
 
-    __hash__ = object.__hash__
+    #: An exact sum, wider than a word.
+    exact = True
 
-    def __init__(self, g, terms, const):
-        self.g, self.terms, self.const = g, list(terms), int(const)
-        self.events: list = []
-        self.id = -1 - len(g.nodes)
-        g.nodes.append(self)
+    def __repr__(self):
+        return f"<sop#{self.id}>"
 
     def _terms(self, other):
         if isinstance(other, Node):
             raise NotImplementedError("an exact sum plus a word (add to a constant only)")
-        return (other.terms, other.const) if isinstance(other, Sop) else ([], int(other))
+        return (other.terms, other.const) if isinstance(other, Sop) else ((), int(other))
 
     def __add__(self, other):
         terms, const = self._terms(other)
-        return Sop(self.g, self.terms + terms, self.const + const)
+        return self.g.sop(self.terms + terms, self.const + const)
 
     def __sub__(self, other):
         terms, const = self._terms(other)
-        return Sop(self.g, self.terms + [(a, b, not neg, s) for a, b, neg, s in terms],
-                   self.const - const)
+        return self.g.sop(self.terms + tuple((a, b, not neg, s) for a, b, neg, s in terms),
+                          self.const - const)
 
     def __neg__(self):
-        return Sop(self.g, [(a, b, not neg, s) for a, b, neg, s in self.terms], -self.const)
+        return self.g.sop([(a, b, not neg, s) for a, b, neg, s in self.terms], -self.const)
 
     def __gt__(self, c):
         return compare(self, ">", c)
 
     def __lt__(self, c):
         return compare(self, "<", c)
+
+    @property
+    def of_check_words(self) -> bool:
+        """A sum of products of check words (an orientation check): plain integers, narrow."""
+        return any(isinstance(v, Check) for a, b, _, _ in self.terms for v in (a, b))
 
     def bounds(self):
         lo = hi = self.const
@@ -201,98 +250,57 @@ class Sop:
 
 
 def _ends(v):
-    if isinstance(v, int):
-        return (v,)
     if isinstance(v, Check):
         inner = v.args[0]
         return inner.lo >> v.g.ki.check_shift, inner.hi >> v.g.ki.check_shift
-    return v.lo, v.hi
+    return (v,) if isinstance(v, int) else (v.lo, v.hi)
 
 
-# --- conditions and status ------------------------------------------------------------------------
+# --- conditions ----------------------------------------------------------------------------------
 
 
 class Cond:
     """A condition: a comparison of a value with a constant, a branch flag, a CORDIC zero vector."""
 
+    __slots__ = ()
+
     def __or__(self, other):
-        return AnyOf(self, other)
+        return AnyOf((self, other))
 
     def __bool__(self):
         raise TypeError("the traced IK branches on a symbolic condition (use fx.select)")
 
 
+@dataclass(frozen=True, eq=False, slots=True)
 class Compare(Cond):
-    def __init__(self, value, op: str, const: int):
-        self.value, self.op, self.const = value, op, int(const)
+    value: object
+    op: str
+    const: int
 
 
+@dataclass(frozen=True, eq=False, slots=True)
 class Not(Cond):
-    def __init__(self, cond):
-        self.cond = cond
+    cond: Cond
 
 
+@dataclass(frozen=True, eq=False, slots=True)
 class Flag(Cond):
     """A branch flag of the pose (:class:`~.inputs.BranchFlag`)."""
-
-    def __init__(self, flag: BranchFlag):
-        self.flag = flag
+    flag: BranchFlag
 
 
+@dataclass(frozen=True, eq=False, slots=True)
 class Zero(Cond):
     """The zero vector of an atan2 (the engine's CORDIC zero latch)."""
-
-    def __init__(self, atan2):
-        self.atan2 = atan2
+    atan2: Node
 
 
+@dataclass(frozen=True, eq=False, slots=True)
 class AnyOf(Cond):
-    def __init__(self, *conds):
-        self.conds = conds
+    conds: tuple
 
 
 def compare(value, op, const):
     if not isinstance(const, int):
         raise NotImplementedError("comparisons against constants only")
-    return Compare(value, op, const)
-
-
-class Status:
-    """Status bits: a set of (event, bit, gates) leaves, ORed (the engine's sticky status)."""
-
-    def __init__(self, leaves=()):
-        self.leaves = tuple(leaves)
-
-    def __or__(self, other):
-        if isinstance(other, int) and other == 0:
-            return self
-        return Status(self.leaves + other.leaves)
-
-    __ror__ = __or__
-
-    def gated(self, flag: Flag):
-        return Status((ev, bit, gates + ((flag.flag, 0),)) for ev, bit, gates in self.leaves)
-
-    def flat(self):
-        """The leaves with every :class:`AnyOf` spread into its conditions, depth first: (event,
-        bit, gates), the event a saturating :class:`Node`, a :class:`Compare`, :class:`Not` or
-        :class:`Zero`."""
-        def spread(event, bit, gates):
-            if isinstance(event, AnyOf):
-                for cond in event.conds:
-                    yield from spread(cond, bit, gates)
-            else:
-                yield event, bit, gates
-
-        for event, bit, gates in self.leaves:
-            yield from spread(event, bit, gates)
-
-
-def rotation_outputs(r) -> dict:
-    """The x and y nodes the body took of the rotation ``r``: {"x": node, "y": node}, in graph
-    order."""
-    return {node.op[-1]: node for node in r.g.nodes
-            if isinstance(node, Node) and node.op in (Op.ROTX, Op.ROTY) and node.args[0] is r}
-
-
-# --- the vocabulary -----------------------------------------------------------------------------
+    return Compare(value, op, int(const))

@@ -16,15 +16,16 @@ cannot clip. A branch of the body on a symbolic value raises (the body selects i
 
 from __future__ import annotations
 
-from math import isqrt
+from typing import NamedTuple
 
-from ik5r.core import fixedpoint, ik
+from ik5r.core import ik
 from ik5r.core.fxconfig import Constants
 from ik5r.core.status import SATURATED
 
 from .inputs import INPUT_WORDS, BranchFlag
-from .nodes import Flag, Graph, Input, Node, Sop, Status, Zero, add, compare, sub
+from .nodes import Flag, Graph, Input, Node, Sop, Zero, add, compare, sub
 from .ops import Op
+from .status import Status, StatusEvents
 
 
 class SymFx:
@@ -37,26 +38,24 @@ class SymFx:
         bits = k.cfg.width
         if isinstance(value, Sop):
             raise NotImplementedError("saturate an exact sum (round it first)")
-        lo, hi = self.g.word_range(bits)
-        n = self.g.node(Op.SAT, (value,), (bits,), max(lo, min(hi, value.lo)), min(hi, max(lo, value.hi)))
+        n = self.g.node(Op.SAT, (value,), (bits,))
         return n, Status(((n, SATURATED, ()),))
 
     def rshift_round(self, value, shift: int, nearest: bool):
         if shift <= 0:
             return value
-        half = (1 << (shift - 1)) if nearest else 0
-        lo, hi = (value.bounds() if isinstance(value, Sop) else (value.lo, value.hi))
-        return self.g.node(Op.RSR, (value,), (shift,), (lo + half) >> shift, (hi + half) >> shift)
+        _rounding(self.g, nearest)
+        return self.g.node(Op.RSR, (value,), (shift,))
 
     def mul_const(self, value, m, nearest: bool):
-        ends = [fixedpoint.mul_const(v, m, nearest) for v in (value.lo, value.hi)]
-        return self.g.node(Op.MULC, (value,), (m,), min(ends), max(ends))
+        _rounding(self.g, nearest)
+        return self.g.node(Op.MULC, (value,), (m,))
 
     def wrap_angle(self, value, k: Constants):
         pi = self.g.ki.pi_a
         if -pi <= value.lo and value.hi <= pi:
             return value          # provably within [-pi, pi]: nothing to wrap
-        return self.g.node(Op.WRAP, (value,), lo=-pi, hi=pi)
+        return self.g.node(Op.WRAP, (value,))
 
     def opposite(self, value, k: Constants):
         return self.g.node(Op.OPP, (value,))
@@ -66,9 +65,7 @@ class SymFx:
             if not (isinstance(if_false, int) and if_false == 0 and isinstance(cond, Flag)):
                 raise NotImplementedError("status selected against 0 by a branch flag only")
             return if_true.gated(cond)
-        lo = min(v if isinstance(v, int) else v.lo for v in (if_true, if_false))
-        hi = max(v if isinstance(v, int) else v.hi for v in (if_true, if_false))
-        return self.g.node(Op.SEL, (if_true, if_false), (cond,), lo, hi)
+        return self.g.node(Op.SEL, (if_true, if_false), (cond,))
 
     def flag(self, cond, bit: int):
         return Status(((cond, bit, ()),))
@@ -76,23 +73,23 @@ class SymFx:
     def clip(self, value, low: int, high: int):
         if low <= value.lo and value.hi <= high:
             return value          # provably within: nothing to clip
-        return self.g.node(Op.CLIP, (value,), (low, high), max(low, value.lo), min(high, value.hi))
+        return self.g.node(Op.CLIP, (value,), (low, high))
 
     def minimum(self, a, b):
         if isinstance(a, int):
             a, b = b, a
         if a.hi <= b:
             return a
-        return self.g.node(Op.CLIP, (a,), (None, b), min(a.lo, b), b)
+        return self.g.node(Op.CLIP, (a,), (None, b))
 
     def any_of(self, cond) -> bool:
         return True               # one program for every pose: the roll path runs, gated by roll
 
     def exact_mul(self, a, b, k):
-        return Sop(self.g, [(a, b, False, 0)], 0)
+        return self.g.sop([(a, b, False, 0)], 0)
 
     def exact_const(self, value, k):
-        return Sop(self.g, [], value)
+        return self.g.sop([], value)
 
     def exact_add(self, x, y):
         if isinstance(x, Node) or isinstance(y, Node):
@@ -112,20 +109,19 @@ class SymFx:
         raise NotImplementedError("exact comparison of two sums")
 
     def exact_clip(self, value, bound):
-        lo, hi = value.bounds()
         b = bound.const
-        return self.g.node(Op.CLIP, (value,), (-b, b), max(-b, lo), min(b, hi))
+        return self.g.node(Op.CLIP, (value,), (-b, b))
 
     def sum_of_squares(self, x, y, k):
-        return Sop(self.g, [(x, x, False, 0), (y, y, False, 0)], 0)
+        return self.g.sop([(x, x, False, 0), (y, y, False, 0)], 0)
 
     def mul_round(self, a, b, shift, nearest, k):
-        return self.rshift_round(Sop(self.g, [(a, b, False, 0)], 0), shift, nearest)
+        return self.rshift_round(self.g.sop([(a, b, False, 0)], 0), shift, nearest)
 
     def dot_round(self, a1, b1, a2, b2, shift, nearest, k):
         terms = [(a.args[0], b, True, 0) if getattr(a, "op", None) == Op.NEG else (a, b, False, 0)
                  for a, b in ((a1, b1), (a2, b2))]
-        return self.rshift_round(Sop(self.g, terms, 0), shift, nearest)
+        return self.rshift_round(self.g.sop(terms, 0), shift, nearest)
 
 
 class SymFw:
@@ -135,10 +131,7 @@ class SymFw:
         self.g, self.fx = g, fx
 
     def atan2_angle(self, y, x, k):
-        # The vectoring's z stays within the coarse quarter turn plus the sum of the step angles
-        # (< 3.4 rad): two pi bounds it with room.
-        pi = self.g.ki.pi_a
-        n = self.g.node(Op.ATAN2, (y, x), lo=-2 * pi, hi=2 * pi)
+        n = self.g.node(Op.ATAN2, (y, x))
         return n, Zero(n)
 
     def cordic_rotate(self, x, y, angle, k):
@@ -146,10 +139,10 @@ class SymFw:
         return (self.g.node(Op.ROTX, (r,)), self.g.node(Op.ROTY, (r,)), Status(((r, SATURATED, ()),)))
 
     def isqrt(self, radicand, bits: int, nearest: bool):
-        lo, hi = radicand.bounds()
-        if lo < 0:
+        if radicand.bounds()[0] < 0:
             raise ValueError("negative radicand")
-        return self.g.node(Op.SQRT, (radicand,), (bits,), isqrt(lo), isqrt(hi) + 1)
+        _rounding(self.g, nearest)
+        return self.g.node(Op.SQRT, (radicand,), (bits,))
 
     def acos_of_complements(self, one_minus, one_plus, k):
         """``model.acos_of_complements`` in the vocabulary: atan2(isqrt((1-x)(1+x)), 1 - (1-x))."""
@@ -167,13 +160,26 @@ class SymFw:
         return angle, sine, Status()
 
 
-def trace(k: Constants):
-    """``ik.solve`` on symbols: (the five joint nodes, the status leaves, the graph)."""
+def _rounding(g: Graph, nearest: bool):
+    """Both cores round as the config says (an operation's parameters do not carry it)."""
+    if nearest != g.ki.cfg.round_nearest:
+        raise NotImplementedError("a rounding other than the config's")
+
+
+class Traced(NamedTuple):
+    """The traced IK: the five joint nodes, the status leaves beside the graph, the graph."""
+    joints: tuple
+    events: StatusEvents
+    graph: Graph
+
+
+def trace(k: Constants) -> Traced:
+    """``ik.solve`` on symbols."""
     g = Graph(k)
     fx = SymFx(g)
-    words = {name: g.node(Op.WORD, (), (name,), *g.word_range(k.cfg.width), cls=Input)
+    words = {name: g.node(Op.WORD, (), (name,), cls=Input)
              for name in INPUT_WORDS}
     p, a, n, o = ([words[f"{v}{axis}"] for axis in "xyz"] for v in "pano")
     joints, status = ik.solve(fx, SymFw(g, fx), k, p, a, n, o, Flag(BranchFlag.ROLL),
                               Flag(BranchFlag.BACK), Flag(BranchFlag.DOWN), words["q5d"])
-    return joints, status, g
+    return Traced(tuple(joints), StatusEvents(status), g)

@@ -1,1 +1,1 @@
-"""The pipelined IK core (and its staged elaboration), generated from the traced graph."""
+"""The pipelined IK core, generated from the traced graph."""

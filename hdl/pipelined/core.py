@@ -18,8 +18,7 @@ from ..datapath.adders import adders_for
 from ..datapath.stages import steps_per_stage
 from ..graph.inputs import core_fields
 from .graph import graph_datapath
-from ..modes import CORE_BUILDS, Arch, CoreBuild, Dsp
-from ..datapath.stash import Stash
+from ..modes import Arch, CoreArch, Dsp
 from ..blocks.stream_block import StreamBlock, micro_steps
 
 __all__ = ["IKCore"]
@@ -63,47 +62,36 @@ class IKCore(StreamBlock):
     pipelined: the stages, the register in front of the output FIFO and the FIFO; the figures of
     each config are in the port map JSON and the records, not here).
 
-    * ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in order. The
-      pipeline never stalls (no clock enable): results queue in an output FIFO (block RAM) while
-      ``o`` is held, and ``i.ready`` drops only when ``capacity`` poses are
-      inside, in flight or queued (see :class:`~ik5r.hdl.blocks.stream_block.StreamBlock`). One add/sub level
-      (or one 17 x 17 partial product) per stage; a compare that selects a value is registered
-      a stage ahead of its select. ``dsp="ecp5"`` builds the partial products as
-      ``MULT18X18D`` instances with their input and output registers and the CORDIC
-      add/subtracts as ``CCU2C`` chains (same latency, same bits). ``rotations_per_stage`` (1,
-      2 or 4): CORDIC micro-rotations and square-root digits per pipeline stage, the same
-      steps in fewer, longer stages (fewer cycles of latency, a lower Fmax; same bits).
-    * ``"staged"`` (:class:`~ik5r.hdl.modes.CoreBuild`): the same steps, sequenced: one pose in flight
-      (``cycles_per_result`` = ``latency``; a new pose is accepted when idle or in the cycle the
-      previous result leaves). All eight CORDICs (six vectoring, two rotation) run one after the
-      other on ONE shared micro-rotation unit (:func:`~ik5r.hdl.blocks.cordic.cordic_unit`, one step per
-      clock); each of the 14 multipliers is one 18 x 18 DSP stepped over its partial products
-      (``products="sequential"``); the two square roots are digit-serial. The other steps (glue,
-      rounding, saturation) keep their own registers, each used for one clock per pose.
-      Not the ``compact`` IK core: that is the much smaller sequenced engine,
-      :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
+    ``arch`` is ``"pipelined"``: one pose per clock (``cycles_per_result`` = 1), results in
+    order. The pipeline never stalls (no clock enable): results queue in an output FIFO (block
+    RAM) while ``o`` is held, and ``i.ready`` drops only when ``capacity`` poses are inside, in
+    flight or queued (see :class:`~ik5r.hdl.blocks.stream_block.StreamBlock`). One add/sub level
+    (or one 17 x 17 partial product) per stage; a compare that selects a value is registered a
+    stage ahead of its select. ``dsp="ecp5"`` builds the partial products as ``MULT18X18D``
+    instances with their input and output registers and the CORDIC add/subtracts as ``CCU2C``
+    chains (same latency, same bits). ``rotations_per_stage`` (1, 2 or 4): CORDIC
+    micro-rotations and square-root digits per pipeline stage, the same steps in fewer, longer
+    stages (fewer cycles of latency, a lower Fmax; same bits). The small IK core (``compact``)
+    is another design, the sequenced engine :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
                  dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1, max_dsp: int | None = None):
-        if arch not in CORE_BUILDS:
-            raise ValueError(f"arch must be one of {CORE_BUILDS}, got {arch!r}")
-        block_arch = Arch.PIPELINED if arch == Arch.PIPELINED else Arch.ITERATIVE
+        if arch != CoreArch.PIPELINED:
+            raise ValueError(f"IKCore is the {CoreArch.PIPELINED} IK core, got arch {arch!r} (the "
+                             f"{CoreArch.COMPACT} one is hdl.sequenced.engine.SequencedIKCore)")
         dp = in_fields = out_fields = None
-        self._stash = Stash()
         if isinstance(constants, Constants):
             in_fields, out_fields = core_fields(constants)
             # The blocks' chains the graph's units are made of take the micro-rotations (and
             # square-root digits) per stage from the context.
-            with steps_per_stage(micro_steps(block_arch, rotations_per_stage)):
-                dp = graph_datapath(constants, self._stash, bool(tag_width), adders_for(dsp),
-                                    serial=arch == CoreBuild.STAGED)
+            with steps_per_stage(micro_steps(Arch.PIPELINED, rotations_per_stage)):
+                dp = graph_datapath(constants, bool(tag_width), adders_for(dsp))
         self.options = {}
-        super().__init__(constants=constants, arch=block_arch, tag_width=tag_width, in_fields=in_fields,
+        super().__init__(constants=constants, arch=Arch.PIPELINED, tag_width=tag_width, in_fields=in_fields,
                          out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage,
                          max_dsp=max_dsp)
         self.arch = arch
-        self.cycles_per_result = 1 if arch == Arch.PIPELINED else dp.latency
 
     def _inputs(self, p):
         # Words to the internal format: exact, ``internal_guard_bits`` more fraction bits.
@@ -120,9 +108,3 @@ class IKCore(StreamBlock):
         out = {f"q{j}": state[f"j{j}"] for j in range(1, 6)}
         out["status"] = state["st"]
         return out
-
-    def elaborate(self, platform):
-        self._stash.reset()
-        m = super().elaborate(platform)
-        self._stash.elaborate(m, self._datapath_arch)
-        return m

@@ -1,6 +1,9 @@
-"""The glue units of the pipelined IK core generated from the traced IK (:mod:`.ik_graph`): adds,
-selects, saturations, clips, wraps, the conditions as bits; and :func:`unit_of`, the unit of any
-value of the graph (the heavy ones in :mod:`.ik_units`). Semantics of each op: :mod:`.seq_lower`."""
+"""The glue units of the pipelined IK core generated from the traced IK (:mod:`.graph`): adds,
+selects, saturations, clips, wraps, the conditions as bits; :data:`UNITS`, the unit builder of
+each operation of the IR (the heavy ones in :mod:`.units`), checked against the IR's registry
+when this module is imported; and :func:`unit_of`, the unit of any value of the graph. The
+meaning of each operation: :data:`ik5r.hdl.graph.registry.SPECS`. One adder level or one select
+per stage; a compare that selects a value is registered a stage ahead of its select."""
 
 from __future__ import annotations
 
@@ -10,9 +13,10 @@ from ..graph.ops import Op
 from ..datapath.expr import rshift_round, saturate
 from .units import Unit, atan2_unit, mulc_unit, rotate_unit, sop_unit, sqrt_unit
 from ..graph.nodes import AnyOf, Compare, Not, Sop
+from ..graph.registry import require_every_op
 from ..blocks.sqrt import fit
 
-__all__ = ["unit_of"]
+__all__ = ["unit_of", "UNITS"]
 
 
 def _in_range(v, lo, hi) -> bool:
@@ -20,34 +24,42 @@ def _in_range(v, lo, hi) -> bool:
     return (lo is None or lo <= vlo) and (hi is None or vhi <= hi)
 
 
-def glue_unit(ctx, name, n) -> Unit:
-    """The glue of the graph (:mod:`.seq_lower`'s ALU code): one adder level or one select per
-    stage; a compare that selects a value is registered a stage ahead of its select."""
-    op, args, ki = n.op, n.args, ctx.ki
-    nearest = ki.cfg.round_nearest
-    if op == Op.ADD:
-        return ctx.glue(name, args, [n], lambda a, b: (a + b,))
-    if op == Op.SUB:
-        return ctx.glue(name, args, [n], lambda a, b: (a - b,))
-    if op == Op.NEG:
-        return ctx.glue(name, args, [n], lambda a: (-a,))
-    if op == Op.RSR:
-        return ctx.glue(name, args, [n], lambda a: (rshift_round(a, n.params[0], nearest),))
-    if op == Op.SEL:
-        cond = ctx.canon(n.params[0])
-        return ctx.glue(name, [cond, *args], [n], lambda c, a, b: (Mux(c, a, b),))
-    if op == Op.SAT:
-        return sat_unit(ctx, name, n)
-    pi = ki.pi_a
-    if op == Op.WRAP:
-        return ctx.selecting(name, args, n, [lambda a: a > pi, lambda a: a < -pi],
-                             lambda f, a: Mux(f[0], a - 2 * pi, Mux(f[1], a + 2 * pi, a)))
-    if op == Op.OPP:
-        return ctx.selecting(name, args, n, [lambda a: a > 0],
-                             lambda f, a: Mux(f[0], a - pi, a + pi))
-    if op == Op.CLIP:
-        return clip_unit(ctx, name, n)
-    raise NotImplementedError(f"no pipelined unit for {n}")
+def _add(ctx, name, n) -> Unit:
+    return ctx.glue(name, n.args, [n], lambda a, b: (a + b,))
+
+
+def _sub(ctx, name, n) -> Unit:
+    return ctx.glue(name, n.args, [n], lambda a, b: (a - b,))
+
+
+def _neg(ctx, name, n) -> Unit:
+    return ctx.glue(name, n.args, [n], lambda a: (-a,))
+
+
+def _rsr(ctx, name, n) -> Unit:
+    nearest = ctx.ki.cfg.round_nearest
+    return ctx.glue(name, n.args, [n], lambda a: (rshift_round(a, n.params[0], nearest),))
+
+
+def _sel(ctx, name, n) -> Unit:
+    cond = ctx.canon(n.params[0])
+    return ctx.glue(name, [cond, *n.args], [n], lambda c, a, b: (Mux(c, a, b),))
+
+
+def _wrap(ctx, name, n) -> Unit:
+    pi = ctx.ki.pi_a
+    return ctx.selecting(name, n.args, n, [lambda a: a > pi, lambda a: a < -pi],
+                         lambda f, a: Mux(f[0], a - 2 * pi, Mux(f[1], a + 2 * pi, a)))
+
+
+def _opp(ctx, name, n) -> Unit:
+    pi = ctx.ki.pi_a
+    return ctx.selecting(name, n.args, n, [lambda a: a > 0], lambda f, a: Mux(f[0], a - pi, a + pi))
+
+
+def _no_unit(ctx, name, n) -> Unit:
+    raise NotImplementedError(f"{n} has no unit of its own (an input, a product's check word "
+                              "or a rotation's output)")
 
 
 def sat_unit(ctx, name, n) -> Unit:
@@ -117,5 +129,15 @@ def unit_of(ctx, name, v) -> Unit:
         return sop_unit(ctx, name, v)
     if isinstance(v, (Compare, Not, AnyOf)):
         return cond_unit(ctx, name, v)
-    builders = {Op.MULC: mulc_unit, Op.ATAN2: atan2_unit, Op.ROT: rotate_unit, Op.SQRT: sqrt_unit}
-    return builders.get(v.op, glue_unit)(ctx, name, v)
+    return UNITS[v.op](ctx, name, v)
+
+
+#: The unit builder of each operation: ``builder(ctx, name, node) -> Unit``. The inputs
+#: (``WORD``, ``INPUT``) are the core's payload, a ``CHECK`` is read by the products of its sum,
+#: ``ROTX`` and ``ROTY`` are results of their ``ROT``'s unit (the schedule asks for the producer).
+UNITS = require_every_op({
+    Op.WORD: _no_unit, Op.INPUT: _no_unit, Op.CHECK: _no_unit, Op.ROTX: _no_unit, Op.ROTY: _no_unit,
+    Op.ADD: _add, Op.SUB: _sub, Op.NEG: _neg, Op.RSR: _rsr, Op.SEL: _sel, Op.SAT: sat_unit,
+    Op.WRAP: _wrap, Op.OPP: _opp, Op.CLIP: clip_unit, Op.MULC: mulc_unit, Op.ATAN2: atan2_unit,
+    Op.ROT: rotate_unit, Op.SQRT: sqrt_unit,
+}, "the pipelined core's units")

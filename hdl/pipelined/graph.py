@@ -7,7 +7,7 @@ the units are scheduled as soon as their operands are ready (ASAP, latency per u
 datapath's stage ``t`` runs every unit step of clock ``t`` side by side. The state after a stage
 holds only the values still to be read (the datapath registers what the state holds); a value
 that waits longer than :data:`~ik5r.hdl.datapath.stash.REGISTER_DELAY_MAX` stages for its next reader
-travels in the :class:`~ik5r.hdl.datapath.stash.Stash` instead. The status bits are ORed into one word,
+travels in a stash of the datapath instead. The status bits are ORed into one word,
 ``st``, in the stage each becomes known; the branch flags gate theirs.
 """
 
@@ -21,16 +21,16 @@ from ik5r.core.fxconfig import Constants
 from ik5r.core.status import FIXED_WIDTH
 
 from ..graph.ops import Op
-from ..modes import Products
 from ..blocks.chains import retraced
 from ..datapath.stages import Datapath
 from ..datapath.expr import drop
 from .glue import unit_of
 from .units import Ctx, Derived
 from ..graph.inputs import BranchFlag
-from ..graph.nodes import Compare, Flag, Node, Not, Sop, Zero
+from ..graph.nodes import Flag, Node, Sop
+from ..graph.status import StatusEvents
 from ..graph.trace import trace
-from ..datapath.stash import REGISTER_DELAY_MAX, Stash
+from ..datapath.stash import REGISTER_DELAY_MAX
 
 __all__ = ["graph_datapath", "STATUS_BITS"]
 
@@ -44,44 +44,38 @@ class _Keys:
 
     def __init__(self):
         self.names: dict = {}
-        self.objects: list = []       # keeps the objects alive (keys are by id)
-        self.flags: dict = {}
 
     def __call__(self, v) -> str:
         if isinstance(v, Flag):
             return v.flag.value
         if isinstance(v, Node) and v.op == Op.INPUT:
             return v.params[0]
-        if id(v) not in self.names:
-            self.objects.append(v)
+        if v not in self.names:
             if isinstance(v, Derived):
                 name = f"{v.kind}_{self(v.node)}"
             elif isinstance(v, (Node, Sop)):
                 name = f"{v.op}{len(self.names)}" if isinstance(v, Node) else f"sop{len(self.names)}"
             else:
                 name = f"cond{len(self.names)}"
-            self.names[id(v)] = name
-        return self.names[id(v)]
+            self.names[v] = name
+        return self.names[v]
 
 
 def _is_input(v) -> bool:
     return isinstance(v, Flag) or (isinstance(v, Node) and v.op == Op.INPUT)
 
 
-def _leaves(ctx, status) -> list:
+def _leaves(ctx, events: StatusEvents) -> list:
     """The status leaves as (bit value object, status bit, gate flag keys): a saturation's or a
-    rotation's flag, a compare, an atan2's zero vector."""
+    rotation's flag, a compare (or its negation), an atan2's zero vector."""
     out = []
-    for event, bit, flags in status.flat():
-        if any(level != 0 for _, level in flags):
+    for leaf in events:
+        if any(level != 0 for _, level in leaf.gates):
             raise NotImplementedError("a status bit gated by a flag being low")
-        gates = tuple(flag.value for flag, _ in flags)
-        if isinstance(event, Node):
-            out.append((ctx.derived("flag", event), bit, gates))
-        elif isinstance(event, (Compare, Not, Zero)):
-            out.append((ctx.canon(event), bit, gates))
-        else:
-            raise NotImplementedError(f"status of {event!r}")
+        gates = tuple(flag.value for flag, _ in leaf.gates)
+        event = leaf.event            # (StatusEvents has refused any other kind of event)
+        out.append((ctx.derived("flag", event) if isinstance(event, Node) else ctx.canon(event),
+                    leaf.bit, gates))
     return out
 
 
@@ -93,18 +87,15 @@ class _Schedule:
         self.ctx = ctx
         self.units, self.unit_of, self.ready = [], {}, {}
         self.start = {}
-        # One item at a time (serial), stage 0 registers the inputs: the payload is valid only
-        # in the input transfer. Each unit then starts where the one before it ends.
-        self.end = 1 if ctx.serial else 0
+        self.end = 0
         for root in roots:
             self._need(root)
         for unit in self.units:
-            start = max((self.ready[id(r)] for r in unit.reads), default=0)
-            start = self.end if ctx.serial else start
-            self.start[id(unit)] = start
+            start = max((self.ready[r] for r in unit.reads), default=0)
+            self.start[unit] = start
             for w in unit.writes:
-                self.ready[id(w)] = start + unit.latency(ctx.serial)
-            self.end = max(self.end, start + unit.latency(ctx.serial))
+                self.ready[w] = start + unit.latency
+            self.end = max(self.end, start + unit.latency)
 
     def _producer(self, v):
         if isinstance(v, Derived):
@@ -115,48 +106,42 @@ class _Schedule:
 
     def _need(self, v):
         v = self.ctx.canon(v)
-        if isinstance(v, int) or id(v) in self.ctx.needed:
+        if isinstance(v, int) or v in self.ctx.needed:
             return
-        self.ctx.needed.add(id(v))
+        self.ctx.needed.add(v)
         if _is_input(v):
-            self.ready[id(v)] = int(self.ctx.serial)
+            self.ready[v] = 0
             return
         producer = self._producer(v)
-        if id(producer) in self.unit_of:
+        if producer in self.unit_of:
             return
         unit = unit_of(self.ctx, f"u{len(self.unit_of)}", producer)
-        self.unit_of[id(producer)] = unit
+        self.unit_of[producer] = unit
         for r in unit.reads:
             self._need(r)
         self.units.append(unit)
 
 
-def graph_datapath(words: Constants, stash: Stash, tag: bool, adders, *, serial: bool = False) -> Datapath:
+def graph_datapath(words: Constants, tag: bool, adders) -> Datapath:
     """The IK on the internal format (the inputs arrive shifted up, :meth:`IKCore._inputs`; the
-    joints leave rounded back to words): ``j1`` .. ``j5``, ``st`` (and ``tag``). ``serial``:
-    the units one after the other on one item (the staged core: an iterative build sharing its
-    CORDIC unit), else side by side (pipelined)."""
-    joints, status, _ = trace(words)
+    joints leave rounded back to words): ``j1`` .. ``j5``, ``st`` (and ``tag``), the units side
+    by side."""
+    joints, events, _ = trace(words)
     keys = _Keys()
-    ctx = Ctx(words.internal, adders, keys, serial)
-    leaves = _leaves(ctx, status)
+    ctx = Ctx(words.internal, adders, keys)
+    leaves = _leaves(ctx, events)
     gates = {flag.value: Flag(flag) for flag in BranchFlag}
     sched = _Schedule(ctx, list(joints) + [v for v, _, _ in leaves] + list(gates.values()))
     # When each value is read: by units (at their start), the status word, the outputs.
     uses = defaultdict(list)
     for unit in sched.units:
         for r in unit.reads:
-            uses[keys(ctx.canon(r))].append(sched.start[id(unit)])
-    ready = {keys(v): sched.ready[id(v)] for v in map(ctx.canon, _values(sched, gates))}
-    starts = sorted({sched.start[id(u)] for u in sched.units} | {sched.end})
-
-    def boundary(t):
-        """Where a value ready at t can be read: anywhere pipelined, between units serially."""
-        return min(b for b in starts if b >= t) if serial else t
+            uses[keys(ctx.canon(r))].append(sched.start[unit])
+    ready = {keys(v): sched.ready[v] for v in map(ctx.canon, _values(sched, gates))}
     leaf_at = defaultdict(list)
     for v, bit, gate_keys in leaves:
-        leaf_at[boundary(ready[keys(v)])].append((keys(v), bit, gate_keys))
-    end = sched.end if serial else max([ready[keys(j)] for j in joints] + list(leaf_at) + [1])
+        leaf_at[ready[keys(v)]].append((keys(v), bit, gate_keys))
+    end = max([ready[keys(j)] for j in joints] + list(leaf_at) + [1])
     for t, items in leaf_at.items():
         for key, _, gate_keys in items:
             for k in (key, *gate_keys):
@@ -166,11 +151,9 @@ def graph_datapath(words: Constants, stash: Stash, tag: bool, adders, *, serial:
     if tag:
         # The tag is registered in stage 0, then waits in the stash: the formal order proof
         # follows it from a tag register into the stash (hdl/formal/stash.py).
-        ready["tag"] = int(serial)
-        uses["tag"] += [int(serial), end]
-    if serial:
-        return _assemble_serial(sched, keys, (ready, uses, boundary), leaf_at, joints, starts, stash)
-    return _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash)
+        ready["tag"] = 0
+        uses["tag"] += [0, end]
+    return _assemble(sched, keys, ready, uses, leaf_at, joints, end)
 
 
 def _values(sched, gates):
@@ -181,10 +164,9 @@ def _values(sched, gates):
         yield from (r for r in unit.reads if _is_input(r))
 
 
-def _stash_segments(ready, uses, wired, boundary=None):
-    """(put at, take at, key) for each wait longer than a register chain (serially, with a
-    ``boundary`` of units: every wait from one to a later one, the stash being the source
-    register): from a value's ready time to its first reader, and from one reader to the next."""
+def _stash_segments(ready, uses, wired):
+    """(put at, take at, key) for each wait longer than a register chain: from a value's ready
+    time to its first reader, and from one reader to the next."""
     segments = []
     for key, times in uses.items():
         times = sorted(set(times))
@@ -193,10 +175,7 @@ def _stash_segments(ready, uses, wired, boundary=None):
         # A wiring unit's value exists in the stage of its start: it can be put after it.
         first = ready[key] + (key in wired and times[0] > ready[key])
         points = [(first, times[0])] + [(a + 1, b) for a, b in zip(times, times[1:])]
-        if boundary is None:
-            segments += [(put, take, key) for put, take in points if take - put > REGISTER_DELAY_MAX]
-        else:
-            segments += [(boundary(put), take, key) for put, take in points if take > boundary(put)]
+        segments += [(put, take, key) for put, take in points if take - put > REGISTER_DELAY_MAX]
     return segments
 
 
@@ -220,14 +199,14 @@ def _grouped(segments, width) -> list:
     return out
 
 
-def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath:
+def _assemble(sched, keys, ready, uses, leaf_at, joints, end) -> Datapath:
     """The datapath: stage t runs the unit steps of clock t, ORs the status bits known at t and
     drops the values read for the last time; the stash's put and take wiring between stages."""
     dp = Datapath("ik", adders=sched.ctx.adders)
     active, wiring = defaultdict(list), defaultdict(list)
     for unit in sched.units:
         dp.declare(**unit.shapes)
-        start = sched.start[id(unit)]
+        start = sched.start[unit]
         if unit.wiring:
             wiring[start].append(unit)
         for j, step in enumerate([] if unit.wiring else unit.steps):
@@ -249,17 +228,16 @@ def _assemble(sched, keys, ready, uses, leaf_at, joints, end, stash) -> Datapath
     for t in range(end + 1):
         for (put, take), keys_ in sorted(puts.items()):
             if take == t:
-                stash.take(dp, handles.pop((put, take)))
+                dp.unstash(handles.pop((put, take)))
         for (put, take), keys_ in sorted(puts.items()):
             if put == t:
-                handles[put, take] = stash.put(dp, *keys_)
+                handles[put, take] = dp.stash(*keys_)
         fns = [u.steps[0] for u in wiring[t]] + ([] if t == end else active[t])
         fns.append(_status_fn(leaf_at[t]))
         if t < end:
             dp.add(f"t{t}", _stage_fn(fns, last[t]))
         else:
             dp.add_wiring(_stage_fn(fns, [], outputs=[keys(j) for j in joints]))
-    stash.check_taken()
     return dp
 
 
@@ -292,36 +270,3 @@ def _status_fn(items):
             st = st | Mux(cond, Const(bit, width), Const(0, width))
         return dict(s, st=st)
     return run
-
-
-def _assemble_serial(sched, keys, timing, leaf_at, joints, starts, stash) -> Datapath:
-    """The staged datapath: stage 0 registers the inputs, then each unit's stages in turn. At
-    each boundary between units the stash takes back what the next unit reads and puts away
-    what waits, the status bits known are ORed in and the values read for the last time dropped."""
-    ready, uses, boundary = timing
-    dp = Datapath("ik", products=Products.SEQUENTIAL, share_units=True, adders=sched.ctx.adders)
-    dp.add("inputs", lambda s: dict(s))
-    for unit in sched.units:
-        dp.declare(**unit.shapes)
-    unit_at = {sched.start[id(u)]: u for u in sched.units}
-    puts = defaultdict(list)
-    for put, take, key in _stash_segments(ready, uses, set(), boundary):
-        puts[put, take].append(key)
-    handles, end = {}, starts[-1]
-    for b in starts:
-        for (put, take) in sorted(puts):
-            if take == b:
-                stash.take(dp, handles.pop((put, take)))
-        dead = [key for key, times in uses.items() if max(times) < b]
-        fns = [_status_fn(leaf_at[b])]
-        if b < end:
-            dp.add_wiring(_stage_fn(fns, dead))
-        for (put, take), keys_ in sorted(puts.items()):
-            if put == b:
-                handles[put, take] = stash.put(dp, *keys_)
-        if b < end:
-            dp.stages.extend(unit_at[b].stages)
-        else:
-            dp.add_wiring(_stage_fn(fns, [], outputs=[keys(j) for j in joints]))
-    stash.check_taken()
-    return dp

@@ -2,9 +2,8 @@
 of the graph of :func:`ik5r.hdl.graph.trace.trace`, a list of stages over named values.
 
 A unit reads the values of its operands from the state in its first stage and leaves its results
-in the state after its last one; pipelined, its stages are flattened to one function per clock
-(``latency`` steps; a unit of latency 0 is wiring in the stage of its start), one item at a time
-(the staged core) they are the datapath's own stages. The heavy operations run the blocks' public
+in the state after its last one; its stages are flattened to one function per clock
+(``latency`` steps; a unit of latency 0 is wiring in the stage of its start). The heavy operations run the blocks' public
 chains (atan2 and the rotation of :mod:`.cordic`, the square root of :mod:`.sqrt`, the
 multipliers of :mod:`.products`); the glue (:mod:`.ik_glue`) is one stage of logic per step,
 widths from the node's interval bounds (:mod:`.seq_trace`: the sequenced core's memory words are sized by the same
@@ -14,18 +13,19 @@ bounds). The semantics of each op are those of :mod:`.seq_lower` (bit-exact on t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from amaranth.hdl import Const, signed, unsigned
 
 from ik5r.core import fixedpoint
 
-from ..modes import Products
 from ..blocks.chains import compose, namespaced
 from ..blocks.cordic import Rotate, add_atan2
 from ..datapath.stages import Datapath, Stage, StageKind
 from ..datapath.expr import drop, rshift_round
 from .const_rotate import rotate_const_chain
 from ..datapath.products import add_products
-from ..graph.nodes import Check, Node, Sop, Zero, bits_of, rotation_outputs
+from ..graph.nodes import Check, Node, Sop, Zero, bits_of
 from ..blocks.sqrt import add_isqrt, fit
 
 __all__ = ["Unit", "Ctx", "Derived", "flatten", "shape_of", "sop_unit", "mulc_unit", "atan2_unit",
@@ -48,11 +48,9 @@ class Unit:
             self._steps = [self.stages[0].fn] if self.wiring else flatten(self.stages)
         return self._steps
 
-    def latency(self, serial: bool) -> int:
-        """Clocks from the operands to the results: pipelined (a wiring unit's 0), or in the
-        stages of one item at a time (``serial``: a wiring unit's one registered stage)."""
-        if serial:
-            return sum(stage.count for stage in self.stages)
+    @property
+    def latency(self) -> int:
+        """Clocks from the operands to the results (a wiring unit's 0)."""
         return 0 if self.wiring else len(self.steps)
 
 
@@ -128,21 +126,20 @@ def shape_of(v):
 
 class Ctx:
     """What a unit builder needs: the internal constants, the adders, the key of a value, the
-    values the core needs (``needed``, ids: a unit leaves only those)."""
+    values the core needs (``needed``: a unit leaves only those)."""
 
-    def __init__(self, ki, adders, key, serial: bool):
-        self.ki, self.adders, self.key, self.serial = ki, adders, key, serial
-        #: One item at a time (``serial``, the staged core): each multiplier stepped over its
-        #: partial products, the CORDIC steps on one shared unit.
-        self.products = Products.SEQUENTIAL if serial else Products.PARALLEL
+    def __init__(self, ki, adders, key):
+        self.ki, self.adders, self.key = ki, adders, key
         self.needed: set = set()
         self._derived: dict = {}
 
     def derived(self, kind: str, node) -> "Derived":
         """The one object naming the second result ``kind`` of ``node``'s unit."""
-        if (kind, id(node)) not in self._derived:
-            self._derived[kind, id(node)] = Derived(kind, node)
-        return self._derived[kind, id(node)]
+        # By the node's id: a tuple holding the node would compare nodes on a hash collision
+        # (a node's == records a condition).
+        if (kind, node.id) not in self._derived:
+            self._derived[kind, node.id] = Derived(kind, node)
+        return self._derived[kind, node.id]
 
     def canon(self, v):
         """The value object of ``v`` (an atan2's zero vector: its unit's second result)."""
@@ -150,7 +147,7 @@ class Ctx:
 
     def chain(self, name) -> Datapath:
         """A scratch chain with the core's multiplier schedule and adders."""
-        return Datapath(name, products=self.products, adders=self.adders)
+        return Datapath(name, adders=self.adders)
 
     def get(self, s, v):
         """The value of ``v`` in state ``s`` (a constant as itself)."""
@@ -171,7 +168,7 @@ class Ctx:
         """One stage: ``writes`` = ``fn(*values of reads)``."""
         def step(s):
             values = fn(*(self.get(s, r) for r in reads))
-            return dict(s, **{self.key(w): v for w, v in zip(writes, values) if id(w) in self.needed})
+            return dict(s, **{self.key(w): v for w, v in zip(writes, values) if w in self.needed})
         return Unit(name, reads, writes, _registered(name, step),
                     shapes={self.key(w): _shape(w) for w in writes})
 
@@ -192,8 +189,7 @@ class Ctx:
             out = drop(s, *inner, *flags)
             out[self.key(write)] = fn([s[f] for f in flags], *(s[i] for i in inner))
             return out
-        # One item at a time (the staged core) the compares and the select share a stage.
-        stages = _registered(name, *([compose(first, second)] if self.serial else [first, second]))
+        stages = _registered(name, first, second)
         return Unit(name, reads, [write], stages, shapes={self.key(write): _shape(write)})
 
     def chain_unit(self, name, chain, inputs: dict, outputs: dict):
@@ -207,7 +203,7 @@ class Ctx:
 
         def last(s):
             # Decided when the stages run: the core's needed values are known by then.
-            kept = {ck: v for ck, v in outputs.items() if id(v) in self.needed}
+            kept = {ck: v for ck, v in outputs.items() if v in self.needed}
             out = drop(s, *(prefix + ck for ck in outputs))
             out.update({self.key(v): s[prefix + ck] for ck, v in kept.items()})
             return out
@@ -232,12 +228,12 @@ def _reading(fn, *reads):
 
 # --- the units of the graph's operations ----------------------------------------------------------
 
+@dataclass(frozen=True, eq=False, slots=True)
 class Derived:
     """A second result of a unit: ``"flag"`` (a saturation's or a rotation's status bit),
-    ``"zero"`` (an atan2's zero vector)."""
-
-    def __init__(self, kind: str, node):
-        self.kind, self.node = kind, node
+    ``"zero"`` (an atan2's zero vector); one object per result (:meth:`Ctx.derived`)."""
+    kind: str
+    node: Node
 
 
 def _operand_shape(ctx, v):
@@ -349,12 +345,12 @@ def rotate_unit(ctx, name, r) -> Unit:
     """``model.cordic_rotate``: of a constant vector the rotation's constant quadrant step
     (:func:`rotate_const_chain`), else the rotation block's chain; x, y and the saturation."""
     x, y, angle = r.args
-    outputs = {"saturated": ctx.derived("flag", r), **rotation_outputs(r)}
+    outputs = {"saturated": ctx.derived("flag", r), **r.g.outputs_of(r)}
     angle_of = _reading(lambda s: ctx.word_of(s, angle), angle)
     if isinstance(x, int) and isinstance(y, int):
-        chain = rotate_const_chain(ctx.ki, (x, y), skewed=not ctx.serial, adders=ctx.adders)
+        chain = rotate_const_chain(ctx.ki, (x, y), skewed=True, adders=ctx.adders)
         return ctx.chain_unit(name, chain, {"angle": angle_of}, outputs)
-    chain = Rotate.chain(ctx.ki, skewed=not ctx.serial, adders=ctx.adders)
+    chain = Rotate.chain(ctx.ki, skewed=True, adders=ctx.adders)
     return ctx.chain_unit(name, chain, {"x": _reading(lambda s: ctx.word_of(s, x), x),
                                         "y": _reading(lambda s: ctx.word_of(s, y), y),
                                         "angle": angle_of}, outputs)

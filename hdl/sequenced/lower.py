@@ -8,9 +8,13 @@ block (in the accumulator), unless it is long (a CORDIC, a square root, products
 also waits for another block's word; a value used more than once, or read as a B-bus operand,
 gets its own block and a memory word. An exact sum of products (wider than a memory word) is
 never stored: each consumer forms it again (the radicand of joint 1's root and the on-axis test).
-Status bits are events on the instruction that decides them: the saturation's ``SATI`` /
-``SATW``, a compare against a constant, the CORDIC's zero-vector latch; ``select(flag, status,
-0)`` adds the flag to their conditions.
+Status bits are events on the instruction that decides them (the trace's
+:class:`~ik5r.hdl.graph.status.StatusEvents`): the saturation's ``SATI`` / ``SATW``, a compare
+against a constant, the CORDIC's zero-vector latch; ``select(flag, status, 0)`` adds the flag to
+their conditions.
+
+How each operation is lowered is :data:`LOWERING`, one entry per :class:`~ik5r.hdl.graph.ops.Op`,
+checked against the IR's registry when this module is imported.
 """
 
 from __future__ import annotations
@@ -23,32 +27,27 @@ from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_NEG, A_NOP, A_SATI, A_SATW, A
                       Q_STEP, Q_STEP2)
 from ..graph.inputs import INPUT_WORDS
 from .asm import Asm, Check as CheckOperand, Const, I, alu, operand as _op, sqrt_round, st
-from ..graph.nodes import Check, Compare, Flag, Node, Not, Sop, Status, Zero, rotation_outputs
+from ..graph.nodes import Check, Flag, Node, Not, Sop
+from ..graph.registry import require_every_op
+from ..graph.status import StatusEvents
 
 
 #: Operations that occupy a unit for many clocks.
 HEAVY = (Op.ATAN2, Op.SQRT, Op.MULC, Op.ROT, Op.ROTX, Op.ROTY)
 
 
-def attach_status(status: Status) -> list:
-    """Hang each status leaf on the instruction that decides it; returns the nodes that carry
-    events (their blocks must run even where no joint needs their value)."""
-    carriers = []
-
-    for event, bit, flags in status.flat():
-        gates = tuple((FLAG_SOURCE[flag], level) for flag, level in flags)
-        if isinstance(event, Node):                # a saturation (or a rotation's two)
-            event.stat = (bit, gates)
-            carriers.append(event)
-        elif isinstance(event, Compare):
-            event.value.events.append((event.op, event.const, bit, gates))
-            carriers.append(event.value)
-        elif isinstance(event, Zero):
-            event.atan2.events.append(("zero", None, bit, gates))
-            carriers.append(event.atan2)
-        else:
-            raise NotImplementedError(f"status of {event!r}")
+def _carriers(events: StatusEvents) -> list:
+    """The values that carry status events (their blocks must run even where no joint needs
+    their value), one per leaf; the engine raises each leaf on an instruction of its carrier."""
+    carriers = [leaf.carrier for leaf in events]
+    if any(c is None for c in carriers):
+        raise NotImplementedError("a status bit of a negated compare")
     return carriers
+
+
+def _gates(gates) -> tuple:
+    """A leaf's branch flags as the engine's condition sources."""
+    return tuple((FLAG_SOURCE[flag], level) for flag, level in gates)
 
 
 def _cond_sel(v) -> bool:
@@ -96,23 +95,23 @@ def _add_sub(a, b) -> bool:
 class Lower:
     """Emits the blocks of a traced graph (``blocks[0]`` the inputs, ``blocks[-1]`` the outputs)."""
 
-    def __init__(self, asm: Asm, joints: list, status: Status):
-        self.a, self.ki = asm, asm.ki
-        carriers = attach_status(status)
+    def __init__(self, asm: Asm, joints: list, events: StatusEvents):
+        self.a, self.ki, self.events = asm, asm.ki, events
+        carriers = _carriers(events)
         self.uses: Counter = Counter()
         seen: set = set()
 
         def visit(n):
             for d in deps(n):
                 self.uses[d] += 1
-                if id(d) not in seen:
-                    seen.add(id(d))
+                if d not in seen:
+                    seen.add(d)
                     visit(d)
 
         roots = list(joints) + [c for c in carriers if all(c is not j for j in joints)]
         for r in roots:
-            if id(r) not in seen:
-                seen.add(id(r))
+            if r not in seen:
+                seen.add(r)
                 visit(r)
         self.mem: dict = {}
         self.emitted: set = set()
@@ -122,7 +121,7 @@ class Lower:
         self.blocks = [code + [I(io=IO_FLAGS, iw=len(INPUT_WORDS))]]
         names = [self.operand(j) for j in joints]
         for r in roots:
-            if id(r) not in self.emitted:      # status-only checks (their value feeds no joint)
+            if r not in self.emitted:      # status-only checks (their value feeds no joint)
                 self.blocks.append(self._inline(r))
         out = [alu(A_LD, names[0])]
         for index in range(1, 5):
@@ -173,49 +172,47 @@ class Lower:
         return isinstance(n, int) or n.op == Op.INPUT
 
     def _inline(self, n) -> list:
-        self.emitted.add(id(n))
-        code = self._sop(n) if isinstance(n, Sop) else self._code(n)
-        for op, const, bit, gates in n.events:
-            if op != "zero":
-                code.append(_compare(op, const, gates, bit))
+        self.emitted.add(n)
+        code = self._sop(n) if isinstance(n, Sop) else LOWERING[n.op](self, n)
+        for leaf in self.events.compares(n):
+            code.append(_compare(leaf.event.op, leaf.event.const, _gates(leaf.gates), leaf.bit))
         return code
 
-    # -- values --
-    def _code(self, n) -> list:
-        a, op, args = self.a, n.op, n.args
-        if op == Op.SUB and _magnitude_of(n) is not None:
+    # -- values: one method per operation (LOWERING) --
+    def _add_sub(self, n) -> list:
+        if n.op == Op.SUB and _magnitude_of(n) is not None:
             return self._abs(_magnitude_of(n))
-        if op in (Op.ADD, Op.SUB):
-            x, y = args
-            if op == Op.ADD and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
-                x, y = y, x
-            return self.acc(x, self._early(y)) + [alu(A_ADD if op == Op.ADD else A_SUB, self.operand(y))]
-        if op == Op.NEG:
-            return self.acc(args[0]) + [alu(A_NEG)]
-        if op == Op.SAT:
-            bit, gates = n.stat or (0, ())
-            sat = A_SATI if n.params[0] == self.ki.cfg.width else A_SATW
-            return self.acc(args[0]) + [alu(sat, None, *gates, stat=bit)]
-        if op == Op.RSR:
-            halving = _halving(n)
-            if halving:
-                return self._halve(*halving)
-            return self.acc(args[0]) + a.round_shift(n.params[0])
-        if op == Op.MULC:
-            return self.acc(args[0]) + a.mul_const(n.params[0], args[0].bits)
-        if op == Op.CLIP:
-            return self._clip(n)
-        if op == Op.WRAP:
-            return self.acc(args[0]) + a.wrap()
-        if op == Op.OPP:
-            return self.acc(args[0]) + a.opposite()
-        if op == Op.SEL:
-            return self._select(n)
-        if op == Op.SQRT:
-            return self._sqrt(n)
-        if op == Op.ATAN2:
-            return self._atan2(n)
-        raise NotImplementedError(f"no engine code for {n}")
+        x, y = n.args
+        if n.op == Op.ADD and isinstance(y, Node) and self._cheap(x) and not self._cheap(y):
+            x, y = y, x
+        return self.acc(x, self._early(y)) + [alu(A_ADD if n.op == Op.ADD else A_SUB, self.operand(y))]
+
+    def _neg(self, n) -> list:
+        return self.acc(n.args[0]) + [alu(A_NEG)]
+
+    def _sat(self, n) -> list:
+        bit, gates = self.events.saturation(n) or (0, ())
+        sat = A_SATI if n.params[0] == self.ki.cfg.width else A_SATW
+        return self.acc(n.args[0]) + [alu(sat, None, *_gates(gates), stat=bit)]
+
+    def _rsr(self, n) -> list:
+        halving = _halving(n)
+        if halving:
+            return self._halve(*halving)
+        return self.acc(n.args[0]) + self.a.round_shift(n.params[0])
+
+    def _mulc(self, n) -> list:
+        return self.acc(n.args[0]) + self.a.mul_const(n.params[0], n.args[0].bits)
+
+    def _wrap(self, n) -> list:
+        return self.acc(n.args[0]) + self.a.wrap()
+
+    def _opp(self, n) -> list:
+        return self.acc(n.args[0]) + self.a.opposite()
+
+    def _operand_only(self, n) -> list:
+        raise NotImplementedError(f"{n} is read as an operand (a memory word or a B-bus operand), "
+                                  "never computed in the accumulator")
 
     def _clip(self, n) -> list:
         x = n.args[0]
@@ -282,7 +279,7 @@ class Lower:
         """Operand loads (a selection by a comparison: F, then the other operand where not F), the
         vectoring, the angle; the zero vector's status events while the latch is held."""
         code, loads = [], []
-        if len({id(v.params[0]) for v in n.args if _cond_sel(v)}) > 1:
+        if len({v.params[0] for v in n.args if _cond_sel(v)}) > 1:
             raise NotImplementedError("the two operands of an atan2 selected by different conditions")
         for v, op in zip(n.args[::-1], (K_LDXG, K_LDYG)):
             if _cond_sel(v):
@@ -293,19 +290,19 @@ class Lower:
                           I((C_F, int(not truth)), cop=op, **_op(self.operand(v.args[0])))]
             else:
                 loads += [I(cop=op, **_op(self.operand(v)))]
-        zeros = [(bit, gates) for kind, _, bit, gates in n.events if kind == "zero"]
+        zeros = [(leaf.bit, _gates(leaf.gates)) for leaf in self.events.zeros(n)]
         merged = zeros[0][0] if len(zeros) == 1 and not zeros[0][1] else 0
         tail = [] if merged else [alu(A_NOP, None, (C_ZERO, 0), *gates, stat=bit) for bit, gates in zeros]
         return code + loads + self.a.atan2_body() + self.a.atan2_angle(merged) + tail
 
     def _rotate(self, r):
         x, y, angle = r.args
-        self.emitted.add(id(r))
-        bit, gates = r.stat or (0, ())
+        self.emitted.add(r)
+        bit, gates = self.events.saturation(r) or (0, ())
         names = (f"v{r.id}x", f"v{r.id}y")
         self.blocks.append(self.a.rotate(self.operand(x), self.operand(y), self.operand(angle),
-                                         *names, f"v{r.id}g", bit, gates))
-        for axis, node in rotation_outputs(r).items():
+                                         *names, f"v{r.id}g", bit, _gates(gates)))
+        for axis, node in r.g.outputs_of(r).items():
             self.mem[node] = names[axis == "y"]
 
     # -- exact sums --
@@ -381,3 +378,16 @@ def _bits(v, ki) -> int:
 
 def _compare(op, const, gates, bit) -> dict:
     return alu(A_CMPGT if op == ">" else A_CMPLT, Const(const), *gates, stat=bit)
+
+
+#: The engine code of each operation (a method of :class:`Lower`). ``WORD``: the input words are
+#: loaded by the first block, and the body reads them as ``INPUT``s; ``CHECK``, ``INPUT``,
+#: ``ROTX`` and ``ROTY`` are operands (:meth:`Lower.operand`: a check word of the B bus, an input
+#: word, a rotation's memory word); a ``ROT`` is its own block (:meth:`Lower._rotate`).
+LOWERING = require_every_op({
+    Op.WORD: Lower._operand_only, Op.INPUT: Lower._operand_only, Op.CHECK: Lower._operand_only,
+    Op.ROT: Lower._operand_only, Op.ROTX: Lower._operand_only, Op.ROTY: Lower._operand_only,
+    Op.NEG: Lower._neg, Op.ADD: Lower._add_sub, Op.SUB: Lower._add_sub, Op.SAT: Lower._sat,
+    Op.RSR: Lower._rsr, Op.MULC: Lower._mulc, Op.WRAP: Lower._wrap, Op.OPP: Lower._opp,
+    Op.SEL: Lower._select, Op.CLIP: Lower._clip, Op.ATAN2: Lower._atan2, Op.SQRT: Lower._sqrt,
+}, "the sequenced engine's lowering")

@@ -43,8 +43,8 @@ def _compile(k: Constants, wide_product: bool = False) -> Program:
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
     a = Asm(k, wide_product=wide_product)
-    joints, status, _ = trace(k)
-    code = schedule(Lower(a, joints, status).blocks)
+    joints, events, _ = trace(k)
+    code = schedule(Lower(a, joints, events).blocks)
     widths = widths_of(k)
     widths.limbs = limbs_of(a.operand_bits)
     widths.b_limbs = a.b_size

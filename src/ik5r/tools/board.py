@@ -14,6 +14,7 @@ divider needs no particular clock.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import time
 from pathlib import Path
@@ -140,6 +141,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     seconds = {}
     start = time.perf_counter()
     build_plan, link = plan(board, constants, baud=baud, core=core)
+    rtlil = rtlil_sha256(build_plan)
     build_plan.extract(str(out))
     _add_headers(out, link)
     seconds["elaborate"] = round(time.perf_counter() - start, 1)
@@ -150,8 +152,30 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     seconds["pack"] = round(_run(pack, out / "pack.log", out, None), 1)
     report = json.loads((out / "report.json").read_text())
     bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == "ice40" else f"{NAME}.bit")
-    return _record(board, constants, link.core_name, link, link.clock_hz, link.baud, report, bitstream,
-                   seed, seconds)
+    record = _record(board, constants, link.core_name, link, link.clock_hz, link.baud, report, bitstream,
+                     seed, seconds)
+    return {**record, "arm": arm_name(constants.arm), "rtlil_sha256": rtlil}
+
+
+def rtlil_sha256(build_plan) -> str:
+    """SHA-256 of the RTLIL the platform hands Yosys, without the provenance header: what a
+    board record's bitstream was built from (the results tool compares it with this checkout's).
+    The ``src`` attributes are left out: they name the checkout's folder and source lines."""
+    text = build_plan.files[f"{NAME}.il"]
+    return rtlil_text_sha256(text if isinstance(text, str) else text.decode())
+
+
+def rtlil_text_sha256(text: str) -> str:
+    """SHA-256 of RTLIL ``text`` without its ``attribute \\src`` lines."""
+    kept = [line for line in text.splitlines(keepends=True) if not line.lstrip().startswith("attribute \\src ")]
+    return hashlib.sha256("".join(kept).encode()).hexdigest()
+
+
+def arm_name(arm) -> str | None:
+    """The name ``ik5r board --arm`` takes to build ``arm`` again (None: the arm of record)."""
+    from ik5r.core.arm import is_seed_arm
+
+    return None if is_seed_arm(arm) else arm.name
 
 
 def _add_headers(out: Path, link) -> None:

@@ -209,5 +209,5 @@ def run(args) -> int:
     if args.json:
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(r, indent=1) + "\n")
+        path.write_text(json.dumps({**r, "measured_at": time.time()}, indent=1) + "\n")
     return 1 if r["mismatches"] or r.get("differing_words_hw_vs_sw") or r.get("differing_words_irq_vs_sw") else 0

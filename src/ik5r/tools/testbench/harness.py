@@ -2,7 +2,9 @@
 
 ``run_harness(sim_design("ik", "pipelined", "q32w", arm="al5d"), vectors=10**7)`` generates the
 design's Verilog (the same as the cocotb runs, :func:`.runner.generate_sources`: the arm and the
-options are the design's), builds it with the C++ main under
+options are the design's), writes beside it the text Verilator gets (runs of one repeated bit
+as replications, :mod:`.simtext`: the same design, less C++ per clock), builds that with the
+C++ main under
 ``build/sim/<block>_<arch>_<config>[_arm-<arm>]_harness/`` (reused while its sources are
 unchanged, and from a cache keyed by the Verilog's body across checkouts), and
 streams chunks of items through it: the stimulus (:meth:`.job.Job.inputs`, the edge set first)
@@ -39,6 +41,7 @@ from ..design import Design
 from .bulk import compare_chunk
 from .job import Job, Results
 from .portmap import PortMap, load_portmap
+from .simtext import replicate_runs
 from .runner import (PRIMITIVE_MODELS, _build_lock, _source_digest, build_dir_for, generate_sources,
                      verilator_path)
 
@@ -103,6 +106,19 @@ def _to_cache(key: str, binary: Path) -> None:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def _simulation_text(vpath: Path) -> Path:
+    """``<block>_sim.v`` beside ``vpath``: its text with runs of one repeated bit as replications
+    (:func:`.simtext.replicate_runs`; the same design, a third of the C++ for the IK cores)."""
+    text, _ = replicate_runs(vpath.read_text())
+    out = vpath.with_name(f"{vpath.stem}_sim.v")
+    if not out.exists() or out.read_text() != text:
+        # Written aside and renamed: another test worker may be reading the file right now.
+        tmp = out.with_name(f"{out.name}.{os.getpid()}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, out)
+    return out
+
+
 def build_harness(design: Design, *, cflags: str = DEFAULT_CFLAGS) -> tuple[Path, PortMap, float]:
     """(the harness binary of ``design``, its port map, seconds spent building: 0 when reused).
     A binary is reused from the build folder while its stamp matches, else from the cache under
@@ -110,6 +126,7 @@ def build_harness(design: Design, *, cflags: str = DEFAULT_CFLAGS) -> tuple[Path
     bdir = harness_dir(design)
     vpath, jpath = generate_sources(design, bdir / "src")
     pm = load_portmap(jpath)
+    vpath = _simulation_text(vpath)
     header = bdir / "src" / "ik5r_ports.h"
     header.write_text(ports_header(pm))
     main = Path(str(resources.files("ik5r.tools.testbench") / "harness.cpp"))
@@ -237,7 +254,7 @@ class HarnessRun:
 
     def run(self) -> dict:
         t0 = time.perf_counter()
-        cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu0, own0 = resource.getrusage(resource.RUSAGE_CHILDREN), resource.getrusage(resource.RUSAGE_SELF)
         running, compared = [], 0
         while True:
             tm = time.perf_counter()
@@ -256,13 +273,17 @@ class HarnessRun:
             self._check(chunk)
             self.stats["model_seconds"] += time.perf_counter() - tm
             compared += chunk.n
-        cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu1, own1 = resource.getrusage(resource.RUSAGE_CHILDREN), resource.getrusage(resource.RUSAGE_SELF)
         self.stats["sim_cpu_seconds"] = (cpu1.ru_utime + cpu1.ru_stime) - (cpu0.ru_utime + cpu0.ru_stime)
+        # This process: stimulus, model, packing and comparison (what the simulators wait on).
+        self.stats["python_cpu_seconds"] = (own1.ru_utime + own1.ru_stime) - (own0.ru_utime + own0.ru_stime)
         wall = time.perf_counter() - t0
         cpu = self.stats["sim_cpu_seconds"]
+        total = cpu + self.stats["python_cpu_seconds"]
         return {"vectors": compared, "pattern": self.pattern, "wall_seconds": wall, **self.stats,
                 "vectors_per_second": compared / wall if wall else None,
-                "cycles_per_cpu_second": self.stats["cycles"] / cpu if cpu else None}
+                "cycles_per_cpu_second": self.stats["cycles"] / cpu if cpu else None,
+                "vectors_per_cpu_second": compared / total if total else None}
 
 
 def run_harness(design: Design, *, vectors: int = 100_000, seed: int = 1, pattern: str = "full",
