@@ -219,7 +219,7 @@ OP_HOMONYMS = {
               "ik5r.tools.report.hdl", "ik5r.tools.sweep_record", "ik5r.tools.testbench.blocks"},
     # the same, and the sequenced engine's square-root unit
     "sqrt": {"ik5r.hdl.modes", "ik5r.hdl.generate", "ik5r.hdl.provenance", "ik5r.hdl.formal.run",
-             "ik5r.hdl.blocks.sqrt", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+             "ik5r.hdl.blocks.sqrt", "ik5r.hdl.sequenced.schedule",
              "ik5r.hdl.sequenced.units", "ik5r.tools.commands.synth", "ik5r.tools.commands.verilog",
              "ik5r.tools.report.hdl", "ik5r.tools.testbench.blocks"},
     # the engine's ALU decode lines; a rotation block's port name

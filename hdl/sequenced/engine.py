@@ -81,12 +81,12 @@ class SeqEngine(wiring.Component):
         dec, shift = self._decode(m, pre, stall)
         mem_q, step, mem_wr = self._memories(m, fetch, stall)
 
+        # Compares, not an m.Switch: a Switch becomes a Verilog ``always @*`` process, which
+        # Icarus runs only when an input changes, and ``exe``, its input, changes only when the
+        # stall it decides is low: the stall stayed X and the core never started on Icarus.
         reading, writing = Signal(name="io_reading"), Signal(name="io_writing")
-        with m.Switch(ins.io):
-            with m.Case(X.IO_IN, X.IO_FLAGS):
-                m.d.comb += reading.eq(1)
-            with m.Case(X.IO_OUT, X.IO_STATUS):
-                m.d.comb += writing.eq(1)
+        m.d.comb += [reading.eq((ins.io == X.IO_IN) | (ins.io == X.IO_FLAGS)),
+                     writing.eq((ins.io == X.IO_OUT) | (ins.io == X.IO_STATUS))]
         m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
         run = ~stall
 

@@ -55,8 +55,11 @@ def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
     # Everything but the sum is ready early: the sum (and the compare) enter at the last
     # mux of the accumulator, the F flag and the status bits.
     early = Signal(signed(w.acc), name="alu_early")
-    # A compare's event is its result (under the condition); other ops' events are early.
+    # A compare's event is its result (under the condition); other ops' events are early: the
+    # condition (an LD or a shift raises its status bit too: the zero vector's angle load), and
+    # for a saturation also its clip.
     other_event = Signal(name="alu_event")
+    m.d.comb += other_event.eq(cond)
     with m.Switch(ins.alu):
         with m.Case(X.A_LD):
             m.d.comb += early.eq(bus)
@@ -71,7 +74,7 @@ def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
         with m.Case(X.A_SATW):
             m.d.comb += [early.eq(sat_w), other_event.eq(cond & clip_w)]
         with m.Default():
-            m.d.comb += [early.eq(sat_w), other_event.eq(cond)]
+            m.d.comb += early.eq(sat_w)
     on_compare = Mux(dec["cmp"] & cond, ins.stat, 0)
     on_other = Mux(~dec["cmp"] & other_event, ins.stat, 0)
     with m.If(run):
