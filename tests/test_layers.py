@@ -217,7 +217,7 @@ OP_HOMONYMS = {
     # a block of ik5r.core.modes.Block (its value); the acos chain's split point before its atan2
     "atan2": {"ik5r.core.modes", "ik5r.hdl.blocks.acos"},
     # the same block; the sequenced engine's square-root unit; a port name the sqrt testbench accepts
-    "sqrt": {"ik5r.core.modes", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+    "sqrt": {"ik5r.core.modes", "ik5r.hdl.sequenced.schedule",
              "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
     # the engine's ALU decode lines; a rotation block's port name
     "sub": {"ik5r.hdl.sequenced.engine", "ik5r.hdl.sequenced.units"},
@@ -271,7 +271,7 @@ MODE_HOMONYMS = {
     "ik": {"ik5r.core.fxconfig", "ik5r.tools.sweep"},
     # the IR's operations (ik5r.hdl.graph.ops.Op), and the homonyms of OP_HOMONYMS above
     "atan2": {"ik5r.hdl.graph.ops", "ik5r.hdl.blocks.acos"},
-    "sqrt": {"ik5r.hdl.graph.ops", "ik5r.hdl.sequenced.isa", "ik5r.hdl.sequenced.schedule",
+    "sqrt": {"ik5r.hdl.graph.ops", "ik5r.hdl.sequenced.schedule",
              "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
     # the design option of the word-serial wrapper (its beat bits) and the result keys it leaves
     "serial": {"ik5r.hdl.generate", "ik5r.hdl.sequenced.engine", "ik5r.tools.commands.sim",

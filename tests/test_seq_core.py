@@ -26,6 +26,7 @@ from ik5r.firmware_model.poses import PoseBatch, concat
 from ik5r.firmware_model.vectors import directed_poses, random_poses
 from ik5r.hdl.graph.inputs import INPUT_WORDS
 from ik5r.hdl.sequenced import isa as seq_isa
+from ik5r.hdl.sequenced import machine
 from ik5r.hdl.generate import generate
 from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore, SerialIK
 from ik5r.hdl.sequenced.program import ik_program
@@ -66,7 +67,7 @@ def test_program_on_interpreter(cfg, wide):
     fields = poses.fields()
     bad = []
     for i in range(len(poses)):
-        out = seq_isa.run(prog, _engine_words(fields, i, i % 64))
+        out = machine.run(prog, _engine_words(fields, i, i % 64))
         got = {f"q{j + 1}": out[j] for j in range(5)}
         got["status"] = out["status"]
         want = {name: int(expected[name][i]) for name in got}
@@ -105,7 +106,7 @@ def test_program_orientation_checks(cfg):
     assert 0.1 < bad_orientation.mean() < 0.9
     prog = ik_program(k)
     fields = poses.fields()
-    got = [seq_isa.run(prog, _engine_words(fields, i, 0))["status"] for i in range(len(poses))]
+    got = [machine.run(prog, _engine_words(fields, i, 0))["status"] for i in range(len(poses))]
     assert got == [int(v) for v in expected["status"]]
 
 
@@ -137,7 +138,7 @@ def test_program_is_short_and_shared():
     prog = ik_program(k)
     assert len(prog.code) <= 774
     assert len(ik_program(k, wide_product=True).code) <= 742
-    both = [ins for ins in prog.code if ins.get("cop") and (ins.get("alu") or ins.get("pick"))]
+    both = [ins for ins in prog.code if seq_isa.nonzero(ins.cop) and (seq_isa.nonzero(ins.alu) or ins.pick)]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
 
@@ -149,12 +150,12 @@ def test_adder_sources_checked():
     prog = ik_program(_k("q18"))
     for cfg in ("q18", "q24", "q32", "q32w"):
         code = ik_program(_k(cfg)).code
-        assert all(ins.get("bsel", 0) in seq_isa.ADDER_SOURCES for ins in code
-                   if ins.get("alu", 0) in seq_isa.ADDING)
-    bad = {"alu": seq_isa.A_ADD, "bsel": seq_isa.B_CX}
+        assert all((ins.bsel or seq_isa.BusSource.MEM) in seq_isa.ADDER_SOURCES for ins in code
+                   if ins.alu in seq_isa.ADDING)
+    bad = seq_isa.Ins(alu=seq_isa.AluOp.ADD, bsel=seq_isa.BusSource.CX)
     prog.code = [bad] + prog.code[1:]
     with pytest.raises(ValueError, match="adding ALU operation"):
-        seq_isa.run(prog, [0] * (len(INPUT_WORDS) + 1))
+        machine.run(prog, [0] * (len(INPUT_WORDS) + 1))
 
 
 #: Amaranth's simulator takes 15-25 CPU s a case: the default run takes the wide product step at q18
@@ -242,7 +243,7 @@ def test_serial_wrapper(stalls):
     for i in range(len(poses)):
         words = [sum(received[(6 * i + w) * dut.out_beats + j] << (b * j) for j in range(dut.out_beats))
                  for w in range(6)]
-        got = {f"q{j + 1}": seq_isa.wrap_signed(words[j], width) for j in range(5)}
+        got = {f"q{j + 1}": machine.wrap_signed(words[j], width) for j in range(5)}
         got["status"], tag = words[5] & ((1 << STATUS_BITS) - 1), words[5] >> STATUS_BITS
         assert got == {name: int(expected[name][i]) for name in got} and tag == i % 16, f"pose {i}"
     if not stalls:
@@ -266,9 +267,9 @@ def test_wide_product_checked(bad):
 def test_wide_limbs():
     """A limb of two 15-bit limbs: 30 unsigned bits, or the signed rest at the top."""
     value = -(3 << 44) + (5 << 30) + (1 << 29) + 7
-    assert seq_isa.limb(value, 0, False, 2) == (1 << 29) + 7
-    assert seq_isa.limb(value, 1, True, 2) == -(3 << 14) + 5
-    assert seq_isa.limb(value, 1, False) == 1 << 14        # 15-bit limbs as before
+    assert machine.limb(value, 0, False, 2) == (1 << 29) + 7
+    assert machine.limb(value, 1, True, 2) == -(3 << 14) + 5
+    assert machine.limb(value, 1, False) == 1 << 14        # 15-bit limbs as before
 
 
 def test_compact_verilog_structure():

@@ -30,7 +30,6 @@ from amaranth.hdl import Array, Cat, Const, Module, Mux, Signal, Value
 from amaranth.lib import data
 
 from ..sequenced import isa as X
-from ..sequenced.engine import _pack
 
 __all__ = ["DATA_REGISTERS", "Places", "elaborate_engine", "sequencer", "tag_queue"]
 
@@ -69,39 +68,35 @@ def elaborate_engine(inner: Module, engine, platform) -> Module:
 
 
 def _index(program, io) -> int:
-    found = [j for j, ins in enumerate(program.code) if ins.get("io", 0) == io]
+    found = [j for j, ins in enumerate(program.code) if ins.io == io]
     if len(found) != 1:
         raise ValueError(f"the program must have one io={io} instruction, has {len(found)}")
     return found[0]
 
 
-def _control_rom(words, layout):
+def _control_rom(code):
     """``control(word)``: the control fields of an instruction word (a Value); ``rom``: those of
     the program's words, as constants. Only the word-port fields (io, iw) of an instruction reach
     the control and the tag path: comparing just them leaves the other fields to the data, which
     the job's script cuts."""
-    fields = [layout[name] for name in CONTROL_FIELDS]
-    width = sum(bits for _, bits in fields)
+    layout = X.word_layout(code)
 
     def control(word):
-        return Cat(word[lo:lo + bits] for lo, bits in fields)
+        view = data.View(layout, word)
+        return Cat(Value.cast(getattr(view, name)) for name in CONTROL_FIELDS)
 
-    def program_bits(word):
-        return Const(sum(((word >> lo) & ((1 << bits) - 1)) << sum(b for _, b in fields[:j])
-                         for j, (lo, bits) in enumerate(fields)), width)
-    return control, Array(program_bits(word) for word in words)
+    return control, Array(Const.cast(control(X.encode(layout, ins))) for ins in code)
 
 
 def sequencer(m: Module, dut, inner: Module, engine: Module, find, check) -> Places:
     """Assert (``check(test, name)``) the engine's control invariants; return the places."""
     e = dut._engine
-    words, layout, _ = _pack(e.prog)
-    count = len(words)
+    count = len(e.prog.code)
     first, last = _index(e.prog, X.IO_FLAGS), _index(e.prog, X.IO_STATUS)
     if not first < last == count - 1:
         raise ValueError("the sequenced invariants expect the flags read before the status "
                          "write, which ends the program")
-    control, rom = _control_rom(words, layout)
+    control, rom = _control_rom(e.prog.code)
     pc, exe = e.trace["pc"], e.trace["exe"]
     started = find(engine, "started")
     fetched, exe = control(find(engine, "fetched")), control(exe)

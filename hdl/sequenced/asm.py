@@ -6,37 +6,30 @@ and :meth:`Asm.finish`, which resolves constants and variables to data-memory ad
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from ..blocks.cordic import atan2_widths, rotate_z_bound
 from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SHR1, A_SHR4,
-                      A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
-                      K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, K_NORM1, K_NORM8, K_QROT, K_ROT,
-                      K_VEC, LIMB, READ_AHEAD, Program, Widths)
+                  A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
+                  K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, K_NORM1, K_NORM8, K_QROT, K_ROT,
+                  K_VEC, LIMB, READ_AHEAD, BusSource, nonzero, Const, Ins, MulLoad, Program, Var, Widths)
 
 __all__ = ["Asm", "Const", "Check", "Bus"]
 
 
-class Const:
-    """A constant operand (a word of the data memory's constant pool)."""
-
-    def __init__(self, value: int):
-        self.value = int(value)
-
-
+@dataclass(frozen=True)
 class Check:
     """The check word of a variable (its top CHECK_BITS bits: ``model.check_word`` of the internal
     format) as a multiplier operand: the variable is loaded, the pick takes the check word."""
-
-    def __init__(self, name: str):
-        self.name = name
+    name: str
 
 
+@dataclass(frozen=True)
 class Bus:
     """A B-bus source other than the memory."""
-
-    def __init__(self, sel: int):
-        self.sel = sel
+    sel: BusSource
 
 
 CX, CY, CZ, ROOT, REM, ACC = (Bus(B_CX), Bus(B_CY), Bus(B_CZ), Bus(B_ROOT), Bus(B_REM),
@@ -50,13 +43,15 @@ def limbs_of(bits: int) -> int:
 
 
 def operand(src) -> dict:
+    """The fields that put ``src`` on the B bus: a :class:`Bus` source, a :class:`Const`, a
+    :class:`Check` (its variable's word) or a variable's name."""
     if isinstance(src, Bus):
         return {"bsel": src.sel}
     if isinstance(src, Const):
-        return {"rd": ("c", src.value)}
+        return {"rd": src}
     if isinstance(src, Check):
-        return {"rd": ("v", src.name)}
-    return {"rd": ("v", src)}
+        return {"rd": Var(src.name)}
+    return {"rd": Var(src)}
 
 
 def _pick(src, index: int, limbs: int, side: str = "a") -> dict:
@@ -66,21 +61,21 @@ def _pick(src, index: int, limbs: int, side: str = "a") -> dict:
     return {f"p{side}": index, f"ps{side}": int(index == limbs - 1)}
 
 
-def I(*conds, **fields) -> dict:
+def I(*conds, **fields) -> Ins:
     """One instruction; ``conds``: up to two (source, invert) pairs."""
     if len(conds) > 2:
         raise ValueError(f"an instruction has two condition slots, not {len(conds)}: {conds}")
     for (src, inv), (a, b) in zip(conds, (("ca", "cai"), ("cb", "cbi"))):
         fields[a], fields[b] = src, inv
-    return fields
+    return Ins(**fields)
 
 
-def alu(op, src=None, *conds, **fields) -> dict:
+def alu(op, src=None, *conds, **fields) -> Ins:
     return I(*conds, alu=op, **(operand(src) if src is not None else {}), **fields)
 
 
-def st(name: str) -> dict:
-    return {"wr": 1, "wa": ("v", name)}
+def st(name: str) -> Ins:
+    return Ins(wr=1, wa=Var(name))
 
 
 def shr(n: int) -> list:
@@ -153,10 +148,10 @@ class Asm:
             lb = -(-lb // self.b_size)
             if isinstance(a, Check) or isinstance(b, Check):
                 self.operand_bits = max(self.operand_bits, CHECK_BITS)
-            put(t, mld=1, **operand(a))
+            put(t, mld=MulLoad.A, **operand(a))
             key = (b.value if isinstance(b, Const) else b.name if isinstance(b, Check) else b, b_bits)
             if key != last_b:
-                put(t + 1, mld=2, **operand(b))
+                put(t + 1, mld=MulLoad.B, **operand(b))
                 t += 1
             last_b = key
             t += 1
@@ -172,7 +167,7 @@ class Asm:
             if negative:
                 put(t + 2, alu=A_NEG)
             t -= 1      # the next term's MA load may share the last pick's clock
-        return slots
+        return [Ins(**fields) for fields in slots]
 
     def _cheaper_swapped(self, a, a_bits, b, b_bits) -> bool:
         """With the wide step, the operand of more limbs goes to MB (fewer picks)."""
@@ -230,21 +225,20 @@ class Asm:
             raise ValueError("a scheduled program reads a word within READ_AHEAD clocks of its store")
         consts, names = {}, {}
         for ins in code:
-            for key in ("rd", "wa"):
-                ref = ins.get(key)
-                if isinstance(ref, tuple) and ref[0] == "c":
-                    consts.setdefault(ref[1], len(consts))
+            if isinstance(ins.rd, Const):
+                consts.setdefault(ins.rd.value, len(consts))
         base = len(consts)
         for ins in code:
-            for key in ("rd", "wa"):
-                ref = ins.get(key)
-                if isinstance(ref, tuple) and ref[0] == "v":
-                    names.setdefault(ref[1], base + len(names))
-        for ins in code:
-            for key in ("rd", "wa"):
-                ref = ins.get(key)
-                if isinstance(ref, tuple):
-                    ins[key] = consts[ref[1]] if ref[0] == "c" else names[ref[1]]
+            for ref in (ins.rd, ins.wa):
+                if isinstance(ref, Var):
+                    names.setdefault(ref.name, base + len(names))
+
+        def address(ref):
+            if isinstance(ref, Const):
+                return consts[ref.value]
+            return names[ref.name] if isinstance(ref, Var) else ref
+
+        code = [replace(ins, rd=address(ins.rd), wa=address(ins.wa)) for ins in code]
         depth = 1 << max(1, (base + len(names) - 1).bit_length())
         mem_init = [0] * depth
         for value, addr in consts.items():
@@ -257,26 +251,29 @@ class Asm:
                        widths=widths, names=names)
 
 
-def reads_mem(ins) -> bool:
-    uses_b = (ins.get("alu", 0) in (A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT) or ins.get("mld", 0)
-              or ins.get("cop", 0) in (K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA))
-    return bool(uses_b) and ins.get("bsel", 0) == B_MEM
+def reads_mem(ins: Ins) -> bool:
+    uses_b = (ins.alu in (A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT) or nonzero(ins.mld)
+              or ins.cop in (K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA))
+    return bool(uses_b) and (ins.bsel or B_MEM) == B_MEM
 
 
-def fold(code: list) -> list:
+def _store_only(ins: Ins) -> bool:
+    return bool(ins.present()) and ins.present() <= {"wr", "wa"}
+
+
+def fold(code: list[Ins]) -> list[Ins]:
     """A store-only instruction is merged into the next one (a store writes the accumulator as it
     was before its instruction, so the result is the same, one clock earlier)."""
     out = []
     pending = None
     for ins in code:
-        if pending is not None and "wr" not in ins and not (
-                reads_mem(ins) and ins.get("rd") == pending["wa"]):
-            ins = {**ins, **pending}
+        if pending is not None and ins.wr is None and not (reads_mem(ins) and ins.rd == pending.wa):
+            ins = ins.merge(pending)
             pending = None
         elif pending is not None:
             out.append(pending)
             pending = None
-        if set(ins) <= {"wr", "wa"} and ins:
+        if _store_only(ins):
             pending = ins
             continue
         out.append(ins)
@@ -285,16 +282,15 @@ def fold(code: list) -> list:
     return out
 
 
-def hazards(code: list) -> list:
+def hazards(code: list[Ins]) -> list[Ins]:
     """No-ops between a store and a read of the same word less than READ_AHEAD + 1 clocks later
     (the read happens READ_AHEAD clocks ahead of its instruction)."""
     out = []
     for ins in code:
-        while reads_mem(ins) and any(prev.get("wr") and prev.get("wa") == ins.get("rd")
-                                      for prev in out[-READ_AHEAD:]):
-            if any(o.get("pick") for o in out[-2:]):
+        while reads_mem(ins) and any(prev.wr and prev.wa == ins.rd for prev in out[-READ_AHEAD:]):
+            if any(o.pick for o in out[-2:]):
                 raise ValueError(f"store/read hazard inside a product at {ins}")
-            out.append({})
+            out.append(Ins())
         out.append(ins)
     return out
 

@@ -37,21 +37,6 @@ from .units import STATUS_BITS
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
 
-def _pack(prog: X.Program):
-    """(instruction words, {field: (lsb, bits)}, word width)."""
-    bits = prog.field_bits()
-    layout, lsb = {}, 0
-    for name in X.FIELDS:
-        layout[name] = (lsb, bits[name])
-        lsb += bits[name]
-    words = []
-    for ins in prog.code:
-        word = 0
-        for name, (lo, _) in layout.items():
-            word |= ins.get(name, 0) << lo
-        words.append(word)
-    return words, layout, lsb
-
 
 class SeqEngine(wiring.Component):
     """The sequenced IK engine (see the module docstring), with word ports.
@@ -72,7 +57,7 @@ class SeqEngine(wiring.Component):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         _check_wide(wide_product)
         self.prog = ik_program(constants, wide_product=wide_product)
-        if any(i.get("alu", 0) in X.ADDING and i.get("bsel", 0) not in X.ADDER_SOURCES for i in self.prog.code):
+        if any(i.alu in X.ADDING and (i.bsel or X.B_MEM) not in X.ADDER_SOURCES for i in self.prog.code):
             raise ValueError(f"the program adds a B-bus source outside {X.ADDER_SOURCES} (seq_isa.ADDER_SOURCES)")
         self.widths = w = self.prog.widths
         w.tag = tag_width
@@ -92,13 +77,16 @@ class SeqEngine(wiring.Component):
         m = Module()
         prog, w = self.prog, self.widths
         stall = Signal()
-        pc, exe, fetch, pre, f = self._fetch(m, stall)
+        pc, fetch, pre, ins = self._fetch(m, stall)
         dec, shift = self._decode(m, pre, stall)
         mem_q, step, mem_wr = self._memories(m, fetch, stall)
 
-        io = f("io")
-        reading = (io == X.IO_IN) | (io == X.IO_FLAGS)
-        writing = (io == X.IO_OUT) | (io == X.IO_STATUS)
+        # Compares, not an m.Switch: a Switch becomes a Verilog ``always @*`` process, which
+        # Icarus runs only when an input changes, and ``exe``, its input, changes only when the
+        # stall it decides is low: the stall stayed X and the core never started on Icarus.
+        reading, writing = Signal(name="io_reading"), Signal(name="io_writing")
+        m.d.comb += [reading.eq((ins.io == X.IO_IN) | (ins.io == X.IO_FLAGS)),
+                     writing.eq((ins.io == X.IO_OUT) | (ins.io == X.IO_STATUS))]
         m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
         run = ~stall
 
@@ -114,22 +102,24 @@ class SeqEngine(wiring.Component):
             total_bus = total_bus | term
         m.d.comb += bus.eq(total_bus)
         sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
-        cond = ((select(sources, f("ca")) ^ f("cai")) & (select(sources, f("cb")) ^ f("cbi")))
+        cond = ((select(sources, Value.cast(ins.ca)) ^ ins.cai)
+                & (select(sources, Value.cast(ins.cb)) ^ ins.cbi))
         #: The registers by name, for test benches that trace the engine.
-        self.trace = dict(regs, acc=acc, pc=pc, exe=exe, bus=bus)
-        U.alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w)
-        U.cordic(m, f, dec, shift, bus, cond, step, regs, run, w)
-        U.multiplier(m, f, pre("sh"), bus, regs, run, w, prog.shifts)
-        U.sqrt(m, f, acc, regs, run, w)
-        m.d.comb += [mem_wr.addr.eq(f("wa")), mem_wr.data.eq(acc), mem_wr.en.eq(f("wr") & run)]
+        self.trace = dict(regs, acc=acc, pc=pc, exe=ins, bus=bus)
+        U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w)
+        U.cordic(m, ins, dec, shift, bus, cond, step, regs, run, w)
+        U.multiplier(m, ins, pre.sh, bus, regs, run, w, prog.shifts)
+        U.sqrt(m, ins, acc, regs, run, w)
+        m.d.comb += [mem_wr.addr.eq(ins.wa), mem_wr.data.eq(acc), mem_wr.en.eq(ins.wr & run)]
 
-        self._ports(m, f, pre, stall, reading, writing, acc, regs, run, w)
+        self._ports(m, ins, pre, stall, reading, writing, acc, regs, run, w)
         return m
 
     def _fetch(self, m, stall):
-        """The program counter, the instruction ROM and the two instruction registers; the
-        field accessors of the ROM's output, of ``fetched`` and of ``exe``."""
-        words, layout, iw_bits = _pack(self.prog)
+        """The program counter, the instruction ROM (of :func:`.isa.word_layout` words) and the
+        two instruction registers: (pc, the ROM's output, ``fetched``, ``exe``)."""
+        layout = X.word_layout(self.prog.code)
+        words = [X.encode(layout, ins) for ins in self.prog.code]
         # ``started`` is low in the first clock after power-up or reset, when the ROM's output
         # is not yet instruction 0: the program counter stays at 0 and a no-op executes.
         started = Signal()
@@ -137,20 +127,16 @@ class SeqEngine(wiring.Component):
         pc = Signal(range(len(words)))
         pc_next = Mux(stall | ~started, pc, Mux(pc == len(words) - 1, 0, pc + 1))
         m.d.sync += pc.eq(pc_next)
-        m.submodules.rom = rom = Memory(shape=unsigned(iw_bits), depth=len(words), init=words)
+        m.submodules.rom = rom = Memory(shape=layout, depth=len(words), init=words)
         rom_rd = rom.read_port()
         m.d.comb += [rom_rd.addr.eq(pc_next), rom_rd.en.eq(~stall)]
         # Two instruction registers: ``fetched`` (the memory and step-angle ROM are read for
         # it), then ``exe`` (it executes, with the read data registered).
-        fetched = Signal(iw_bits)
-        exe = Signal(iw_bits)
+        fetched = Signal(layout)
+        exe = Signal(layout)
         with m.If(~stall):
             m.d.sync += [fetched.eq(Mux(started, rom_rd.data, 0)), exe.eq(fetched)]
-
-        def fields(word):
-            return lambda name: word[layout[name][0]:layout[name][0] + layout[name][1]]
-
-        return pc, exe, fields(rom_rd.data), fields(fetched), fields(exe)
+        return pc, rom_rd.data, fetched, exe
 
     def _memories(self, m, fetch, stall):
         """The data memory and the step-angle ROM, read for the fetched instruction and
@@ -164,8 +150,8 @@ class SeqEngine(wiring.Component):
         atan_rd = atan.read_port()
         mem_q = Signal(mem_shape, name="mem_q")
         step = Signal(signed(w.z), name="step")
-        m.d.comb += [mem_rd.addr.eq(fetch("rd")), mem_rd.en.eq(~stall),
-                     atan_rd.addr.eq(fetch("ci")), atan_rd.en.eq(~stall)]
+        m.d.comb += [mem_rd.addr.eq(fetch.rd), mem_rd.en.eq(~stall),
+                     atan_rd.addr.eq(fetch.ci), atan_rd.en.eq(~stall)]
         with m.If(~stall):
             m.d.sync += [mem_q.eq(mem_rd.data), step.eq(atan_rd.data)]
         return mem_q, step, mem_wr
@@ -174,7 +160,7 @@ class SeqEngine(wiring.Component):
         """Decoded controls registered beside ``exe`` (from ``pre``: the fetched instruction)."""
         # Controls of the wide datapaths decoded a clock early, from registers (their fan-out
         # to 80-bit muxes and adders was the slowest path).
-        alu_op, bsel = pre("alu"), pre("bsel")
+        alu_op, bsel = pre.alu, pre.bsel
 
         def alu_is(*ops):
             return Cat(*(alu_op == op for op in ops)).any()
@@ -194,9 +180,9 @@ class SeqEngine(wiring.Component):
             "acc_cond": alu_is(X.A_LD, X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC, X.A_SHR1,
                                X.A_SHR4, X.A_SHR16),
             "sat": alu_is(X.A_SATI, X.A_SATW),
-            **{f"bus{index}": bsel == index for index in range(X.B_ACC + 1)},
+            **{f"bus{source.value}": bsel == source for source in X.BusSource},
         }
-        cop = pre("cop")
+        cop = pre.cop
         quarter = (cop == X.K_COARSE) | (cop == X.K_QROT)
         decoded.update(quarter=quarter, vectoring=(cop == X.K_VEC) | (cop == X.K_COARSE))
         # The micro-rotation's shift amount (0 for the quarter turns) drives two barrel shifters:
@@ -204,22 +190,21 @@ class SeqEngine(wiring.Component):
         shift_x = Signal(range(len(self.prog.atan)), name="cordic_shift_x")
         shift_y_n = Signal(range(len(self.prog.atan)), name="cordic_shift_y_n")
         with m.If(~stall):
-            m.d.sync += [shift_x.eq(Mux(quarter, 0, pre("ci"))), shift_y_n.eq(~Mux(quarter, 0, pre("ci")))]
+            m.d.sync += [shift_x.eq(Mux(quarter, 0, pre.ci)), shift_y_n.eq(~Mux(quarter, 0, pre.ci))]
         shift = (shift_x, ~shift_y_n)
         dec = {name: Signal(name=f"dec_{name}") for name in decoded}
         with m.If(~stall):
             m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
         return dec, shift
 
-    def _ports(self, m, f, pre, stall, reading, writing, acc, regs, run, w):
+    def _ports(self, m, ins, pre, stall, reading, writing, acc, regs, run, w):
         """The word ports and the flags word."""
-        io = f("io")
-        m.d.comb += [self.in_index.eq(Mux(stall, f("iw"), pre("iw"))), self.in_take.eq(reading & run),
+        status = ins.io == X.IO_STATUS
+        m.d.comb += [self.in_index.eq(Mux(stall, ins.iw, pre.iw)), self.in_take.eq(reading & run),
                      self.in_ready.eq(reading),
-                     self.out_valid.eq(writing), self.out_index.eq(Mux(io == X.IO_STATUS, 5, f("iw"))),
-                     self.out_data.eq(Mux(io == X.IO_STATUS, Cat(regs["status"], regs["tag"]),
-                                          acc[:w.word]))]
-        with m.If(run & (io == X.IO_FLAGS)):
+                     self.out_valid.eq(writing), self.out_index.eq(Mux(status, 5, ins.iw)),
+                     self.out_data.eq(Mux(status, Cat(regs["status"], regs["tag"]), acc[:w.word]))]
+        with m.If(run & (ins.io == X.IO_FLAGS)):
             m.d.sync += [regs["roll"].eq(self.in_data[0]), regs["back"].eq(self.in_data[1]),
                          regs["down"].eq(self.in_data[2])]
             if w.tag:

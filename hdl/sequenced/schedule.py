@@ -14,10 +14,13 @@ whose lifetimes do not overlap.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from .asm import fold, hazards
 from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SATW, A_SETF,
-                      A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT,
-                      C_F, C_ZERO, IO_OUT, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, Q_LOAD, READ_AHEAD)
+                  A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT,
+                  C_F, C_ZERO, IO_OUT, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, Q_LOAD, READ_AHEAD,
+                  Ins, Var, nonzero)
 
 COND_FIELDS = ("ca", "cai", "cb", "cbi")
 ACC_WRITE = {A_LD, A_ADD, A_SUB, A_NEG, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW, A_MLD, A_MACC}
@@ -26,21 +29,30 @@ BUS_ALU = {A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT}
 LOADS = {K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA}
 
 
-def _cond(ins) -> tuple:
-    return tuple(ins.get(f, 0) for f in COND_FIELDS)
+def _cond(ins: Ins) -> tuple:
+    """The condition fields' values (absent: 0, as encoded)."""
+    values = (getattr(ins, f) for f in COND_FIELDS)
+    return tuple(v if nonzero(v) else 0 for v in values)
 
 
-def _conditional(ins) -> bool:
-    return _cond(ins) != (0, 0, 0, 0)
+def _conditional(ins: Ins) -> bool:
+    return any(nonzero(getattr(ins, f)) for f in COND_FIELDS)
 
 
-def _bus(ins) -> bool:
-    return bool(ins.get("alu", 0) in BUS_ALU and "alu" in ins or ins.get("mld") or ins.get("cop", 0) in LOADS)
+def _bus(ins: Ins) -> bool:
+    return ins.alu in BUS_ALU or nonzero(ins.mld) or ins.cop in LOADS
 
 
-def _sensitive(ins) -> bool:
+def _sensitive(ins: Ins) -> bool:
     """The instruction's conditions gate something (an ALU op or event, a CORDIC load)."""
-    return "alu" in ins or ins.get("cop", 0) in LOADS
+    return ins.alu is not None or ins.cop in LOADS
+
+
+def _var_read(ins: Ins) -> str | None:
+    """The variable ``ins`` reads from the memory onto the B bus, if any."""
+    if _bus(ins) and (ins.bsel or B_MEM) == B_MEM and isinstance(ins.rd, Var):
+        return ins.rd.name
+    return None
 
 
 def _liveness(code, reads, writes, kills) -> list:
@@ -58,19 +70,19 @@ def _span(code, touches) -> list:
     return [bool(hits) and hits[0] <= t <= hits[-1] for t in range(len(code))]
 
 
-def _acc_reads(ins) -> bool:
-    op = ins.get("alu", 0) if "alu" in ins else None
-    return bool(op in ACC_READ or (op in (A_LD, A_MLD) and _conditional(ins)) or ins.get("wr")
-                or ins.get("sq") == Q_LOAD or ins.get("io") == IO_OUT
-                or (_bus(ins) and ins.get("bsel") == B_ACC))
+def _acc_reads(ins: Ins) -> bool:
+    op = ins.alu
+    return bool(op in ACC_READ or (op in (A_LD, A_MLD) and _conditional(ins)) or ins.wr
+                or ins.sq == Q_LOAD or ins.io == IO_OUT
+                or (_bus(ins) and ins.bsel == B_ACC))
 
 
-def _f_reads(ins) -> bool:
-    return C_F in (ins.get("ca", 0), ins.get("cb", 0))
+def _f_reads(ins: Ins) -> bool:
+    return C_F in (ins.ca, ins.cb)
 
 
-def _f_writes(ins) -> bool:
-    return "alu" in ins and ins["alu"] in (A_CMPGT, A_CMPLT, A_SETF)
+def _f_writes(ins: Ins) -> bool:
+    return ins.alu in (A_CMPGT, A_CMPLT, A_SETF)
 
 
 class Block:
@@ -78,25 +90,24 @@ class Block:
 
     def __init__(self, code: list):
         self.code = code = hazards(fold(code))
-        acc = _liveness(code, _acc_reads, lambda i: "alu" in i and i["alu"] in ACC_WRITE,
-                        lambda i: "alu" in i and i["alu"] in (A_LD, A_MLD) and not _conditional(i))
+        acc = _liveness(code, _acc_reads, lambda i: i.alu in ACC_WRITE,
+                        lambda i: i.alu in (A_LD, A_MLD) and not _conditional(i))
         flag = _liveness(code, _f_reads, _f_writes, lambda i: _f_writes(i) and not _conditional(i))
-        cordic = _span(code, lambda i: i.get("cop", 0) or C_ZERO in (i.get("ca", 0), i.get("cb", 0))
-                       or (_bus(i) and i.get("bsel") in (B_CX, B_CY, B_CZ)))
-        mop = _span(code, lambda i: i.get("mld") or i.get("pick"))
-        sqrt = _span(code, lambda i: i.get("sq") or (_bus(i) and i.get("bsel") in (B_ROOT, B_REM)))
+        cordic = _span(code, lambda i: nonzero(i.cop) or C_ZERO in (i.ca, i.cb)
+                       or (_bus(i) and i.bsel in (B_CX, B_CY, B_CZ)))
+        mop = _span(code, lambda i: nonzero(i.mld) or i.pick)
+        sqrt = _span(code, lambda i: nonzero(i.sq) or (_bus(i) and i.bsel in (B_ROOT, B_REM)))
         self.claims, self.conds = [], []
         for t, ins in enumerate(code):
-            keys = set(ins) - set(COND_FIELDS)
+            keys = set(ins.present()) - set(COND_FIELDS)
             keys |= {name for name, held in (("acc", acc), ("F", flag), ("cordic", cordic),
                                              ("mop", mop), ("sqrt", sqrt)) if held[t]}
             if _bus(ins):
                 keys.add("bus")
             self.claims.append(keys)
             self.conds.append(_cond(ins) if _sensitive(ins) else None)
-        self.reads = [(t, ins["rd"][1]) for t, ins in enumerate(code)
-                      if _bus(ins) and ins.get("bsel", B_MEM) == B_MEM and ins.get("rd", ("c",))[0] == "v"]
-        self.writes = [(t, ins["wa"][1]) for t, ins in enumerate(code) if ins.get("wr")]
+        self.reads = [(t, _var_read(ins)) for t, ins in enumerate(code) if _var_read(ins)]
+        self.writes = [(t, ins.wa.name) for t, ins in enumerate(code) if ins.wr]
 
 
 class Table:
@@ -105,7 +116,7 @@ class Table:
     def __init__(self):
         self.claims: list[set] = []
         self.conds: list = []
-        self.code: list[dict] = []
+        self.code: list[Ins] = []
 
     def fits(self, b: Block, start: int) -> bool:
         for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
@@ -123,12 +134,12 @@ class Table:
         while len(self.claims) < end:
             self.claims.append(set())
             self.conds.append(None)
-            self.code.append({})
+            self.code.append(Ins())
         for t, ins in enumerate(b.code):
             self.claims[start + t] |= b.claims[t]
             if b.conds[t] is not None:
                 self.conds[start + t] = b.conds[t]
-            self.code[start + t] = {**self.code[start + t], **ins}
+            self.code[start + t] = self.code[start + t].merge(ins)
 
 
 def _priorities(blocks: list, producer: dict) -> list:
@@ -216,17 +227,17 @@ class _Placer:
             todo.remove(i)
             self.place(i, self.first_fit(i, self.ready(i)))
         self.place(last, self.first_fit(last, max(self.ready(last), len(self.table.code))))
-        return [dict(ins) for ins in self.table.code]
+        return list(self.table.code)
 
 
-def share_words(code: list) -> list:
+def share_words(code: list[Ins]) -> list[Ins]:
     """Values whose lifetimes (store to last read) do not overlap share a memory word."""
     first, last = {}, {}
     for t, ins in enumerate(code):
-        if ins.get("wr"):
-            first.setdefault(ins["wa"][1], t)
-        if _bus(ins) and ins.get("bsel", B_MEM) == B_MEM and ins.get("rd", ("c",))[0] == "v":
-            last[ins["rd"][1]] = t
+        if ins.wr:
+            first.setdefault(ins.wa.name, t)
+        if _var_read(ins):
+            last[_var_read(ins)] = t
     free_at: list[int] = []          # per word: the clock of its last read
     word = {}
     for name in sorted(first, key=first.get):
@@ -237,9 +248,8 @@ def share_words(code: list) -> list:
             free_at.append(0)
         free_at[slot] = last.get(name, s)
         word[name] = f"w{slot}"
-    for ins in code:
-        for key in ("rd", "wa"):
-            ref = ins.get(key)
-            if isinstance(ref, tuple) and ref[0] == "v" and ref[1] in word:
-                ins[key] = ("v", word[ref[1]])
-    return code
+
+    def shared(ref):
+        return Var(word[ref.name]) if isinstance(ref, Var) and ref.name in word else ref
+
+    return [replace(ins, rd=shared(ins.rd), wa=shared(ins.wa)) for ins in code]

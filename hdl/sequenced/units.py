@@ -1,6 +1,7 @@
 """The units of the sequenced engine (:class:`.engine.SeqEngine`): each a function adding one
 unit's registers and logic to the engine's module, all stepping on ``run`` from the executing
-instruction (``f``: one of its fields; ``dec``: controls decoded a clock early).
+instruction (``ins``: a view of its :func:`.isa.word_layout` word; ``dec``: controls decoded a
+clock early).
 """
 
 from __future__ import annotations
@@ -33,9 +34,8 @@ def registers(w):
         "rem": Signal(w.radicand // 2 + 2, name="rem"),
     }
 
-def alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w):
+def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
     """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits."""
-    op = f("alu")
     # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
     # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
     right = Signal(signed(w.acc), name="alu_right")
@@ -55,29 +55,43 @@ def alu(m, f, dec, acc, bus, mem_q, cond, regs, run, w):
     # Everything but the sum is ready early: the sum (and the compare) enter at the last
     # mux of the accumulator, the F flag and the status bits.
     early = Signal(signed(w.acc), name="alu_early")
-    m.d.comb += early.eq(Mux(op == X.A_LD, bus, Mux(op == X.A_SHR1, acc.shift_right(1),
-                             Mux(op == X.A_SHR4, acc.shift_right(4),
-                                 Mux(op == X.A_SHR16, acc.shift_right(16),
-                                     Mux(op == X.A_SATI, sat_i, sat_w))))))
-    # A compare's event is its result (under the condition); other ops' events are early.
-    other_event = cond & Mux(op == X.A_SATI, clip_i, Mux(op == X.A_SATW, clip_w, 1))
-    on_compare = Mux(dec["cmp"] & cond, f("stat"), 0)
-    on_other = Mux(~dec["cmp"] & other_event, f("stat"), 0)
+    # A compare's event is its result (under the condition); other ops' events are early: the
+    # condition (an LD or a shift raises its status bit too: the zero vector's angle load), and
+    # for a saturation also its clip.
+    other_event = Signal(name="alu_event")
+    m.d.comb += other_event.eq(cond)
+    with m.Switch(ins.alu):
+        with m.Case(X.A_LD):
+            m.d.comb += early.eq(bus)
+        with m.Case(X.A_SHR1):
+            m.d.comb += early.eq(acc.shift_right(1))
+        with m.Case(X.A_SHR4):
+            m.d.comb += early.eq(acc.shift_right(4))
+        with m.Case(X.A_SHR16):
+            m.d.comb += early.eq(acc.shift_right(16))
+        with m.Case(X.A_SATI):
+            m.d.comb += [early.eq(sat_i), other_event.eq(cond & clip_i)]
+        with m.Case(X.A_SATW):
+            m.d.comb += [early.eq(sat_w), other_event.eq(cond & clip_w)]
+        with m.Default():
+            m.d.comb += early.eq(sat_w)
+    on_compare = Mux(dec["cmp"] & cond, ins.stat, 0)
+    on_other = Mux(~dec["cmp"] & other_event, ins.stat, 0)
     with m.If(run):
         with m.If(dec["sat"] | (dec["acc_cond"] & cond)):
             m.d.sync += acc.eq(Mux(dec["acc_total"], total, early))
         with m.If(dec["cmp"] & cond):
             m.d.sync += regs["flag"].eq(result)
-        with m.Elif(op == X.A_SETF):
+        with m.Elif(ins.alu == X.A_SETF):
             m.d.sync += regs["flag"].eq(cond)
         # Status bits reach the register a clock after their event.
         pending = Signal(w.status, name="status_pending")
         m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
-                     regs["status"].eq(Mux(f("io") == X.IO_FLAGS, 0, regs["status"] | pending))]
+                     regs["status"].eq(Mux(ins.io == X.IO_FLAGS, 0, regs["status"] | pending))]
 
-def cordic(m, f, dec, shift, bus, cond, step, regs, run, w):
+def cordic(m, ins, dec, shift, bus, cond, step, regs, run, w):
     """The CORDIC unit: loads, quarter turns, normalising shifts, one micro-rotation a clock."""
-    op = f("cop")
+    op = ins.cop
     x, y, z = regs["cx"], regs["cy"], regs["cz"]
     quarter = dec["quarter"]
     ccw = Mux(dec["vectoring"], y[-1], ~z[-1])
@@ -90,30 +104,29 @@ def cordic(m, f, dec, shift, bus, cond, step, regs, run, w):
     fits8 = v[top - 8:] == 0
     fits1 = v[top - 1:] == 0
     go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
-    with m.If(run):
-        with m.If((op == X.K_LDX) | (op == X.K_LDXG)):
+    with m.If(run), m.Switch(op):
+        with m.Case(X.K_LDX, X.K_LDXG):
             with m.If(cond):
                 m.d.sync += x.eq(Mux(op == X.K_LDXG, bus.shift_left(w.cordic_guard), bus))
                 with m.If(op == X.K_LDXG):
                     m.d.sync += z.eq(0)
-        with m.Elif((op == X.K_LDY) | (op == X.K_LDYG)):
+        with m.Case(X.K_LDY, X.K_LDYG):
             with m.If(cond):
                 m.d.sync += y.eq(Mux(op == X.K_LDYG, bus.shift_left(w.cordic_guard), bus))
-        with m.Elif(op == X.K_LDZA):
+        with m.Case(X.K_LDZA):
             with m.If(cond):
                 m.d.sync += z.eq(bus.shift_left(w.angle_guard))
-        with m.Elif(op == X.K_NORM8):
+        with m.Case(X.K_NORM8):
             with m.If(fits8):
                 m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
-        with m.Elif(op == X.K_NORM1):
+        with m.Case(X.K_NORM1):
             with m.If(fits1):
                 m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
-        with m.Elif((op == X.K_COARSE) | (op == X.K_QROT) | (op == X.K_VEC)
-                    | (op == X.K_ROT)):
+        with m.Case(X.K_COARSE, X.K_QROT, X.K_VEC, X.K_ROT):
             with m.If(go):
                 m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
-        with m.If(op == X.K_COARSE):
-            m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
+    with m.If(run & (op == X.K_COARSE)):
+        m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
 
 def b_factor_bits(w) -> int:
     """Bits of the B factor: a limb (two with the wide product step, ``w.b_limbs``) or a check
@@ -130,7 +143,7 @@ def _piece(reg, lsb: int, n: int, top):
     return Cat(rest, rest[-1].replicate(n + 1 - len(rest))).as_signed()
 
 
-def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
+def multiplier(m, ins, next_shift, bus, regs, run, w, shifts):
     """The operand registers, the limb pick and the one limb multiplier (16 x 16 bits, or 16 x
     31 with the wide product step)."""
     def limb(reg, index, top, check, size=1):
@@ -146,13 +159,14 @@ def multiplier(m, f, next_shift, bus, regs, run, w, shifts):
         # the shift of the instruction that adds it (the next one to execute).
         m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
                                     if len(shifts) > 1 else product.shift_left(shifts[0]))
-        with m.If(f("pick")):
-            m.d.sync += [regs["la"].eq(limb(regs["ma"], f("pa"), f("psa"), f("pwa"))),
-                         regs["lb"].eq(limb(regs["mb"], f("pb"), f("psb"), f("pwb"), w.b_limbs))]
-        with m.If(f("mld") == 1):
-            m.d.sync += regs["ma"].eq(bus)
-        with m.If(f("mld") == 2):
-            m.d.sync += regs["mb"].eq(bus)
+        with m.If(ins.pick):
+            m.d.sync += [regs["la"].eq(limb(regs["ma"], ins.pa, ins.psa, ins.pwa)),
+                         regs["lb"].eq(limb(regs["mb"], ins.pb, ins.psb, ins.pwb, w.b_limbs))]
+        with m.Switch(ins.mld):
+            with m.Case(X.MulLoad.A):
+                m.d.sync += regs["ma"].eq(bus)
+            with m.Case(X.MulLoad.B):
+                m.d.sync += regs["mb"].eq(bus)
 
 def _digit(m, rad, root, rem, w, name):
     """One digit step of the square root from (rad, root, rem): the next values, each cut to
@@ -167,16 +181,16 @@ def _digit(m, rad, root, rem, w, name):
     return nxt
 
 
-def sqrt(m, f, acc, regs, run, w):
+def sqrt(m, ins, acc, regs, run, w):
     """The digit-serial square root: one digit a clock, or two (``Q_STEP2``: two digit steps
     chained, two subtractions in one clock, off the engine's slowest paths)."""
     rad, root, rem = regs["rad"], regs["root"], regs["rem"]
     one = _digit(m, rad, root, rem, w, "sqrt")
     two = _digit(m, *one, w, "sqrt2")
-    with m.If(run):
-        with m.If(f("sq") == X.Q_LOAD):
+    with m.If(run), m.Switch(ins.sq):
+        with m.Case(X.Q_LOAD):
             m.d.sync += [rad.eq(acc[:w.radicand]), root.eq(0), rem.eq(0)]
-        with m.If(f("sq") == X.Q_STEP):
+        with m.Case(X.Q_STEP):
             m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), one)]
-        with m.If(f("sq") == X.Q_STEP2):
+        with m.Case(X.Q_STEP2):
             m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), two)]

@@ -1,0 +1,235 @@
+"""The clock-exact reference interpreter of the sequenced engine's programs (:mod:`.isa`).
+
+:func:`run` executes a :class:`~.isa.Program` clock by clock, exactly as the hardware does (the
+memory read of an instruction happens two clocks before it, the multiplier's two pipeline
+registers), so it checks a program against ``model.ik_solve`` in milliseconds, before any HDL
+simulation.
+"""
+
+from __future__ import annotations
+
+from ik5r.core.fxconfig import CHECK_BITS
+
+from ..graph.inputs import INPUT_WORDS
+from .isa import (ADDER_SOURCES, ADDING, LIMB, READ_AHEAD, AluOp, BusSource, CondSource, CordicOp,
+                  Ins, IoOp, MulLoad, Program, SqrtOp)
+
+__all__ = ["Machine", "run", "limb", "check_word", "wrap_signed", "fits"]
+
+
+def limb(value: int, index: int, top: bool, size: int = 1) -> int:
+    """Limb ``index`` of an operand cut in limbs of ``size`` 15-bit limbs: 15 ``size`` unsigned
+    bits, or, for the top one, the signed rest (16 bits for ``size`` 1)."""
+    if top:
+        bits = (value >> (LIMB * size * index)) & ((1 << (LIMB * size + 1)) - 1)
+        return bits - (1 << (LIMB * size + 1)) if bits >> (LIMB * size) else bits
+    return (value >> (LIMB * size * index)) & ((1 << (LIMB * size)) - 1)
+
+
+def check_word(value: int, lsb: int) -> int:
+    """The check word of an operand: its bits from ``lsb`` on (floor), CHECK_BITS bits, signed."""
+    word = value >> lsb
+    if not fits(word, CHECK_BITS):
+        raise OverflowError(f"check word overflow {word} of {value}")
+    return word
+
+
+def wrap_signed(value: int, bits: int) -> int:
+    value &= (1 << bits) - 1
+    return value - (1 << bits) if value >> (bits - 1) else value
+
+
+def fits(value: int, bits: int) -> bool:
+    return -(1 << (bits - 1)) <= value < (1 << (bits - 1))
+
+
+def _alu_op(ins: Ins) -> AluOp:
+    return ins.alu or AluOp.NOP
+
+
+def _bsel(ins: Ins) -> BusSource:
+    return ins.bsel or BusSource.MEM
+
+
+class Machine:
+    """The engine's state, stepped one instruction (clock) at a time; see :func:`run`."""
+
+    def __init__(self, prog: Program):
+        self.p, self.w = prog, prog.widths
+        self.mem = list(prog.mem_init)
+        self.acc = self.cx = self.cy = self.cz = 0
+        self.f = self.zero = self.back = self.down = self.roll = 0
+        self.status = self.tag = 0
+        self.pending = 0        # status bits of the previous instruction, ORed in one clock later
+        self.ma = self.mb = self.la = self.lb = self.prod = 0
+        self.rad = self.root = self.rem = 0
+
+    def cond(self, ins: Ins) -> int:
+        src = {CondSource.ONE: 1, CondSource.F: self.f, CondSource.BACK: self.back,
+               CondSource.DOWN: self.down, CondSource.ROLL: self.roll, CondSource.ZERO: self.zero}
+        a = src[ins.ca or CondSource.ONE] ^ (ins.cai or 0)
+        b = src[ins.cb or CondSource.ONE] ^ (ins.cbi or 0)
+        return a & b
+
+    def bus(self, ins: Ins, mem_word, inputs) -> int:
+        sel = _bsel(ins)
+        if sel == BusSource.IN:
+            return inputs[ins.iw] << self.w.guard
+        return {BusSource.MEM: mem_word, BusSource.CX: self.cx, BusSource.CY: self.cy,
+                BusSource.CZ: self.cz, BusSource.ROOT: self.root, BusSource.REM: self.rem,
+                BusSource.ACC: self.acc}[sel]
+
+    def step(self, ins: Ins, mem_word, inputs, outputs):
+        """One clock of ``ins`` (``mem_word``: the memory word read for it)."""
+        w = self.w
+        b = self.bus(ins, mem_word, inputs)
+        cond = self.cond(ins)
+        if _alu_op(ins) in ADDING and _bsel(ins) not in ADDER_SOURCES:
+            raise ValueError(f"an adding ALU operation on B-bus source {ins.bsel} "
+                             f"(the adder takes {ADDER_SOURCES}) at {ins}")
+        acc, f, event = self._alu(ins, b, cond)
+        if not fits(acc, w.acc):
+            raise OverflowError(f"accumulator overflow {acc} at {ins}")
+        # Status bits reach the register one clock after their event (a register off the
+        # compare's carry chain).
+        status, self.pending = self.status | self.pending, (ins.stat or 0) if event else 0
+        # Memory write and word output take the accumulator before this instruction.
+        if ins.wr:
+            if not fits(self.acc, w.mem):
+                raise OverflowError(f"memory word overflow {self.acc} at {ins}")
+            self.mem[ins.wa] = self.acc
+        if ins.io == IoOp.OUT:
+            outputs[ins.iw] = wrap_signed(self.acc, w.word)
+        elif ins.io == IoOp.STATUS:
+            outputs["status"], outputs["tag"] = self.status, self.tag
+        elif ins.io == IoOp.FLAGS:
+            flags = inputs[len(INPUT_WORDS)]
+            self.roll, self.back, self.down = flags & 1, (flags >> 1) & 1, (flags >> 2) & 1
+            self.tag = flags >> 3
+            status = 0
+        self._cordic(ins, b, cond)
+        self._multiply(ins, b)
+        self._sqrt(ins)
+        self.acc, self.f, self.status = acc, f, status
+
+    def _alu(self, ins: Ins, b: int, cond: int) -> tuple:
+        """(the accumulator, F, the status event) after the ALU operation of ``ins``."""
+        acc, f, event, op = self.acc, self.f, cond, _alu_op(ins)
+        if op in (AluOp.CMPGT, AluOp.CMPLT):
+            event = 0
+            if cond:
+                f = event = int(acc > b if op == AluOp.CMPGT else acc < b)
+        elif op == AluOp.SETF:
+            f = cond
+        elif op in (AluOp.SATI, AluOp.SATW):
+            # Always clips; the condition gates only the status event.
+            bits = self.w.internal if op == AluOp.SATI else self.w.word
+            lo, hi = -(1 << (bits - 1)), (1 << (bits - 1)) - 1
+            clipped = min(hi, max(lo, acc))
+            event = int(clipped != acc) & cond
+            acc = clipped
+        elif cond:
+            shift = self.p.shifts[ins.sh or 0]
+            acc = {AluOp.NOP: acc, AluOp.LD: b, AluOp.ADD: acc + b, AluOp.SUB: acc - b,
+                   AluOp.NEG: -acc, AluOp.SHR1: acc >> 1, AluOp.SHR4: acc >> 4,
+                   AluOp.SHR16: acc >> 16, AluOp.MLD: self.prod << shift,
+                   AluOp.MACC: acc + (self.prod << shift)}[op]
+        return acc, f, event
+
+    def _cordic(self, ins: Ins, b: int, cond: int):
+        w, op = self.w, ins.cop or CordicOp.NOP
+        x, y, z = self.cx, self.cy, self.cz
+        if op in (CordicOp.LDX, CordicOp.LDXG) and cond:
+            x = b << (w.cordic_guard if op == CordicOp.LDXG else 0)
+            z = 0 if op == CordicOp.LDXG else z
+        elif op in (CordicOp.LDY, CordicOp.LDYG) and cond:
+            y = b << (w.cordic_guard if op == CordicOp.LDYG else 0)
+        elif op == CordicOp.LDZA and cond:
+            z = b << w.angle_guard
+        elif op in (CordicOp.COARSE, CordicOp.QROT):
+            x, y, z = self._quarter(op, x, y, z)
+        elif op in (CordicOp.NORM8, CordicOp.NORM1):
+            s = 8 if op == CordicOp.NORM8 else 1
+            v = x | (~y if y < 0 else y)
+            if v >> (w.internal - 1 - s + w.cordic_guard) == 0:
+                x, y = x << s, y << s
+        elif op in (CordicOp.VEC, CordicOp.ROT):
+            i, step = ins.ci or 0, self.p.atan[ins.ci or 0]
+            # Vectoring turns by the sign of y, rotation drives z to 0.
+            ccw = (y < 0) if op == CordicOp.VEC else (z >= 0)
+            if ccw:
+                x, y, z = x - (y >> i), y + (x >> i), z - step
+            else:
+                x, y, z = x + (y >> i), y - (x >> i), z + step
+        for value, bits in ((x, w.xy), (y, w.xy), (z, w.z)):
+            if not fits(value, bits):
+                raise OverflowError(f"CORDIC register overflow {value} at {ins}")
+        self.cx, self.cy, self.cz = x, y, z
+
+    def _quarter(self, op: CordicOp, x: int, y: int, z: int) -> tuple:
+        """The vectoring's coarse rotation or the rotation's quadrant step."""
+        half = self.p.atan[-1]
+        if op == CordicOp.COARSE:
+            self.zero = int(x == 0 and y == 0)
+            go, down = x < 0, y < 0
+        else:
+            go, down = self.f, z < 0          # rotation: turn towards z = 0
+        if go:
+            if down:
+                return (-y, x, z - half) if op == CordicOp.COARSE else (y, -x, z + half)
+            return (y, -x, z + half) if op == CordicOp.COARSE else (-y, x, z - half)
+        return x, y, z
+
+    def _multiply(self, ins: Ins, b: int):
+        w = self.w
+        self.prod = self.la * self.lb            # the product register: two clocks after a pick
+        if ins.pick:
+            self.la = (check_word(self.ma, w.check_lsb) if ins.pwa
+                       else limb(self.ma, ins.pa or 0, ins.psa or 0))
+            self.lb = (check_word(self.mb, w.check_lsb) if ins.pwb
+                       else limb(self.mb, ins.pb or 0, ins.psb or 0, w.b_limbs))
+        if ins.mld in (MulLoad.A, MulLoad.B):
+            if not fits(b, w.operand):
+                raise OverflowError(f"multiplier operand overflow {b} at {ins}")
+            if ins.mld == MulLoad.A:
+                self.ma = b
+            else:
+                self.mb = b
+
+    def _sqrt(self, ins: Ins):
+        if ins.sq == SqrtOp.LOAD:
+            if not 0 <= self.acc < (1 << self.w.radicand):
+                raise OverflowError(f"radicand out of range {self.acc}")
+            self.rad, self.root, self.rem = self.acc, 0, 0
+        elif ins.sq in (SqrtOp.STEP, SqrtOp.STEP2):
+            for _ in range(2 if ins.sq == SqrtOp.STEP2 else 1):
+                self._digit()
+
+    def _digit(self):
+        """One digit of the square root (two radicand bits in, one root bit out)."""
+        w = self.w
+        rem = (self.rem << 2) | (self.rad >> (w.radicand - 2))
+        self.rad = (self.rad << 2) & ((1 << w.radicand) - 1)
+        trial = (self.root << 2) | 1
+        if rem >= trial:
+            self.rem, self.root = rem - trial, (self.root << 1) | 1
+        else:
+            self.rem, self.root = rem, self.root << 1
+
+
+def run(prog: Program, inputs: list[int]) -> dict:
+    """One pose through ``prog``: ``inputs`` are the 13 words of :data:`INPUT_WORDS` and the flags
+    word (has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3). Returns the output words
+    (0..4: q1..q5) and ``status``, ``tag``."""
+    m = Machine(prog)
+    outputs = {}
+    code = prog.code
+    # The memory read of instruction n happens two clocks ahead, in the clock of instruction
+    # n - 2, before that instruction's write (see READ_AHEAD).
+    reads = [m.mem[ins.rd or 0] for ins in code[:READ_AHEAD]]
+    for n, ins in enumerate(code):
+        word = reads.pop(0)
+        if n + READ_AHEAD < len(code):
+            reads.append(m.mem[code[n + READ_AHEAD].rd or 0])
+        m.step(ins, word, inputs, outputs)
+    return outputs
