@@ -73,8 +73,8 @@ def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
             m.d.comb += [early.eq(sat_i), other_event.eq(cond & clip_i)]
         with m.Case(X.A_SATW):
             m.d.comb += [early.eq(sat_w), other_event.eq(cond & clip_w)]
-        with m.Default():
-            m.d.comb += early.eq(sat_w)
+        with m.Default():       # the event restated: a case for every value (lint-clean)
+            m.d.comb += [early.eq(sat_w), other_event.eq(cond)]
     on_compare = Mux(dec["cmp"] & cond, ins.stat, 0)
     on_other = Mux(~dec["cmp"] & other_event, ins.stat, 0)
     with m.If(run):
@@ -125,6 +125,8 @@ def cordic(m, ins, dec, shift, bus, cond, step, regs, run, w):
         with m.Case(X.K_COARSE, X.K_QROT, X.K_VEC, X.K_ROT):
             with m.If(go):
                 m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
+        with m.Default():       # the other operations hold the vector (a case for every value: lint-clean)
+            m.d.sync += [x.eq(x), y.eq(y), z.eq(z)]
     with m.If(run & (op == X.K_COARSE)):
         m.d.sync += regs["zero"].eq((x == 0) & (y == 0))
 
@@ -167,6 +169,8 @@ def multiplier(m, ins, next_shift, bus, regs, run, w, shifts):
                 m.d.sync += regs["ma"].eq(bus)
             with m.Case(X.MulLoad.B):
                 m.d.sync += regs["mb"].eq(bus)
+            with m.Default():
+                m.d.sync += [regs["ma"].eq(regs["ma"]), regs["mb"].eq(regs["mb"])]
 
 def _digit(m, rad, root, rem, w, name):
     """One digit step of the square root from (rad, root, rem): the next values, each cut to
@@ -194,3 +198,5 @@ def sqrt(m, ins, acc, regs, run, w):
             m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), one)]
         with m.Case(X.Q_STEP2):
             m.d.sync += [reg.eq(value) for reg, value in zip((rad, root, rem), two)]
+        with m.Default():
+            m.d.sync += [reg.eq(reg) for reg in (rad, root, rem)]
