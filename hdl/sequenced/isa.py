@@ -145,14 +145,15 @@ class Ins:
 
     def present(self) -> frozenset:
         """The names of the fields this instruction sets."""
-        return frozenset(f.name for f in fields(self) if getattr(self, f.name) is not None)
+        return frozenset(self.set_fields())
 
     def merge(self, other: "Ins") -> "Ins":
         """This instruction with ``other``'s present fields set (they win)."""
         return Ins(**{**self.set_fields(), **other.set_fields()})
 
     def set_fields(self) -> dict:
-        return {name: getattr(self, name) for name in self.present()}
+        """{name: value} of the fields this instruction sets, in word order."""
+        return {name: value for name in FIELDS if (value := getattr(self, name)) is not None}
 
 
 #: The instruction fields in word order (the first at bit 0).

@@ -116,7 +116,9 @@ class Table:
     def __init__(self):
         self.claims: list[set] = []
         self.conds: list = []
-        self.code: list[Ins] = []
+        # The placements in order; the instructions are merged once, for the schedule kept
+        # (merging every trial's words was most of the hill climb's time).
+        self.placed: list[tuple[Block, int]] = []
 
     def fits(self, b: Block, start: int) -> bool:
         for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
@@ -134,12 +136,22 @@ class Table:
         while len(self.claims) < end:
             self.claims.append(set())
             self.conds.append(None)
-            self.code.append(Ins())
-        for t, ins in enumerate(b.code):
+        for t in range(len(b.code)):
             self.claims[start + t] |= b.claims[t]
             if b.conds[t] is not None:
                 self.conds[start + t] = b.conds[t]
-            self.code[start + t] = self.code[start + t].merge(ins)
+        self.placed.append((b, start))
+
+    def __len__(self) -> int:
+        return len(self.claims)
+
+    def code(self) -> list[Ins]:
+        """The program: per clock, the instructions placed there merged in placement order."""
+        code = [Ins() for _ in self.claims]
+        for b, start in self.placed:
+            for t, ins in enumerate(b.code):
+                code[start + t] = code[start + t].merge(ins)
+        return code
 
 
 def _priorities(blocks: list, producer: dict) -> list:
@@ -171,12 +183,12 @@ def schedule(codes: list) -> list:
         for i in range(1, len(blocks) - 1):
             for step in STEPS:
                 trial = prio[:i] + [prio[i] + step] + prio[i + 1:]
-                code = _Placer(blocks, trial).run()
-                if len(code) < len(best):
-                    best, prio, improved = code, trial, True
+                table = _Placer(blocks, trial).run()
+                if len(table) < len(best):
+                    best, prio, improved = table, trial, True
         if not improved:
             break
-    return share_words(best)
+    return share_words(best.code())
 
 
 #: Hill-climbing passes over the priorities (each schedules the program once per block and step).
@@ -226,8 +238,8 @@ class _Placer:
             i = next(i for i in todo if self.ready(i) is not None)
             todo.remove(i)
             self.place(i, self.first_fit(i, self.ready(i)))
-        self.place(last, self.first_fit(last, max(self.ready(last), len(self.table.code))))
-        return list(self.table.code)
+        self.place(last, self.first_fit(last, max(self.ready(last), len(self.table))))
+        return self.table
 
 
 def share_words(code: list[Ins]) -> list[Ins]:
