@@ -263,11 +263,11 @@ def _ik_random(rng, n, pm, k):
     """Reachable poses (FK of random joints, all branches, with and without roll); one in ten
     rows is random words instead (any input, saturation and invalid paths)."""
     out = vectors.random_poses(k, -(-n // 8), rng)[:n].fields()
-    wild = rng.random(n) < 0.1
+    wild = np.flatnonzero(rng.random(n) < 0.1)
     for name in FIELDS:
         f = pm.i.fields[name]
-        out[name] = np.where(wild, _words(rng, n, max(f.lo, k.word_min), min(f.hi, k.word_max), k),
-                             out[name]).astype(np.int64)
+        out[name] = np.array(out[name], dtype=np.int64)      # a copy: the fields may be views
+        out[name][wild] = _words(rng, len(wild), max(f.lo, k.word_min), min(f.hi, k.word_max), k)
     return out
 
 
