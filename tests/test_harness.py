@@ -94,6 +94,62 @@ def test_harness_reports_a_wrong_bit(monkeypatch):
     assert r["mismatches"] == 1 and r["first_mismatch"]["index"] == 7
 
 
+#: A register fed by a sum, in the style of the designs' Verilog: a process with a case.
+TINY = """module m(clk, sel, a, b, q);
+  input clk;
+  input sel;
+  input [7:0] a;
+  input [7:0] b;
+  output [8:0] q;
+  reg [8:0] r = 9'h000;
+  reg [8:0] \\r$next ;
+  always @* begin
+    \\r$next  = r;
+    casez (sel)
+      1'h1: \\r$next  = { a[7], a } + { b[7], b };
+      default: \\r$next  = { a[7], a } - { b[7], b };
+    endcase
+  end
+  always @(posedge clk) r <= \\r$next ;
+  assign q = r;
+endmodule
+"""
+
+
+def test_equivalence_proof_can_fail(tmp_path):
+    """The proof the simulation netlist rests on: a lowered module is proved equal to its source,
+    and the same netlist with one operator changed is not."""
+    from ik5r.tools.testbench.harness import _simulation_text, prove_equivalent
+    source = tmp_path / "m.v"
+    source.write_text(TINY)
+    lowered = _simulation_text(source)
+    assert "always @*" not in lowered.read_text()          # the process is gone: lowered
+    ok, said = prove_equivalent(source, lowered, "m")
+    assert ok, said
+    wrong = tmp_path / "wrong.v"
+    wrong.write_text(lowered.read_text().replace(" - ", " + ", 1))
+    assert wrong.read_text() != lowered.read_text()
+    ok, said = prove_equivalent(source, wrong, "m")
+    assert not ok and "unproven" in said
+
+
+@pytest.mark.parametrize("design", [pytest.param(SMALL, id="-".join(SMALL)),
+                                    pytest.param(("ik", "compact", "q18"), id="ik-compact-q18",
+                                                 marks=pytest.mark.slow),
+                                    pytest.param(("ik", "pipelined", "q18"), id="ik-pipelined-q18",
+                                                 marks=pytest.mark.slow)])
+def test_simulation_netlist_is_the_design(design, tmp_path):
+    """The text the harness verilates (the design's Verilog through Yosys's ``SIM_PASSES``, then
+    the replications) is proved equivalent to the design's Verilog: every port and register on
+    every clock."""
+    from ik5r.tools.testbench.harness import _simulation_text, prove_equivalent
+    from ik5r.tools.testbench.portmap import load_portmap
+    from ik5r.tools.testbench.runner import generate_sources, sim_design
+    vpath, jpath = generate_sources(sim_design(*design), tmp_path)
+    ok, said = prove_equivalent(vpath, _simulation_text(vpath), load_portmap(jpath).top)
+    assert ok, said
+
+
 #: Every shipped config of both IK cores. The pipelined core takes a pose per clock, so its soak
 #: runs at the simulator's cycle rate; the compact core takes one per ~800 cycles: a soak of its
 #: own size (10**7 of its poses would be ~8e9 cycles a config).

