@@ -64,20 +64,26 @@ class Machine:
         self.ma = self.mb = self.la = self.lb = self.prod = 0
         self.rad = self.root = self.rem = 0
 
+    #: The register each condition source reads (ONE: none, the constant 1). Tables built once:
+    #: a table per instruction would hash every enum member on every clock.
+    _COND_REGISTER = {CondSource.F: "f", CondSource.BACK: "back", CondSource.DOWN: "down",
+                      CondSource.ROLL: "roll", CondSource.ZERO: "zero"}
+    _BUS_REGISTER = {BusSource.CX: "cx", BusSource.CY: "cy", BusSource.CZ: "cz", BusSource.ROOT: "root",
+                     BusSource.REM: "rem", BusSource.ACC: "acc"}
+
+    def _source(self, src) -> int:
+        return 1 if src is None or src is CondSource.ONE else getattr(self, self._COND_REGISTER[src])
+
     def cond(self, ins: Ins) -> int:
-        src = {CondSource.ONE: 1, CondSource.F: self.f, CondSource.BACK: self.back,
-               CondSource.DOWN: self.down, CondSource.ROLL: self.roll, CondSource.ZERO: self.zero}
-        a = src[ins.ca or CondSource.ONE] ^ (ins.cai or 0)
-        b = src[ins.cb or CondSource.ONE] ^ (ins.cbi or 0)
+        a = self._source(ins.ca) ^ (ins.cai or 0)
+        b = self._source(ins.cb) ^ (ins.cbi or 0)
         return a & b
 
     def bus(self, ins: Ins, mem_word, inputs) -> int:
         sel = _bsel(ins)
-        if sel == BusSource.IN:
+        if sel is BusSource.IN:
             return inputs[ins.iw] << self.w.guard
-        return {BusSource.MEM: mem_word, BusSource.CX: self.cx, BusSource.CY: self.cy,
-                BusSource.CZ: self.cz, BusSource.ROOT: self.root, BusSource.REM: self.rem,
-                BusSource.ACC: self.acc}[sel]
+        return mem_word if sel is BusSource.MEM else getattr(self, self._BUS_REGISTER[sel])
 
     def step(self, ins: Ins, mem_word, inputs, outputs):
         """One clock of ``ins`` (``mem_word``: the memory word read for it)."""
@@ -129,12 +135,15 @@ class Machine:
             event = int(clipped != acc) & cond
             acc = clipped
         elif cond:
-            shift = self.p.shifts[ins.sh or 0]
-            acc = {AluOp.NOP: acc, AluOp.LD: b, AluOp.ADD: acc + b, AluOp.SUB: acc - b,
-                   AluOp.NEG: -acc, AluOp.SHR1: acc >> 1, AluOp.SHR4: acc >> 4,
-                   AluOp.SHR16: acc >> 16, AluOp.MLD: self.prod << shift,
-                   AluOp.MACC: acc + (self.prod << shift)}[op]
+            acc = self._ARITHMETIC[op](acc, b, self.prod << self.p.shifts[ins.sh or 0])
         return acc, f, event
+
+    #: The accumulator after an arithmetic operation: f(acc, B bus, the shifted product).
+    _ARITHMETIC = {AluOp.NOP: lambda acc, b, prod: acc, AluOp.LD: lambda acc, b, prod: b,
+                   AluOp.ADD: lambda acc, b, prod: acc + b, AluOp.SUB: lambda acc, b, prod: acc - b,
+                   AluOp.NEG: lambda acc, b, prod: -acc, AluOp.SHR1: lambda acc, b, prod: acc >> 1,
+                   AluOp.SHR4: lambda acc, b, prod: acc >> 4, AluOp.SHR16: lambda acc, b, prod: acc >> 16,
+                   AluOp.MLD: lambda acc, b, prod: prod, AluOp.MACC: lambda acc, b, prod: acc + prod}
 
     def _cordic(self, ins: Ins, b: int, cond: int):
         w, op = self.w, ins.cop or CordicOp.NOP

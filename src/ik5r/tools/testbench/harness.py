@@ -137,10 +137,10 @@ def prove_equivalent(gold: Path, gate: Path, top: str) -> tuple[bool, str]:
     one equals its namesake in the other on every clock (``equiv_make``, ``equiv_simple``,
     ``equiv_induct``); else (False, what Yosys said)."""
     def load(path: Path, name: str) -> str:
-        # Internal wires (yosys's $-names) are not matched: wreduce may leave their unused bits
-        # different; the ports and registers they feed are.
+        # Temporaries (names with a $, also a submodule's after flatten) are not matched:
+        # wreduce may leave their unused bits different; the ports and registers they feed are.
         return (f"read_verilog {path.name}; hierarchy -top {top}; proc; memory; flatten; "
-                f"rename -hide w:\\$*; rename {top} {name}; design -stash {name}; ")
+                f"rename -hide w:*$*; rename {top} {name}; design -stash {name}; ")
     script = (load(gold, "gold") + load(gate, "gate") + "design -copy-from gold -as gold gold; "
               "design -copy-from gate -as gate gate; equiv_make gold gate equiv; hierarchy -top equiv; "
               "equiv_simple -seq 2; equiv_induct; equiv_status -assert")
