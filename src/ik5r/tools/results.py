@@ -215,6 +215,8 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
+        per_stage = r.get("rotations_per_stage", 1)
+        arch += f", {per_stage} micro-rotations per stage" if per_stage != 1 else ""
         lines.append(f"| {r['block']} | {arch} | {r.get('dsp', Dsp.GENERIC)} | {r['config']} | {r['target']}-{r['device']}"
                      f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
                      f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "

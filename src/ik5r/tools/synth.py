@@ -256,6 +256,9 @@ def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict
         "block": design.block, "arch": design.arch, "dsp": design.options.dsp, "tag_width": opts.tag_width,
         "module": pmap["module"], "serial": options.get("serial"), "config": cfg.name,
         **({"wide_product": True} if options.get("wide_product") else {}),
+        # The results tool rebuilds a record's Verilog from these keys (a default is left out).
+        **({"rotations_per_stage": design.options.rotations_per_stage}
+           if design.options.rotations_per_stage != 1 else {}),
         "arm": design.arm.name, "arm_sha256": arm_hash(design.constants), "arm_reach_cm": design.arm.reach,
         "width": cfg.width, "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
