@@ -5,7 +5,7 @@ a payload field of the port map by name (with aliases), so the generator may cal
 ``x_u``. Everything else (widths, signedness, tag) comes from the port map.
 
 To add a block (e.g. the IK core of issue 4): write a BlockSpec with ``model_vec`` (numpy, for the
-bulk runs), ``model_scalar`` (``ik5r.firmware_model.model``, the specification), ``random_inputs``,
+bulk runs; the IK core's is the C solver, bit-exact with the numpy model), ``model_scalar`` (``ik5r.firmware_model.model``, the specification), ``random_inputs``,
 ``edge_inputs`` and ``float_error``, and put it in :data:`BLOCKS`. The testbench, ``ik5r sim`` and
 the tests pick it up by name.
 """
@@ -22,6 +22,7 @@ from ik5r.core import status as st
 from ik5r.core.fxconfig import Constants
 from ik5r.core.modes import Block
 from ik5r.core.pose_fields import SOLUTION_NAMES
+from ik5r.firmware_model import csolver
 from ik5r.firmware_model import model as M
 from ik5r.firmware_model import vector as V
 from ik5r.firmware_model import vectors
@@ -244,7 +245,10 @@ def ik_outputs(k, poses: PoseBatch, solve_batch) -> Arrays:
 
 
 def _ik_vec(x, pm, k):
-    return ik_outputs(k, PoseBatch.from_fields(x), V.solve_batch)
+    # The C solver (the firmware, a host build): the IK core checked against what the firmware
+    # computes, and a third faster than the numpy model in the bulk runs; ``Job.expected``
+    # checks it against the scalar model on a sample of every batch, as it did the numpy one.
+    return ik_outputs(k, PoseBatch.from_fields(x), csolver.solve_batch)
 
 
 def _ik_scalar(x, pm, k):

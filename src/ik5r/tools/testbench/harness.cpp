@@ -8,9 +8,10 @@
 // xorshift generator. Checked on every cycle: an output that is offered and not taken keeps
 // its payload and its valid (a hold violation), and nothing comes out beyond what went in.
 //
-// Usage: harness IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS CYCLE_LIMIT
+// Usage: harness IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS CYCLE_LIMIT DRAIN
 // (CYCLE_LIMIT: the run stops there with the outputs it has; Python sizes it from the block's
-// cycles per result, so that only a hung block reaches it).
+// cycles per result, so that only a hung block reaches it. DRAIN: cycles run after the last
+// output with ready high, any output then an extra one; Python sizes it from the latency).
 // Prints one line: "cycles C in I out O hold_violations H extra_outputs E".
 // ik5r_ports.h (generated next to the block's Verilog) names its ports and payload word counts.
 #include <cstdint>
@@ -77,8 +78,6 @@ struct Pattern {
 
 constexpr std::size_t kIn = IK5R_IN_WORDS;
 constexpr std::size_t kOut = IK5R_OUT_WORDS;
-// Cycles run after the last output with ready high: any output then is an extra one.
-constexpr int kDrainCycles = 2048;
 
 // The block, its stimulus and what came out; one call of cycle() is one clock.
 struct Harness {
@@ -154,8 +153,8 @@ bool write_words(const char* path, const uint32_t* words, std::size_t n) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc != 9) {
-        std::fprintf(stderr, "usage: %s IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS CYCLE_LIMIT\n",
+    if (argc != 10) {
+        std::fprintf(stderr, "usage: %s IN OUT COUNT SEED VALID_PERMILLE READY_PERMILLE STALLS CYCLE_LIMIT DRAIN\n",
                      argv[0]);
         return 2;
     }
@@ -171,10 +170,11 @@ int main(int argc, char** argv) {
     Harness h(in, count);
     h.reset();
     const uint64_t limit = std::strtoull(argv[8], nullptr, 10);
+    const uint64_t drain = std::strtoull(argv[9], nullptr, 10);
     while (h.got < count && h.cycles < limit) h.cycle(vpat.next(), rpat.next());
     // Drain: anything beyond the items sent is an extra output.
     if (h.got == count)
-        for (int c = 0; c < kDrainCycles; ++c) h.cycle(false, true);
+        for (uint64_t c = 0; c < drain; ++c) h.cycle(false, true);
     h.dut.final();
     const uint64_t stored = h.got < count ? h.got : count;
     if (!write_words(argv[2], h.out.data(), stored * kOut)) {

@@ -6,11 +6,12 @@ options are the design's), writes beside it the text Verilator gets (its process
 Yosys's ``proc``, runs of one repeated bit as replications, :mod:`.simtext`: the same design,
 less C++ per clock), builds that with the C++ main under
 ``build/sim/<block>_<arch>_<config>[_arm-<arm>]_harness/`` (reused while its sources are
-unchanged, and from a cache keyed by the Verilog's body across checkouts), and streams chunks of items through it: the stimulus (:meth:`.job.Job.inputs`, the edge set first)
-packed into a file of 32-bit words, the outputs read back from a file and compared bit for bit,
-every field and the tag, with the vectorised model in numpy (:func:`.bulk.compare_chunk`; the
-model itself checked against the scalar one on a sample of each chunk). The next chunk's
-stimulus and model run while the simulator runs the current one.
+unchanged, and from a cache keyed by the Verilog's body across checkouts), and streams chunks
+of items through it: the stimulus (:meth:`.job.Job.inputs`, the edge set first) packed into a
+file of 32-bit words, the outputs read back from a file and compared bit for bit, every field and
+the tag, with the block's bulk model (``model_vec``: numpy; the IK core's is the C solver;
+:func:`.bulk.compare_chunk`), itself checked against the scalar model on a sample of each chunk.
+The next chunk's stimulus and model run while the simulators run.
 
 The clock is driven in C++, so a cycle costs one evaluation of the design and no Python or VPI
 call: this is the fast path of ``make bench`` and of the slow soak. The harness checks the
@@ -219,6 +220,13 @@ CHUNKS_PER_JOB = 8
 ERROR_SAMPLE = 1 << 12
 
 
+def drain_cycles(pm: PortMap) -> int:
+    """Cycles the harness runs after the last expected output, ready high: twice the latency
+    (every item in flight comes out within one latency), at least 64; 2,048 for a block whose
+    latency the port map does not give."""
+    return 2 * pm.latency_cycles + 64 if pm.latency_cycles else 2048
+
+
 def cycle_limit(items: int, pm: PortMap) -> int:
     """Cycles after which the harness gives up on a chunk of ``items``: 64 times what the block
     needs at its rate (idles, back-pressure and stalls cost at most a few times that), so only a
@@ -267,7 +275,7 @@ class HarnessRun:
         valid, ready, stalls = self.pattern
         cmd = [str(self.binary), str(chunk.in_path), str(chunk.out_path), str(chunk.n),
                str(self.job.seed * 1000003 + chunk.index), str(valid), str(ready), str(int(stalls)),
-               str(cycle_limit(chunk.n, self.job.pm))]
+               str(cycle_limit(chunk.n, self.job.pm)), str(drain_cycles(self.job.pm))]
         chunk.started = time.perf_counter()
         chunk.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 

@@ -81,7 +81,7 @@ class Stream:
         little-endian 32-bit limbs (bits above the width zero)."""
         count = len(next(iter(columns.values())))
         limbs = (self.width + 31) // 32
-        out = np.zeros((count, limbs), dtype=np.uint64)
+        out = np.zeros((limbs, count), dtype=np.uint64)      # a limb's words side by side
         for name, f in self.fields.items():
             raw = np.asarray(columns[name], dtype=np.int64).astype(np.uint64) & np.uint64(f.mask)
             lo = f.lsb
@@ -89,9 +89,9 @@ class Stream:
                 limb, bit = divmod(lo, 32)
                 take = min(32 - bit, f.lsb + f.width - lo)
                 part = (raw >> np.uint64(lo - f.lsb)) & np.uint64((1 << take) - 1)
-                out[:, limb] |= part << np.uint64(bit)
+                out[limb] |= part << np.uint64(bit)
                 lo += take
-        return out.astype(np.uint32)
+        return np.ascontiguousarray(out.T, dtype=np.uint32)
 
     def unpack_words(self, words: np.ndarray) -> dict[str, np.ndarray]:
         """The fields (int64, signed where the field is) of an (N, limbs) uint32 array of
