@@ -11,7 +11,7 @@ from amaranth.hdl import Const, Mux, Shape, Signal, Value, ValueCastable, signed
 from .ecp5 import MULT_BITS, mult18x18d
 from .expr import drop, extend
 
-__all__ = ["LIMB_BITS", "NARROW_ROWS", "DspBudget", "Product", "add_products"]
+__all__ = ["LIMB_BITS", "LUT_ROWS", "NARROW_ROWS", "DspBudget", "Product", "add_products"]
 
 #: Operand slice width of a partial product: 17 x 17 unsigned (18 x 18 signed at the top limb)
 #: fits one ECP5 MULT18X18D.
@@ -109,15 +109,21 @@ class Product(ValueCastable):
         return True
 
 
-#: A partial product of at most this many shift-and-add rows (a top limb of a few bits, a
-#: constant of a few set bits) is built in LUTs: two adder levels, less delay than a DSP and no
-#: DSP spent on 4 of its 18 x 18 bits.
+#: A partial product of at most this many shift-and-add rows (a top limb of a bit or two, a
+#: constant of two set bits) is built in LUTs: one adder level, no more delay than a DSP and no
+#: DSP spent on 2 of its 18 x 18 bits.
+LUT_ROWS = 2
+
+#: A term of at most this many rows (a top limb of a few bits) is split in two LUT terms of at
+#: most :data:`LUT_ROWS` rows where the adder tree has room for the extra term
+#: (:func:`_split_narrow`); where it has not, it takes a DSP: two adder levels in one stage were
+#: the critical path of the q32w core on the ECP5-85k.
 NARROW_ROWS = 4
 
 
 class DspBudget:
     """Which partial products of a pipelined ECP5 build get a ``MULT18X18D``, in build order:
-    never a narrow one (:data:`NARROW_ROWS`); the others while fewer than ``max_dsp`` (no cap:
+    never one of at most :data:`LUT_ROWS` rows; the others while fewer than ``max_dsp`` (no cap:
     None) are taken, the rest in LUTs (:meth:`Product.lut_value`, one stage of shift-and-add)."""
 
     def __init__(self, max_dsp: int | None = None):
@@ -126,7 +132,7 @@ class DspBudget:
         self.max_dsp, self.used = max_dsp, 0
 
     def wants_dsp(self, product: Product) -> bool:
-        if product.rows() <= NARROW_ROWS:
+        if product.rows() <= LUT_ROWS:
             return False
         if self.max_dsp is not None and self.used >= self.max_dsp:
             return False
@@ -214,7 +220,47 @@ def _partial_products(prefix, index, a_shape, b) -> list:
             for b_lo, b_hi, b_signed in _limbs(Shape.cast(b_shape)):
                 terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo,
                               (a_lo, a_hi, a_signed), (b_of, b_lo, b_hi, b_signed)))
-    return terms
+    return _split_narrow(terms)
+
+
+def _term_rows(a_range, b_part) -> int:
+    """A term's rows as :meth:`Product.rows` counts them."""
+    a_bits = a_range[1] - a_range[0]
+    if isinstance(b_part, int):
+        return min(a_bits, bin(b_part).count("1"))
+    return min(a_bits, b_part[2] - b_part[1])
+
+
+def _levels(count: int) -> int:
+    return (count - 1).bit_length()
+
+
+def _split_narrow(terms) -> list:
+    """Each term of more than :data:`LUT_ROWS` and at most :data:`NARROW_ROWS` rows split in two
+    (:func:`_halves`), where the adder tree needs no more levels for them (no more latency)."""
+    narrow = [t for t in terms if LUT_ROWS < _term_rows(t[2], t[3]) <= NARROW_ROWS]
+    if not narrow or _levels(len(terms) + len(narrow)) > _levels(len(terms)):
+        return terms
+    out = []
+    for key, shift, a_range, b_part in terms:
+        if not LUT_ROWS < _term_rows(a_range, b_part) <= NARROW_ROWS:
+            out.append((key, shift, a_range, b_part))
+            continue
+        out += [(f"{key}{half}", *part) for half, part in zip("lh", _halves(shift, a_range, b_part))]
+    return out
+
+
+def _halves(shift, a_range, b_part):
+    """Two terms summing to one: the narrow operand's two low rows and the rest."""
+    a_lo, a_hi, a_signed = a_range
+    if isinstance(b_part, int) and bin(b_part).count("1") <= a_hi - a_lo:
+        low = b_part & -b_part
+        low |= (b_part ^ low) & -(b_part ^ low)
+        return [(shift, a_range, low), (shift, a_range, b_part ^ low)]
+    if isinstance(b_part, int) or a_hi - a_lo <= b_part[2] - b_part[1]:
+        return [(shift, (a_lo, a_lo + 2, False), b_part), (shift + 2, (a_lo + 2, a_hi, a_signed), b_part)]
+    src, b_lo, b_hi, b_signed = b_part
+    return [(shift, a_range, (src, b_lo, b_lo + 2, False)), (shift + 2, a_range, (src, b_lo + 2, b_hi, b_signed))]
 
 
 def _operands_stage(prefix, operands, parallel, drop_keys):
