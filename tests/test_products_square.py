@@ -22,26 +22,71 @@ def _limb_value(x: int, width: int, lo: int, hi: int, is_signed: bool) -> int:
     return raw - (1 << (hi - lo)) if is_signed and raw >> (hi - lo - 1) else raw
 
 
-def _sum_of_terms(terms, x: int, width: int) -> int:
+def _sum_of_terms(terms, x: int, width: int, b_of=None) -> int:
+    """The terms' sum for a = ``x`` (and b = ``b_of[1]`` in ``b_of[0]`` bits, or a square's or a
+    constant's b)."""
     total = 0
-    for _, shift, (a_lo, a_hi, a_signed), (_, b_lo, b_hi, b_signed) in terms:
-        total += (_limb_value(x, width, a_lo, a_hi, a_signed)
-                  * _limb_value(x, width, b_lo, b_hi, b_signed)) << shift
+    for _, shift, (a_lo, a_hi, a_signed), b_part in terms:
+        if isinstance(b_part, int):
+            b_limb = b_part
+        elif b_of is None:
+            b_limb = _limb_value(x, width, *b_part[1:])
+        else:
+            b_limb = _limb_value(b_of[1], b_of[0], *b_part[1:])
+        total += (_limb_value(x, width, a_lo, a_hi, a_signed) * b_limb) << shift
     return total
 
 
-@pytest.mark.parametrize("shape", [signed(18), signed(38), unsigned(38), signed(52), unsigned(35), signed(17)])
+def _words(shape, rng, count=2000):
+    lo, hi = (-(1 << (shape.width - 1)), (1 << (shape.width - 1)) - 1) if shape.signed else (0, (1 << shape.width) - 1)
+    values = [lo, hi, 0, 1, -1 if shape.signed else 2, lo + 1, hi - 1] + [rng.randint(lo, hi) for _ in range(count)]
+    return values + [sign * (1 << k) + d for k in range(shape.width - 1) for sign in (1, -1) for d in (-1, 0, 1)
+                     if lo <= sign * (1 << k) + d <= hi]
+
+
+@pytest.mark.parametrize("shape", [signed(18), signed(38), unsigned(38), signed(52), unsigned(35), signed(17),
+                                   signed(36), signed(53)])
 def test_square_terms_sum_to_the_square(shape):
     terms = _partial_products("p", 0, shape, SQUARE)
     limbs = -(-shape.width // 17)
-    assert len(terms) == limbs * (limbs + 1) // 2          # n (n + 1) / 2 products, not n * n
-    lo, hi = (-(1 << (shape.width - 1)), (1 << (shape.width - 1)) - 1) if shape.signed else (0, (1 << shape.width) - 1)
-    rng = random.Random(shape.width)
-    values = [lo, hi, 0, 1, -1 if shape.signed else 2, lo + 1, hi - 1] + [rng.randint(lo, hi) for _ in range(2000)]
-    values += [sign * (1 << k) + d for k in range(shape.width - 1) for sign in (1, -1) for d in (-1, 0, 1)
-               if lo <= sign * (1 << k) + d <= hi]
-    for x in values:
+    # n (n + 1) / 2 limb pairs, not n * n (a narrow one may come as two halves)
+    assert len({(a_range[0] // 17, b_part[1] // 17) for _, _, a_range, b_part in terms}) == limbs * (limbs + 1) // 2
+    for x in _words(shape, random.Random(shape.width)):
         assert _sum_of_terms(terms, x, shape.width) == x * x, x
+
+
+def _rows(a_range, b_part) -> int:
+    return min(a_range[1] - a_range[0], bin(b_part).count("1") if isinstance(b_part, int) else b_part[2] - b_part[1])
+
+
+@pytest.mark.parametrize("a_shape, b", [
+    (signed(38), ("b", unsigned(17))), (signed(38), ("b", signed(38))), (signed(21), ("b", signed(36))),
+    (unsigned(38), ("b", signed(20))), (signed(36), ("b", signed(19))), (signed(38), 0x1ABCD),
+    (signed(21), 0xB), (signed(38), 0x7), (signed(52), 0x3_0000_0005), (signed(53), ("b", signed(53)))])
+def test_terms_sum_to_the_product(a_shape, b):
+    """Every multiplier's terms, narrow ones split in halves (``_split_narrow``), sum to the exact
+    product; no term left between LUT_ROWS and NARROW_ROWS rows where the adder tree had room for
+    its halves; the split never deepens the tree."""
+    from ik5r.hdl.datapath.products import LUT_ROWS, NARROW_ROWS, _limb_terms, _split_narrow
+
+    b_part = b if isinstance(b, int) else (lambda s: s, b[1])
+    terms = _partial_products("p", 0, a_shape, b_part)
+    unsplit = _limb_terms("p", 0, a_shape, b_part)
+    assert (len(terms) - 1).bit_length() == (len(unsplit) - 1).bit_length()
+    assert _split_narrow(unsplit) == terms
+    middling = [t for t in terms if LUT_ROWS < _rows(t[2], t[3]) <= NARROW_ROWS]
+    if middling:        # left whole only where halves would add a tree level
+        assert len(terms) == len(unsplit) and ((len(terms) + len(middling) - 1).bit_length()
+                                               > (len(terms) - 1).bit_length())
+    else:
+        assert len(terms) - len(unsplit) == sum(1 for t in unsplit if LUT_ROWS < _rows(t[2], t[3]) <= NARROW_ROWS)
+    rng = random.Random(a_shape.width)
+    b_shape = None if isinstance(b, int) else b[1]
+    bs = [None] if b_shape is None else _words(b_shape, rng, 40)
+    for x in _words(a_shape, rng, 300):
+        for y in rng.sample(bs, min(len(bs), 4)):
+            want = x * (b if y is None else y)
+            assert _sum_of_terms(terms, x, a_shape.width, None if y is None else (b_shape.width, y)) == want, (x, y)
 
 
 def test_square_detected_only_for_the_same_expression():
@@ -59,13 +104,15 @@ def test_square_detected_only_for_the_same_expression():
 @pytest.mark.slow        # converts the pipelined ECP5 q32w core (~15 CPU s) for this count alone
 def test_ik_core_dsps():
     """The pipelined q32w core's ECP5 variant: 12 fewer MULT18X18D than one per partial product
-    (176 since the near-axis rule of issue 31 added 30; 146 before it)."""
+    (176 since the near-axis rule of issue 31 added 30; 146 before it), less the narrow ones in
+    LUTs: 85 (73 before the narrow terms of 3 or 4 rows were split in halves or, where the adder
+    tree had no room, given a DSP)."""
     from ik5r.core.fxconfig import constants, load_config
     from ik5r.tools.testbench.runner import DEFAULT_TAG_WIDTH, generate_cached
 
     # The conversion the cocotb run of this core shares (tests/test_cocotb_core.py).
     text, _ = generate_cached("ik", "pipelined", constants(load_config("q32w")), DEFAULT_TAG_WIDTH, dsp="ecp5")
-    assert text.count("MULT18X18D ") == 73
+    assert text.count("MULT18X18D ") == 85
 
 
 def _lut_cases():

@@ -196,8 +196,15 @@ def _is_square(a_of, a_shape, b) -> bool:
 
 
 def _partial_products(prefix, index, a_shape, b) -> list:
-    """The terms ``(key, shift, a_range, b_part)`` of one multiplier. A square's cross terms
-    (limbs i < j, equal to limbs j, i) come once, doubled by one more bit of shift."""
+    """The terms ``(key, shift, a_range, b_part)`` of one multiplier: :func:`_limb_terms`, the
+    narrow ones split (:func:`_split_narrow`)."""
+    return _split_narrow(_limb_terms(prefix, index, a_shape, b))
+
+
+def _limb_terms(prefix, index, a_shape, b) -> list:
+    """The products of one multiplier's limbs as terms ``(key, shift, a_range, b_part)``. A
+    square's cross terms (limbs i < j, equal to limbs j, i) come once, doubled by one more bit of
+    shift."""
     a_shape, terms = Shape.cast(a_shape), []
     if b == SQUARE:
         limbs = _limbs(a_shape)
@@ -220,7 +227,7 @@ def _partial_products(prefix, index, a_shape, b) -> list:
             for b_lo, b_hi, b_signed in _limbs(Shape.cast(b_shape)):
                 terms.append((f"{prefix}{index}_p{len(terms)}", a_lo + b_lo,
                               (a_lo, a_hi, a_signed), (b_of, b_lo, b_hi, b_signed)))
-    return _split_narrow(terms)
+    return terms
 
 
 def _term_rows(a_range, b_part) -> int:
