@@ -19,6 +19,7 @@ import os
 import numpy as np
 import pytest
 
+from ik5r.core.modes import Dsp
 from ik5r.tools.testbench.harness import verilated_name
 from ik5r.tools.testbench.portmap import Field, Stream
 
@@ -76,6 +77,33 @@ def test_harness_matches_model(pattern):
         else cycles > 1.2 * r["vectors"]
 
 
+def test_harness_runs_the_ecp5_primitives():
+    """The ``--dsp ecp5`` Verilog (the netlist that is placed: CCU2C chains and MULT18X18D, with
+    their models) through the harness: every bit equals the model."""
+    _need_verilator()
+    from ik5r.tools.testbench.harness import run_harness
+    from ik5r.tools.testbench.runner import sim_design
+    r = run_harness(sim_design(*SMALL, dsp=Dsp.ECP5), vectors=3000, seed=12, pattern="random", cflags="-O0", jobs=1)
+    assert r["mismatches"] == 0, r["first_mismatch"]
+    assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
+    assert r["vectors"] >= 3000 and r["dsp"] == Dsp.ECP5
+
+
+def test_ccu2c_adder_is_its_function():
+    """The CCU2C adder module the ECP5 Verilog carries equals ``SUB ? A - B : A + B`` at every
+    width up to 80 (a SAT proof on the CCU2C model), so the harness may simulate its function;
+    an adder wrong in one bit of one width is refused."""
+    from ik5r.hdl.datapath.ecp5 import ecp5_add_sub_verilog
+    from ik5r.tools.testbench.harness import ADD_SUB_FUNCTION, prove_add_sub
+    chain = ecp5_add_sub_verilog()
+    proved, said = prove_add_sub(chain, range(2, 81))
+    assert proved, said
+    wrong = ADD_SUB_FUNCTION.replace("A - B : A + B", "A - B : A + B + (WIDTH == 37 ? {A[30], 30'd0} & {B[30], 30'd0} : 0)")
+    assert wrong != ADD_SUB_FUNCTION
+    proved, said = prove_add_sub(chain, [36, 37], wrong)
+    assert not proved and "proof did fail" in said
+
+
 def test_harness_reports_a_wrong_bit(monkeypatch):
     """One expected bit flipped in the model's answer: the run counts exactly that item."""
     _need_verilator()
@@ -124,7 +152,7 @@ def test_equivalence_proof_can_fail(tmp_path):
     from ik5r.tools.testbench.harness import _simulation_text, prove_equivalent
     source = tmp_path / "m.v"
     source.write_text(TINY)
-    lowered = _simulation_text(source)
+    lowered = _simulation_text(source, "m")
     assert "always @*" not in lowered.read_text()          # the process is gone: lowered
     ok, said = prove_equivalent(source, lowered, "m")
     assert ok, said
@@ -150,26 +178,30 @@ def test_simulation_netlist_is_the_design(design, tmp_path):
     from ik5r.tools.testbench.portmap import load_portmap
     from ik5r.tools.testbench.runner import generate_sources, sim_design
     vpath, jpath = generate_sources(sim_design(*design), tmp_path)
-    ok, said = prove_equivalent(vpath, _simulation_text(vpath), load_portmap(jpath).top)
+    top = load_portmap(jpath).top
+    ok, said = prove_equivalent(vpath, _simulation_text(vpath, top), top)
     assert ok, said
 
 
-#: Every shipped config of both IK cores. The pipelined core takes a pose per clock, so its soak
+#: Every shipped config of both IK cores, and the netlist of record that is placed (the pipelined
+#: q32w core with the ECP5 primitives). The pipelined core takes a pose per clock, so its soak
 #: runs at the simulator's cycle rate; the compact core takes one per ~800 cycles: a soak of its
 #: own size (10**7 of its poses would be ~8e9 cycles a config).
-SOAK = [pytest.param(arch, c, SOAK_POSES if arch == "pipelined" else max(1, SOAK_POSES // 500),
+SOAK = [pytest.param(arch, c, SOAK_POSES if arch == "pipelined" else max(1, SOAK_POSES // 500), Dsp.GENERIC,
                      id=f"ik-{arch}-{c}", marks=pytest.mark.slow)
         for arch in ("pipelined", "compact") for c in ("q18", "q24", "q32", "q32w")]
+SOAK.append(pytest.param("pipelined", "q32w", SOAK_POSES, Dsp.ECP5, id="ik-pipelined-dspecp5-q32w",
+                         marks=pytest.mark.slow))
 
 
-@pytest.mark.parametrize("arch,config,poses", SOAK)
-def test_soak_ik_core(arch, config, poses):
+@pytest.mark.parametrize("arch,config,poses,dsp", SOAK)
+def test_soak_ik_core(arch, config, poses, dsp):
     """The IK core soaked through the harness (random idles and back-pressure): every bit of
     every pose, in chunks of 2**20."""
     _need_verilator()
     from ik5r.tools.testbench.harness import run_harness
     from ik5r.tools.testbench.runner import sim_design
-    r = run_harness(sim_design("ik", arch, config), vectors=poses, seed=2025, pattern="random")
+    r = run_harness(sim_design("ik", arch, config, dsp=dsp), vectors=poses, seed=2025, pattern="random")
     assert r["mismatches"] == 0, r["first_mismatch"]
     assert r["tag_errors"] == 0 and r["hold_violations"] == 0 and r["stale_outputs"] == 0
     assert r["vectors"] >= poses

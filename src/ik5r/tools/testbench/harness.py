@@ -25,9 +25,11 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import resource
 import shutil
 import subprocess
+import tempfile
 import threading
 import time
 from importlib import resources
@@ -36,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from ik5r.core.cbuild import cache_root
+from ik5r.hdl.datapath.ecp5 import ECP5_ADD_SUB_MODULE
 
 from ..design import Design
 from .bulk import compare_chunk
@@ -113,6 +116,9 @@ def _to_cache(key: str, binary: Path) -> None:
 #: Verilator evaluates fewer and narrower words per clock; ``opt_clean`` drops what nothing
 #: reads. Equivalence-preserving rewrites, and :func:`prove_equivalent` proves it per design.
 SIM_PASSES = "proc; wreduce; opt_clean"
+#: Part of the key of a lowered text: changed whenever :func:`_lower_processes` changes what it
+#: writes (3: the CCU2C adder module as its function).
+SIM_TEXT_VERSION = 3
 
 
 def _yosys(script: str, cwd: Path) -> subprocess.CompletedProcess:
@@ -123,13 +129,93 @@ def _yosys(script: str, cwd: Path) -> subprocess.CompletedProcess:
                           text=True)
 
 
-def _lower_processes(vpath: Path, out: Path) -> None:
+def _black_box(text: str) -> str:
+    """A module's Verilog (a vendor primitive's model) cut to its interface (its ``module``
+    header), for Yosys to read as a black box: the model's checks of its parameters are for the
+    simulator."""
+    start = text.index("module ")
+    return text[start:text.index(");", start) + 2] + "\nendmodule\n"
+
+
+def _lower_processes(vpath: Path, out: Path, top: str, libs=()) -> None:
     """``vpath`` through Yosys's :data:`SIM_PASSES`, written to ``out`` in the same folder (the
-    design's names kept)."""
-    done = _yosys(f"read_verilog {vpath.name}; {SIM_PASSES}; write_verilog -norename -noattr {out.name}",
-                  vpath.parent)
+    design's names kept). ``libs``: the models of the vendor primitives it instantiates, read as
+    black boxes (written beside it: YoWASP sees the working folder). The CCU2C adder module of
+    the ECP5 Verilog is simulated as its function (:data:`ADD_SUB_FUNCTION`), proved equal to
+    the chain of CCU2C models at every width the design instantiates (:func:`prove_add_sub`):
+    the cells' bit-level model costs Verilator hundreds of MB of C++ in an IK core."""
+    text = vpath.read_text()
+    adder = _module_text(text, ECP5_ADD_SUB_MODULE)
+    if adder:
+        widths = sorted({int(w) for w in re.findall(rf"{ECP5_ADD_SUB_MODULE} #\(\s*\.WIDTH\(32'd(\d+)\)", text)})
+        proved, said = prove_add_sub(adder, widths)
+        if not proved:
+            raise RuntimeError(f"the CCU2C adder is not its function at widths {widths}:\n{said}")
+    boxes = [_black_box(lib.read_text()) for lib in libs] + ([_black_box(adder)] if adder else [])
+    stem = f"{vpath.stem}.{os.getpid()}.{threading.get_ident()}"
+    design, lib = vpath.with_name(f"{stem}_design.v"), vpath.with_name(f"{stem}_boxes.v")
+    design.write_text(text.replace(adder, "") if adder else text)
+    lib.write_text("".join(boxes))
+    try:
+        done = _yosys(f"read_verilog -lib {lib.name}; read_verilog {design.name}; hierarchy -top {top}; "
+                      f"{SIM_PASSES}; write_verilog -norename -noattr {out.name}", vpath.parent)
+    finally:
+        design.unlink()
+        lib.unlink()
     if done.returncode != 0:
         raise RuntimeError(f"yosys ({SIM_PASSES}) failed on {vpath}:\n{(done.stdout + done.stderr)[-2000:]}")
+    if adder:
+        out.write_text(out.read_text() + ADD_SUB_FUNCTION)
+
+
+#: The simulation model of the ECP5 carry cell the adder module is proved on.
+CCU2C_MODEL = Path(str(resources.files("ik5r.hdl.sim") / "CCU2C.v"))
+
+#: The function of the ECP5 Verilog's CCU2C adder module, as the harness simulates it.
+ADD_SUB_FUNCTION = f"""
+// {ECP5_ADD_SUB_MODULE} as its function: proved equal to its chain of CCU2C cells at every
+// width this design instantiates (ik5r.tools.testbench.harness.prove_add_sub).
+module {ECP5_ADD_SUB_MODULE} #(
+    parameter WIDTH = 2
+) (
+    input wire [WIDTH-1:0] A,
+    input wire [WIDTH-1:0] B,
+    input wire SUB,
+    output wire [WIDTH-1:0] S
+);
+    assign S = SUB ? A - B : A + B;
+endmodule
+"""
+
+
+def prove_add_sub(chain: str, widths, function: str = ADD_SUB_FUNCTION) -> tuple[bool, str]:
+    """(True, "") when Yosys proves the module ``chain`` (the CCU2C adder's Verilog, on the CCU2C
+    model of ``hdl/sim``) equal to ``function`` for every input, at each of ``widths`` (a SAT
+    proof of their miter); else (False, what Yosys said)."""
+    name = ECP5_ADD_SUB_MODULE
+    with tempfile.TemporaryDirectory() as folder:
+        where = Path(folder)
+        (where / "CCU2C.v").write_text(CCU2C_MODEL.read_text())
+        (where / "chain.v").write_text(chain)
+        (where / "function.v").write_text(function.replace(f"module {name} ", f"module {name}_function "))
+        script = "".join(
+            f"design -reset; read_verilog CCU2C.v chain.v function.v; "
+            f"chparam -set WIDTH {width} {name} {name}_function; hierarchy -check; proc; flatten; "
+            f"miter -equiv -flatten -make_assert {name} {name}_function miter; hierarchy -top miter; "
+            f"sat -verify -prove-asserts miter; " for width in widths)
+        done = _yosys(script, where)
+    return done.returncode == 0, (done.stdout + done.stderr)[-2000:]
+
+
+def _module_text(text: str, name: str) -> str:
+    """The Verilog of module ``name`` in ``text`` (from the comments before it to its
+    ``endmodule``), or "" when it has none."""
+    at = text.find(f"\nmodule {name} ")
+    if at < 0:
+        return ""
+    start = text.rfind("\n\n", 0, at) + 1
+    end = text.index("endmodule", at) + len("endmodule\n")
+    return text[start:end]
 
 
 def prove_equivalent(gold: Path, gate: Path, top: str) -> tuple[bool, str]:
@@ -149,19 +235,20 @@ def prove_equivalent(gold: Path, gate: Path, top: str) -> tuple[bool, str]:
     return done.returncode == 0, (done.stdout + done.stderr)[-2000:]
 
 
-def _simulation_text(vpath: Path) -> Path:
+def _simulation_text(vpath: Path, top: str, libs=()) -> Path:
     """``<block>_sim.v`` beside ``vpath``: its processes lowered by Yosys (:data:`SIM_PASSES`),
     then runs of one repeated bit written as replications (:func:`.simtext.replicate_runs`): the
     same design, less C++ per clock. Redone only when the Verilog or the passes change (the
     key beside it): Yosys takes tens of seconds on an IK core."""
     out = vpath.with_name(f"{vpath.stem}_sim.v")
     key_path = vpath.with_name(f"{vpath.stem}_sim.key")
-    key = hashlib.sha256(f"{SIM_PASSES}\n{vpath.read_text()}".encode()).hexdigest()
+    key = hashlib.sha256("\n".join([SIM_PASSES, str(SIM_TEXT_VERSION), top, *(_source_digest(lib) for lib in libs),
+                                     vpath.read_text()]).encode()).hexdigest()
     if out.exists() and key_path.exists() and key_path.read_text() == key:
         return out
     # Written aside and renamed: another test worker may be reading the file right now.
     lowered = vpath.with_name(f"{vpath.stem}_proc.{os.getpid()}.{threading.get_ident()}.v")
-    _lower_processes(vpath, lowered)
+    _lower_processes(vpath, lowered, top, libs)
     text, _ = replicate_runs(lowered.read_text())
     lowered.unlink()
     tmp = out.with_name(f"{out.name}.{os.getpid()}.{threading.get_ident()}.tmp")
@@ -178,11 +265,12 @@ def build_harness(design: Design, *, cflags: str = DEFAULT_CFLAGS) -> tuple[Path
     bdir = harness_dir(design)
     vpath, jpath = generate_sources(design, bdir / "src")
     pm = load_portmap(jpath)
-    vpath = _simulation_text(vpath)
+    models = PRIMITIVE_MODELS.get(design.options.dsp, [])
+    vpath = _simulation_text(vpath, pm.top, models)
     header = bdir / "src" / "ik5r_ports.h"
     header.write_text(ports_header(pm))
     main = Path(str(resources.files("ik5r.tools.testbench") / "harness.cpp"))
-    sources = [vpath, main, *PRIMITIVE_MODELS.get(design.options.dsp, [])]
+    sources = [vpath, main, *models]
     args = [*VERILATOR_ARGS, "--top-module", pm.top, "-Mdir", str(bdir / "obj"), "-o", "harness",
             "-CFLAGS", f"{cflags} -I{header.parent}", *map(str, sources)]
     stamp_doc = {"args": args, "sources": {str(s): _source_digest(s) for s in sources}, "header": header.read_text()}
