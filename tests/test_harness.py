@@ -94,7 +94,7 @@ def test_ccu2c_adder_is_its_function():
     width up to 80 (a SAT proof on the CCU2C model), so the harness may simulate its function;
     an adder wrong in one bit of one width is refused."""
     from ik5r.hdl.datapath.ecp5 import ecp5_add_sub_verilog
-    from ik5r.tools.testbench.harness import ADD_SUB_FUNCTION, prove_add_sub
+    from ik5r.tools.testbench.simnetlist import ADD_SUB_FUNCTION, prove_add_sub
     chain = ecp5_add_sub_verilog()
     proved, said = prove_add_sub(chain, range(2, 81))
     assert proved, said
@@ -149,10 +149,10 @@ endmodule
 def test_equivalence_proof_can_fail(tmp_path):
     """The proof the simulation netlist rests on: a lowered module is proved equal to its source,
     and the same netlist with one operator changed is not."""
-    from ik5r.tools.testbench.harness import _simulation_text, prove_equivalent
+    from ik5r.tools.testbench.simnetlist import prove_equivalent, simulation_text
     source = tmp_path / "m.v"
     source.write_text(TINY)
-    lowered = _simulation_text(source, "m")
+    lowered = simulation_text(source, "m")
     assert "always @*" not in lowered.read_text()          # the process is gone: lowered
     ok, said = prove_equivalent(source, lowered, "m")
     assert ok, said
@@ -174,12 +174,12 @@ def test_simulation_netlist_is_the_design(design, tmp_path):
     """The text the harness verilates (the design's Verilog through Yosys's ``SIM_PASSES``, then
     the replications) is proved equivalent to the design's Verilog: every port and register on
     every clock."""
-    from ik5r.tools.testbench.harness import _simulation_text, prove_equivalent
+    from ik5r.tools.testbench.simnetlist import prove_equivalent, simulation_text
     from ik5r.tools.testbench.portmap import load_portmap
     from ik5r.tools.testbench.runner import generate_sources, sim_design
     vpath, jpath = generate_sources(sim_design(*design), tmp_path)
     top = load_portmap(jpath).top
-    ok, said = prove_equivalent(vpath, _simulation_text(vpath, top), top)
+    ok, said = prove_equivalent(vpath, simulation_text(vpath, top), top)
     assert ok, said
 
 
