@@ -111,3 +111,24 @@ def test_sweep_one_point(tmp_path, monkeypatch):
     point = doc2["points"][0]
     assert point["synth_from_cache"] and point["error_from_cache"]
     assert point["luts"] == doc["points"][0]["luts"]
+
+
+def test_nextpnr_stopped_when_the_design_cannot_fit(tmp_path):
+    """A cell type used beyond the device in nextpnr's utilisation lines stops the run with that
+    reason (nextpnr would search for BELs for minutes first); a design within the device runs on."""
+    import sys
+
+    from ik5r.tools.synth import _run, _Stopped
+    from ik5r.tools.synth_figures import _overused
+
+    log = tmp_path / "nextpnr.log"
+    log.write_text("Info: Device utilisation:\nInfo: \t         ICESTORM_LC:    2025/   5280    38%\n"
+                   "Info: \t        ICESTORM_RAM:      68/     30   226%\n")
+    assert _overused(log) == "ICESTORM_RAM: 68 of 30 used (nextpnr stopped before placing)"
+    fits = tmp_path / "fits.log"
+    fits.write_text("Info: \t         ICESTORM_LC:    2025/   5280    38%\nInfo:     Total LUT4s:  9/ 5  1%\n")
+    assert _overused(fits) is None
+    sleeper = [sys.executable, "-c", "import time; time.sleep(30)"]
+    with pytest.raises(_Stopped, match="ICESTORM_RAM: 68 of 30"):
+        _run(sleeper, log, tmp_path, timeout=None, stop_when=lambda: _overused(log))
+    assert _run([sys.executable, "-c", "pass"], fits, tmp_path, timeout=None, stop_when=lambda: _overused(fits)) < 30

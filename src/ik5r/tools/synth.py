@@ -31,7 +31,7 @@ from pathlib import Path
 from ik5r.core.errors import InputError
 from ik5r.core.modes import Arch, Block, CoreArch, Dsp, Target
 
-from .synth_figures import _cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow
+from .synth_figures import _cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow, _overused
 from .synth_options import TARGETS, SynthOptions  # noqa: F401 (this module's API of old)
 
 #: Bump when the figures or the flow change in a way the cache key does not see.
@@ -96,10 +96,28 @@ def _hash(*parts) -> str:
     return h.hexdigest()
 
 
-def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None) -> float:
+class _Stopped(Exception):
+    """A tool stopped by :func:`_run`'s ``stop_when``, with its reason."""
+
+
+def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None, stop_when=None) -> float:
+    """Run a tool, its output in ``log_path``'s ``.stdout``; seconds taken. ``stop_when()``, asked
+    every second, stops it (:class:`_Stopped`) when it returns a reason."""
     start = time.perf_counter()
     with open(log_path.with_suffix(".stdout"), "w") as stdout:
-        proc = subprocess.run(cmd, cwd=cwd, stdout=stdout, stderr=subprocess.STDOUT, timeout=timeout)
+        proc = subprocess.Popen(cmd, cwd=cwd, stdout=stdout, stderr=subprocess.STDOUT)
+        try:
+            while proc.poll() is None:
+                if timeout is not None and time.perf_counter() - start > timeout:
+                    raise subprocess.TimeoutExpired(cmd, timeout)
+                reason = stop_when() if stop_when is not None else None
+                if reason:
+                    raise _Stopped(reason)
+                time.sleep(1.0)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
     seconds = time.perf_counter() - start
     if proc.returncode != 0:
         tail = ""
@@ -232,9 +250,15 @@ def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str):
     design that does not fit the device is a result (its overflow), not an error."""
     say(f"{label}: nextpnr {opts.target} {opts.device} "
         f"{'speed ' + str(opts.speed) + ' ' if opts.speed else ''}@ {opts.freq_mhz:g} MHz ...")
+    log = folder / "nextpnr.log"
     try:
         pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
-                     folder / "nextpnr.log", folder, timeout)
+                     log, folder, timeout, stop_when=lambda: _overused(log))
+    except _Stopped as stopped:
+        # nextpnr would search for a place for the cells beyond the device's for a long time
+        # (an SoC on the UP5K: over 10 minutes) before it says so.
+        say(f"{label}: does not fit {opts.target} {opts.device}: {stopped}")
+        return None, None, str(stopped)
     except RuntimeError:
         overflow = _overflow(folder / "nextpnr.log")
         if overflow is None:

@@ -36,6 +36,16 @@ def _log_utilisation(log_path: Path) -> dict | None:
     return {"utilization": util} if util else None
 
 
+def _overused(log_path: Path) -> str | None:
+    """"<cell>: N of M used" for the first cell type nextpnr's utilisation lines show beyond the
+    device (the design cannot be placed), else None."""
+    util = _log_utilisation(log_path)
+    for cell, use in (util or {}).get("utilization", {}).items():
+        if use["used"] > use["available"]:
+            return f"{cell}: {use['used']} of {use['available']} used (nextpnr stopped before placing)"
+    return None
+
+
 def _cell_counts(stat: dict) -> dict:
     design = stat.get("design") or next(iter(stat.get("modules", {}).values()), {})
     return {str(k): int(v) for k, v in design.get("num_cells_by_type", {}).items()}
