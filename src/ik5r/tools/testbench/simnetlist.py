@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import shutil
 import subprocess
 import tempfile
 import threading
@@ -66,16 +67,19 @@ def _lower_processes(vpath: Path, out: Path, top: str, libs=()) -> None:
         if not proved:
             raise RuntimeError(f"the CCU2C adder is not its function at widths {widths}:\n{said}")
     boxes = [_black_box(lib.read_text()) for lib in libs] + ([_black_box(adder)] if adder else [])
-    stem = f"{vpath.stem}.{os.getpid()}.{threading.get_ident()}"
-    design, lib = vpath.with_name(f"{stem}_design.v"), vpath.with_name(f"{stem}_boxes.v")
-    design.write_text(text.replace(adder, "") if adder else text)
-    lib.write_text("".join(boxes))
+    # A folder of this process's own (another test worker may lower the same design), the file
+    # under the design's own name: Yosys names its cells after it, and the text is a cache key.
+    work = vpath.with_name(f".lower.{os.getpid()}.{threading.get_ident()}")
+    work.mkdir(exist_ok=True)
+    (work / vpath.name).write_text(text.replace(adder, "") if adder else text)
+    (work / "boxes.v").write_text("".join(boxes))
     try:
-        done = _yosys(f"read_verilog -lib {lib.name}; read_verilog {design.name}; hierarchy -top {top}; "
-                      f"{SIM_PASSES}; write_verilog -norename -noattr {out.name}", vpath.parent)
+        done = _yosys(f"read_verilog -lib boxes.v; read_verilog {vpath.name}; hierarchy -top {top}; "
+                      f"{SIM_PASSES}; write_verilog -norename -noattr lowered.v", work)
+        if done.returncode == 0:
+            os.replace(work / "lowered.v", out)
     finally:
-        design.unlink()
-        lib.unlink()
+        shutil.rmtree(work, ignore_errors=True)
     if done.returncode != 0:
         raise RuntimeError(f"yosys ({SIM_PASSES}) failed on {vpath}:\n{(done.stdout + done.stderr)[-2000:]}")
     if adder:
