@@ -133,14 +133,62 @@ def test_program_is_short_and_shared():
     """One program per config; the q32w pose within 774 clocks (720 before issue 31's plane from
     the approach near the base axis, 830 with it; 774 with its v-or-0 as loads, its magnitudes
     as a compare and a negation, two square-root digits a clock and the hill climb's lowered
-    priorities), 742 with the wide product step; units used side by side."""
+    priorities; 752 with a load sharing the clock of another block's last read of the
+    accumulator and the clips to a format's range as one saturation), 717 with the wide product
+    step; units used side by side."""
     k = _k("q32w")
     prog = ik_program(k)
-    assert len(prog.code) <= 774
-    assert len(ik_program(k, wide_product=True).code) <= 742
+    assert len(prog.code) <= 752
+    assert len(ik_program(k, wide_product=True).code) <= 717
     both = [ins for ins in prog.code if seq_isa.nonzero(ins.cop) and (seq_isa.nonzero(ins.alu) or ins.pick)]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
+
+
+def test_register_occupancy_lets_a_load_share_the_last_read():
+    """The scheduler's claims on the accumulator: a read at clock t needs the value held during
+    t, a write takes clock t + 1 (one past the code for a write in the last clock), so a block
+    starting with a load fits in the clock of another block's last read (its store) and not one
+    clock earlier; a block reading the accumulator at its first clock never does."""
+    from ik5r.hdl.sequenced import schedule
+    from ik5r.hdl.sequenced.isa import AluOp, Const, Ins, Var
+
+    store = schedule.Block([Ins(alu=AluOp.LD, rd=Const(1)), Ins(alu=AluOp.ADD, rd=Const(2)),
+                            Ins(wr=1, wa=Var("a"))])
+    load = schedule.Block([Ins(alu=AluOp.LD, rd=Const(3)), Ins(wr=1, wa=Var("b"))])
+    reader = schedule.Block([Ins(alu=AluOp.SHR1), Ins(wr=1, wa=Var("c"))])
+    assert ["acc" in keys for keys in store.claims] == [False, True, True]
+    table = schedule.Table()
+    table.place(store, 0)
+    assert table.fits(load, 2) and not table.fits(load, 1)
+    assert not table.fits(reader, 2) and table.fits(reader, 3)
+    last_write = schedule.Block([Ins(alu=AluOp.LD, rd=Const(1))])
+    assert len(last_write.claims) == 2 and last_write.claims[1] == {"acc"}
+    table.place(last_write, 3)
+    assert len(table) == 4 and not table.fits(reader, 4)
+
+
+@pytest.mark.parametrize("cfg", ("q18", "q32w"))
+def test_clip_to_a_format_range_is_one_saturation(cfg):
+    """A clip whose bounds are those of the internal (or word) format is one SATI (SATW) with no
+    status bit, not two compares and two loads; a clip to other bounds keeps them."""
+    from ik5r.hdl.graph.trace import trace
+    from ik5r.hdl.sequenced.asm import Asm
+    from ik5r.hdl.sequenced.isa import AluOp
+    from ik5r.hdl.sequenced.lower import Lower
+
+    k = _k(cfg)
+    lower = Lower(Asm(k), *trace(k)[:2])
+    top = (1 << (k.internal.cfg.width - 1)) - 1
+    assert lower._saturating(-top - 1, top) == AluOp.SATI
+    assert lower._saturating(None, top) == AluOp.SATI
+    word = (1 << (k.cfg.width - 1)) - 1
+    if word != top:         # q18: no internal guard bits, the two formats are one
+        assert lower._saturating(-word - 1, None) == AluOp.SATW
+        assert lower._saturating(-top - 1, word) is None
+    assert lower._saturating(0, top) is None and lower._saturating(None, None) is None
+    silent = [ins for code in lower.blocks for ins in code if ins.alu == AluOp.SATI and not ins.stat]
+    assert silent       # the traced IK has such clips (the wrist's position sums)
 
 
 def test_adder_sources_checked():

@@ -55,13 +55,18 @@ def _var_read(ins: Ins) -> str | None:
     return None
 
 
-def _liveness(code, reads, writes, kills) -> list:
-    """Clocks at which a register (accumulator, F) holds a value of this block."""
-    held, live = [False] * len(code), False
+def _occupancy(code, reads, writes, kills) -> list:
+    """Clocks during which a register (accumulator, F) holds a value of this block: ``held[t]``
+    for the value instruction ``t`` sees, one entry past the code. A read at ``t`` needs
+    ``held[t]``; a write at ``t`` takes ``held[t + 1]`` (the register changes at the clock's end,
+    whether or not the value is read), so a block loading the register may share the clock of
+    another block's last read of it (a store, a compare, an output)."""
+    held, live = [False] * (len(code) + 1), False
     for t in range(len(code) - 1, -1, -1):
         r, w, k = reads(code[t]), writes(code[t]), kills(code[t])
-        held[t] = live or r or w
+        held[t + 1] = held[t + 1] or live or w
         live = r or (live and not k)
+        held[t] = live
     return held
 
 
@@ -90,9 +95,9 @@ class Block:
 
     def __init__(self, code: list):
         self.code = code = hazards(fold(code))
-        acc = _liveness(code, _acc_reads, lambda i: i.alu in ACC_WRITE,
+        acc = _occupancy(code, _acc_reads, lambda i: i.alu in ACC_WRITE,
                         lambda i: i.alu in (A_LD, A_MLD) and not _conditional(i))
-        flag = _liveness(code, _f_reads, _f_writes, lambda i: _f_writes(i) and not _conditional(i))
+        flag = _occupancy(code, _f_reads, _f_writes, lambda i: _f_writes(i) and not _conditional(i))
         cordic = _span(code, lambda i: nonzero(i.cop) or C_ZERO in (i.ca, i.cb)
                        or (_bus(i) and i.bsel in (B_CX, B_CY, B_CZ)))
         mop = _span(code, lambda i: nonzero(i.mld) or i.pick)
@@ -106,6 +111,11 @@ class Block:
                 keys.add("bus")
             self.claims.append(keys)
             self.conds.append(_cond(ins) if _sensitive(ins) else None)
+        # A write in the last clock holds its register one clock past the code.
+        past = {name for name, held in (("acc", acc), ("F", flag)) if held[len(code)]}
+        if past:
+            self.claims.append(past)
+            self.conds.append(None)
         self.reads = [(t, _var_read(ins)) for t, ins in enumerate(code) if _var_read(ins)]
         self.writes = [(t, ins.wa.name) for t, ins in enumerate(code) if ins.wr]
 
@@ -119,6 +129,7 @@ class Table:
         # The placements in order; the instructions are merged once, for the schedule kept
         # (merging every trial's words was most of the hill climb's time).
         self.placed: list[tuple[Block, int]] = []
+        self.end = 0
 
     def fits(self, b: Block, start: int) -> bool:
         for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
@@ -132,22 +143,23 @@ class Table:
         return True
 
     def place(self, b: Block, start: int):
-        end = start + len(b.code)
-        while len(self.claims) < end:
+        while len(self.claims) < start + len(b.claims):
             self.claims.append(set())
             self.conds.append(None)
-        for t in range(len(b.code)):
-            self.claims[start + t] |= b.claims[t]
-            if b.conds[t] is not None:
-                self.conds[start + t] = b.conds[t]
+        for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
+            self.claims[start + t] |= keys
+            if cond is not None:
+                self.conds[start + t] = cond
         self.placed.append((b, start))
+        self.end = max(self.end, start + len(b.code))
 
     def __len__(self) -> int:
-        return len(self.claims)
+        """The program's clocks (a claim may reach one clock past them)."""
+        return self.end
 
     def code(self) -> list[Ins]:
         """The program: per clock, the instructions placed there merged in placement order."""
-        code = [Ins() for _ in self.claims]
+        code = [Ins() for _ in range(self.end)]
         for b, start in self.placed:
             for t, ins in enumerate(b.code):
                 code[start + t] = code[start + t].merge(ins)
