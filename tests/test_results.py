@@ -93,13 +93,37 @@ def test_the_routes_verdict_names_a_record_of_other_verilog(tmp_path):
     (tmp_path / "firmware").mkdir()
     (tmp_path / "firmware" / "vexriscv_rv32im_q32w.json").write_text(json.dumps(
         {"cycles_per_solve": {"mean": 28000.0}, "mismatches": 0, "vectors": 10}))
-    text = "\n".join(routes.routes_part(tmp_path, lambda r: r["module"] != "pipelined"))
+    text = "\n".join(routes.routes_part(tmp_path, lambda r: r["module"] != "pipelined", lambda fw: True))
     compact = next(line for line in text.split("\n") if line.startswith("- **compact IK core**"))
     pipelined = next(line for line in text.split("\n") if line.startswith("- **pipelined IK core"))
     assert "it beats the soft CPU per LUT" in compact and "other Verilog" not in compact
     assert "(record of other Verilog) on the ecp5-85k" in pipelined
     assert pipelined.endswith("that record beats the soft CPU per LUT.")
     assert "| pipelined IK core (ECP5 DSP + carry primitives) (record of other Verilog) |" in text
+
+
+def test_a_firmware_record_of_other_verilog_is_named(tmp_path):
+    """A route timed by a firmware record is current only if the record ran the SoC Verilog this
+    checkout simulates (``verilog_sha256``): a record of other Verilog, or one made before the
+    key, is marked in the table."""
+    from ik5r.tools import routes
+    from ik5r.tools.softcpu import SIM_RAM_WORDS
+
+    (tmp_path / "synth").mkdir()
+    (tmp_path / "synth" / "ik5r_soc_vexriscv_q32w_ecp5-25k.json").write_text(json.dumps(
+        {"target": "ecp5", "device": "25k", "luts": 3000, "ffs": 1, "dsps": 1, "brams": 1,
+         "fmax_mhz": 80.0, "cycles_per_result": 1, "latency_cycles": 1, "module": "soc"}))
+    (tmp_path / "firmware").mkdir()
+    record = {"cpu": "vexriscv", "config": "q18", "arm": None, "ram_bytes": 4 * SIM_RAM_WORDS,
+              "cycles_per_solve": {"mean": 28000.0}, "mismatches": 0, "vectors": 10}
+    path = tmp_path / "firmware" / "vexriscv_rv32im_q32w.json"
+    for sha, current in (("0" * 64, False), (None, False), (routes._firmware_current, True)):
+        if callable(sha):
+            from ik5r.tools.softcpu import firmware_verilog_sha256
+            sha = firmware_verilog_sha256(record)
+        path.write_text(json.dumps({**record, "verilog_sha256": sha} if sha else record))
+        row = routes.route_rows(tmp_path, lambda r: True)[0]
+        assert row["current"] is current
 
 
 def test_an_older_firmware_run_never_replaces_a_newer_record(tmp_path):

@@ -178,15 +178,16 @@ def test_clip_to_a_format_range_is_one_saturation(cfg):
     from ik5r.hdl.sequenced.lower import Lower
 
     k = _k(cfg)
-    lower = Lower(Asm(k), *trace(k)[:2])
+    asm = Asm(k)
     top = (1 << (k.internal.cfg.width - 1)) - 1
-    assert lower._saturating(-top - 1, top) == AluOp.SATI
-    assert lower._saturating(None, top) == AluOp.SATI
+    assert asm.clip(-top - 1, top) == asm.clip(None, top) == [seq_isa.Ins(alu=AluOp.SATI)]
     word = (1 << (k.cfg.width - 1)) - 1
     if word != top:         # q18: no internal guard bits, the two formats are one
-        assert lower._saturating(-word - 1, None) == AluOp.SATW
-        assert lower._saturating(-top - 1, word) is None
-    assert lower._saturating(0, top) is None and lower._saturating(None, None) is None
+        assert asm.saturating(-word - 1, None) == AluOp.SATW
+        assert asm.saturating(-top - 1, word) is None
+    assert asm.saturating(0, top) is None and asm.saturating(None, None) is None
+    assert [ins.alu for ins in asm.clip(0, top)] == [AluOp.CMPGT, AluOp.LD, AluOp.CMPLT, AluOp.LD]
+    lower = Lower(asm, *trace(k)[:2])
     silent = [ins for code in lower.blocks for ins in code if ins.alu == AluOp.SATI and not ins.stat]
     assert silent       # the traced IK has such clips (the wrist's position sums)
 

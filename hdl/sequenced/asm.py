@@ -11,8 +11,8 @@ from dataclasses import dataclass, replace
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from ..blocks.cordic import atan2_widths, rotate_z_bound
-from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SHR1, A_SHR4,
-                  A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
+from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SATW, A_SHR1,
+                  A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
                   K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, K_NORM1, K_NORM8, K_QROT, K_ROT,
                   K_VEC, LIMB, READ_AHEAD, BusSource, nonzero, Const, Ins, MulLoad, Program, Var, Widths)
 
@@ -105,6 +105,24 @@ class Asm:
         if n <= 0:
             return []
         return ([alu(A_ADD, Const(1 << (n - 1)))] if self.nearest else []) + shr(n)
+
+    def clip(self, lo: int | None, hi: int | None) -> list:
+        """acc = clip(acc, lo, hi) (None: no bound that side): one saturation (no status bit)
+        where the bounds are a format's range, else a compare and a load per bound."""
+        sat = self.saturating(lo, hi)
+        if sat is not None:
+            return [alu(sat)]
+        code = [alu(A_CMPGT, Const(hi)), alu(A_LD, Const(hi), F)] if hi is not None else []
+        return code + ([alu(A_CMPLT, Const(lo)), alu(A_LD, Const(lo), F)] if lo is not None else [])
+
+    def saturating(self, lo: int | None, hi: int | None):
+        """The saturation (``SATI``/``SATW``) that is ``clip(acc, lo, hi)``, if any: each bound
+        given that of the internal or of the word format, the same for both."""
+        for op, bits in ((A_SATI, self.ki.cfg.width), (A_SATW, self.k.cfg.width)):
+            top = (1 << (bits - 1)) - 1
+            if (lo, hi) != (None, None) and lo in (None, -top - 1) and hi in (None, top):
+                return op
+        return None
 
     def wrap(self) -> list:
         """acc = wrap_angle(acc)."""

@@ -218,25 +218,8 @@ class Lower:
         x = n.args[0]
         lo, hi = n.params
         xlo, xhi = x.bounds() if isinstance(x, Sop) else (x.lo, x.hi)
-        code = self.acc(x)
-        high, low = hi is not None and xhi > hi, lo is not None and xlo < lo
-        sat = self._saturating(lo if low else None, hi if high else None)
-        if sat is not None:         # one clock (no status bit) for the clip's two compares and loads
-            return code + [alu(sat)]
-        if high:
-            code += [alu(A_CMPGT, Const(hi)), alu(A_LD, Const(hi), (C_F, 0))]
-        if low:
-            code += [alu(A_CMPLT, Const(lo)), alu(A_LD, Const(lo), (C_F, 0))]
-        return code
-
-    def _saturating(self, lo, hi):
-        """The saturation (``SATI``/``SATW``) that is this clip, if any: each bound that clips at
-        all that of the internal or of the word format, the same for both."""
-        for op, bits in ((A_SATI, self.ki.cfg.width), (A_SATW, self.a.k.cfg.width)):
-            top = (1 << (bits - 1)) - 1
-            if (lo, hi) != (None, None) and lo in (None, -top - 1) and hi in (None, top):
-                return op
-        return None
+        return self.acc(x) + self.a.clip(lo if lo is not None and xlo < lo else None,
+                                         hi if hi is not None and xhi > hi else None)
 
     def _select(self, n) -> list:
         flag = n.params[0]

@@ -35,8 +35,22 @@ def _load(path: Path):
     return json.loads(path.read_text()) if path.is_file() else None
 
 
-def route_rows(records: Path, is_current) -> list[dict]:
-    """One dict per route whose records exist: figures and derived columns."""
+def _firmware_current(fw: dict) -> bool:
+    """Whether a firmware record ran the SoC this checkout simulates (a record made before the
+    record kept its Verilog's hash, or one the cross compiler's absence leaves unknown: not)."""
+    from .softcpu import SoftCpuError, firmware_verilog_sha256
+
+    if "verilog_sha256" not in fw:
+        return False
+    try:
+        return fw["verilog_sha256"] == firmware_verilog_sha256(fw)
+    except SoftCpuError:
+        return False
+
+
+def route_rows(records: Path, is_current, firmware_current=_firmware_current) -> list[dict]:
+    """One dict per route whose records exist: figures and derived columns; a row is current
+    when its synthesis record and its firmware record (if any) are of this checkout's Verilog."""
     rows = []
     for label, synth_name, fw_name in (*ROUTES, PERIPH_ROUTE):
         s = _load(records / "synth" / f"{synth_name.format(c=CONFIG)}.json")
@@ -54,7 +68,8 @@ def route_rows(records: Path, is_current) -> list[dict]:
         rows.append({"label": label, "device": f"{s['target']}-{s['device']}", "luts": s["luts"],
                      "ffs": s["ffs"], "dsps": s["dsps"], "brams": s["brams"], "fmax": fmax,
                      "cycles": cycles, "latency_us": latency_cycles / fmax, "poses": poses,
-                     "per_kilo_lut": poses / (s["luts"] / 1000), "current": is_current(s),
+                     "per_kilo_lut": poses / (s["luts"] / 1000),
+                     "current": is_current(s) and (fw is None or firmware_current(fw)),
                      "mismatches": None if fw is None else fw["mismatches"],
                      "vectors": None if fw is None else fw["vectors"],
                      "cpu": bool(fw) and not fw.get("peripheral"), "periph": fw if fw and fw.get("peripheral") else None,
@@ -98,9 +113,9 @@ def _verdict(rows: list[dict]) -> list[str]:
     return lines
 
 
-def routes_part(records: Path, is_current) -> list[str]:
+def routes_part(records: Path, is_current, firmware_current=_firmware_current) -> list[str]:
     """The README subsection: the table and the verdict."""
-    rows = route_rows(records, is_current)
+    rows = route_rows(records, is_current, firmware_current)
     head = [f"### {'Four' if any(r['periph'] for r in rows) else 'Three'} routes: firmware on a soft CPU "
             f"vs the IK cores ({CONFIG})", ""]
     if not rows:

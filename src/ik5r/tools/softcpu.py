@@ -87,15 +87,36 @@ def peripheral(k: Constants, kind: str | None):
     return IKPeripheral(constants=k, core=kind)
 
 
-def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> Path:
-    """The Verilator executable of the SoC with ``cpu`` and ``periph`` (an IK peripheral or None),
-    cached by a hash of its inputs."""
+def sim_soc_verilog(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> str:
+    """Verilog of the SoC :func:`build_model` simulates: ``cpu``, ``ram_words`` of RAM loaded by
+    the harness (no firmware in it), the host port and ``periph`` (an IK peripheral or None)."""
     from ik5r.hdl.soc.system import generate_soc
 
     try:
-        text = generate_soc(cpu=cpu, ram_words=ram_words, host_port=True, periph=periph)
+        return generate_soc(cpu=cpu, ram_words=ram_words, host_port=True, periph=periph)
     except (ValueError, RuntimeError) as exc:
         raise SoftCpuError(f"SoC: {exc}") from None
+
+
+def firmware_verilog_sha256(r: dict) -> str:
+    """SHA-256 of the body of the SoC Verilog this checkout simulates for an ``ik5r firmware``
+    record ``r`` (its CPU, RAM, peripheral, config and arm): equal to the record's
+    ``verilog_sha256`` where the record ran this checkout's hardware."""
+    from ik5r.core.arm import is_seed_arm, load_arm
+    from ik5r.core.fxconfig import Constants, load_config
+    from ik5r.hdl.provenance import body_sha256
+
+    arm = load_arm(r.get("arm"))
+    k = Constants(load_config(r["config"]), load_arm(None) if is_seed_arm(arm) else arm)
+    return body_sha256(sim_soc_verilog(r["cpu"], r["ram_bytes"] // 4, peripheral(k, r.get("peripheral"))))
+
+
+def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> tuple[Path, str]:
+    """The Verilator executable of the SoC with ``cpu`` and ``periph`` (an IK peripheral or None),
+    cached by a hash of its inputs, and the SHA-256 of its Verilog's body."""
+    from ik5r.hdl.provenance import body_sha256
+
+    text = sim_soc_verilog(cpu, ram_words, periph)
     harness = resources.files("ik5r.hdl.sim") / "soc_harness.cpp"
     tool = verilator()
     # The version, not the path: every checkout (worktree, venv) with the same Verilator and the
@@ -106,11 +127,12 @@ def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> Path:
     kind = "" if periph is None else f"-{periph.kind}-{periph.constants.cfg.name}"
     directory = cache_root() / f"soc-{cpu}{kind}-{ram_words}-{key}"
     binary = directory / "obj_dir" / "soc_harness"
-    if binary.exists():
-        return binary
-    directory.mkdir(parents=True, exist_ok=True)
-    with path_lock(directory / ".build.lock"):
-        return binary if binary.exists() else _build_soc(directory, text, harness, tool, binary)
+    if not binary.exists():
+        directory.mkdir(parents=True, exist_ok=True)
+        with path_lock(directory / ".build.lock"):
+            if not binary.exists():
+                _build_soc(directory, text, harness, tool, binary)
+    return binary, body_sha256(text)
 
 
 def _build_soc(directory: Path, text: str, harness, tool: str, binary: Path) -> Path:
@@ -167,7 +189,7 @@ class SoftCpu:
         self.job_poses = min(JOB_POSES, self.firmware.job_capacity())
         if self.job_poses < 1:
             raise SoftCpuError(f"no room for a job in {4 * ram_words} bytes of RAM")
-        self.model = build_model(cpu, ram_words, self.periph)
+        self.model, self.verilog_sha256 = build_model(cpu, ram_words, self.periph)
         self.cycles_per_solve_limit = cycles_per_solve_limit
         self.jobs = max(1, jobs or os.cpu_count() or 1)
         self.stats = RunStats()

@@ -127,6 +127,7 @@ def measure(k, *, cpu, isa, vectors, seed, directed=True, cycle_limit=None, prog
         "sim_jobs": soft.jobs, "sim_cpu_seconds": round(soft.stats.sim_cpu_seconds, 2),
         "simulated_cycles_per_cpu_second": round(soft.stats.total_cycles / max(soft.stats.sim_cpu_seconds, 1e-9)),
         "toolchain": "riscv64-unknown-elf-gcc -march=" + isa + " -mabi=ilp32 -O2",
+        "verilog_sha256": soft.verilog_sha256,      # the SoC simulated (softcpu.firmware_verilog_sha256)
         **extra,
     }
 
