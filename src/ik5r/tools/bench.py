@@ -33,7 +33,7 @@ import numpy as np
 from ik5r.core import reference
 from ik5r.core.arm import Arm, load_arm
 from ik5r.core.fxconfig import Constants, constants, load_config
-from ik5r.core.modes import Arch, Block, CoreArch
+from ik5r.core.modes import Arch, Block, CoreArch, Dsp
 from ik5r.firmware_model.poses import PoseBatch
 
 
@@ -125,20 +125,24 @@ def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
 #: checked. ``verilator-harness``: the Verilator C++ harness fed from a file
 #: (:mod:`.testbench.harness`), full rate, one simulator process per CPU; the others: the cocotb
 #: bulk run (random idles and back-pressure). The pipelined core takes a pose per clock (its rate
-#: is the simulator's cycle rate), the compact core one per ``cycles_per_result`` clocks.
-SIM_RUNS = ((Block.ATAN2, Arch.PIPELINED, "verilator-harness", 2_000_000),
-            (Block.ATAN2, Arch.PIPELINED, "verilator", 200_000), (Block.ATAN2, Arch.PIPELINED, "icarus", 5_000),
-            (Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000),
-            (Block.IK, CoreArch.COMPACT, "verilator-harness", 20_000),
-            (Block.IK, CoreArch.PIPELINED, "verilator", 20_000), (Block.IK, CoreArch.PIPELINED, "icarus", 300))
+#: is the simulator's cycle rate), the compact core one per ``cycles_per_result`` clocks. The
+#: ``dsp="ecp5"`` row runs the netlist that is placed (MULT18X18D, CCU2C chains: ``--dsp ecp5``).
+SIM_RUNS = ((Block.ATAN2, Arch.PIPELINED, "verilator-harness", 2_000_000, Dsp.GENERIC),
+            (Block.ATAN2, Arch.PIPELINED, "verilator", 200_000, Dsp.GENERIC),
+            (Block.ATAN2, Arch.PIPELINED, "icarus", 5_000, Dsp.GENERIC),
+            (Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000, Dsp.GENERIC),
+            (Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000, Dsp.ECP5),
+            (Block.IK, CoreArch.COMPACT, "verilator-harness", 20_000, Dsp.GENERIC),
+            (Block.IK, CoreArch.PIPELINED, "verilator", 20_000, Dsp.GENERIC),
+            (Block.IK, CoreArch.PIPELINED, "icarus", 300, Dsp.GENERIC))
 
 
-def _simulate(block: str, arch: str, config: str, sim: str, vectors: int) -> dict:
+def _simulate(block: str, arch: str, config: str, sim: str, vectors: int, dsp: str = Dsp.GENERIC) -> dict:
     from .testbench.harness import run_harness
     from .testbench.runner import run_block, sim_design
 
     if sim == "verilator-harness":
-        r = run_harness(sim_design(block, arch, config), vectors=vectors, seed=3, pattern="full")
+        r = run_harness(sim_design(block, arch, config, dsp=dsp), vectors=vectors, seed=3, pattern="full")
         h = r["harness"]
         # Per CPU second of the simulator processes: the machine's other load left out.
         cpu = h["sim_cpu_seconds"]
@@ -157,14 +161,15 @@ def simulation_speeds(config: str, simulators=None, previous=()) -> list[dict]:
     and cocotb on both simulators. ``simulators``: only these run, the rows of the others taken
     from ``previous``."""
     rows = []
-    kept = {(r["block"], r.get("arch", Arch.PIPELINED), r["simulator"]): r for r in previous}
-    for block, arch, sim, vectors in SIM_RUNS:
-        if simulators is not None and sim not in simulators and (block, arch, sim) in kept:
-            rows.append(kept[block, arch, sim])
+    kept = {(r["block"], r.get("arch", Arch.PIPELINED), r["simulator"], r.get("dsp", Dsp.GENERIC)): r
+            for r in previous}
+    for block, arch, sim, vectors, dsp in SIM_RUNS:
+        if simulators is not None and sim not in simulators and (block, arch, sim, dsp) in kept:
+            rows.append(kept[block, arch, sim, dsp])
             continue
         load = os.getloadavg()[0]
-        r = _simulate(block, arch, config, sim, vectors)
-        rows.append({"block": block, "arch": arch, "simulator": sim, "vectors": r["vectors"],
+        r = _simulate(block, arch, config, sim, vectors, dsp)
+        rows.append({"block": block, "arch": arch, "dsp": dsp, "simulator": sim, "vectors": r["vectors"],
                      "mismatches": r["mismatches"], "vectors_per_second": r["bulk_vectors_per_second"],
                      "build_seconds": r["build_seconds"], "latency_cycles": r["latency_cycles_portmap"],
                      "sim_cycles": r["cycles"], "cpu_vectors_per_second": r.get("cpu_vectors_per_second"),
@@ -287,7 +292,8 @@ def table(result: dict) -> str:
         cycles = f"{r['sim_cpu_cycles_per_second']:,.0f}" if r.get("sim_cpu_cycles_per_second") else "–"
         load = f"{r['load_average']:.1f}" if r.get("load_average") is not None else "–"
         jobs = f", {r['jobs']} processes" if r.get("jobs") else ""
-        lines.append(f"| {r['block']} {r.get('arch', Arch.PIPELINED)} | {sim}{jobs} | {r['vectors']:,} | "
+        netlist = " (ECP5 primitives netlist)" if r.get("dsp", Dsp.GENERIC) != Dsp.GENERIC else ""
+        lines.append(f"| {r['block']} {r.get('arch', Arch.PIPELINED)}{netlist} | {sim}{jobs} | {r['vectors']:,} | "
                      f"{r['mismatches']} | {r['vectors_per_second']:,.0f} | {total} | {cpu} | {cycles} | {load} | "
                      f"{r['build_seconds']:.0f} |")
     return "\n".join(lines + cli_table(result.get("cli") or []))
