@@ -189,11 +189,11 @@ def test_simulated_link_5000_poses(k):
 
 
 @pytest.mark.slow
-def test_sequenced_core_behind_the_word_adapter(k):
+def test_compact_core_behind_the_word_adapter(k):
     """The ULX3S-25F's core (SequencedIKCore through WordCore) on the simulated link."""
     from ik5r.tools.boardsim import run_link
 
-    record = run_link(k, 300, seed=11, core="sequenced")
+    record = run_link(k, 300, seed=11, core="compact")
     assert record["differing_words"] == 0
     assert record["poses_per_s"] >= 0.9 * record["line_poses_per_s"], record
 

@@ -48,7 +48,7 @@ def _core(constants: Constants, core: str, dsp: str):
         from ..sequenced.engine import SerialIK
         return SerialIK(constants=constants, tag_width=TAG_BITS, beat_bits=32)
     from .adapt import WordCore
-    if core == BoardCore.SEQUENCED:
+    if core == BoardCore.COMPACT:
         from ..sequenced.engine import SequencedIKCore
         return WordCore(core=SequencedIKCore(constants=constants, tag_width=TAG_BITS))
     from ..pipelined.core import IKCore
@@ -59,7 +59,7 @@ class BoardLink(wiring.Component):
     """The IK core on a framed UART link (docs/protocol.md).
 
     Function: bytes on ``rx`` go through a ``fifo_bytes`` receive FIFO to the frame decoder,
-    pose words to the IK core ``core`` (serial, sequenced or pipelined), its results and the
+    pose words to the IK core ``core`` (serial, compact or pipelined), its results and the
     decoder's replies to the frame encoder and out on ``tx``; an ID frame leaves after reset.
     ``led_activity`` is lit while bytes come or go (stretched), ``led_error`` after an error
     frame or a UART framing error. Formats: 8N1 at ``baud`` with a ``clock_hz`` clock.

@@ -35,7 +35,7 @@ JOINT_WORDS = 6
 ID_FIELDS = ("protocol", "version", "config_hash", "arm_hash", "core", "clock_hz", "baud", "credits")
 PROTOCOL_VERSION = 1
 #: Core codes of the ID frame.
-CORES = {BoardCore.SERIAL: 1, BoardCore.SEQUENCED: 2, BoardCore.PIPELINED: 3}
+CORES = {BoardCore.SERIAL: 1, BoardCore.COMPACT: 2, BoardCore.PIPELINED: 3}
 
 #: Error codes (the error frame's one payload word; its tag is the damaged frame's, 0 if unknown).
 E_CRC, E_TYPE, E_LENGTH, E_TIMEOUT, E_OVERFLOW = 1, 2, 3, 4, 5

@@ -57,10 +57,11 @@ class Target(StrEnum):
 
 class BoardCore(StrEnum):
     """The IK core behind a board's UART link (``ik5r board --core``, the ID frame's core code):
-    the sequenced engine (``CoreArch.COMPACT``) behind its word-serial wrapper or alone, or the
-    pipelined core."""
+    the compact core (``CoreArch.COMPACT``, the sequenced engine) behind its word-serial wrapper
+    or alone, or the pipelined core: the names ``ik5r synth``/``sim`` give them (the wrapper:
+    ``--serial``)."""
     SERIAL = "serial"
-    SEQUENCED = "sequenced"
+    COMPACT = "compact"
     PIPELINED = "pipelined"
 
 

@@ -33,7 +33,7 @@ BOARDS = {
                    "device": "--up5k", "package": "sg48", "core": BoardCore.SERIAL,
                    "leds": (("led_g", 0), ("led_r", 0)), "baud": 3_000_000},
     "ulx3s-25f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_25F_Platform"), "target": Target.ECP5,
-                  "device": "--25k", "package": "CABGA381", "core": BoardCore.SEQUENCED,
+                  "device": "--25k", "package": "CABGA381", "core": BoardCore.COMPACT,
                   "leds": (("led", 0), ("led", 7)), "baud": 3_000_000},
     "ulx3s-85f": {"platform": ("amaranth_boards.ulx3s", "ULX3S_85F_Platform"), "target": Target.ECP5,
                   "device": "--85k", "package": "CABGA381", "core": BoardCore.PIPELINED,

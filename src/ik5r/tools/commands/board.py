@@ -1,7 +1,7 @@
 """``ik5r board``: a bitstream of the IK core on a framed UART link, for iCEBreaker or ULX3S.
 
-Boards: ``icebreaker`` (iCE40 UP5K, 12 MHz, the sequenced core behind its word-serial wrapper),
-``ulx3s-25f`` (ECP5-25F, 25 MHz, the sequenced core), ``ulx3s-85f`` (ECP5-85F, 25 MHz, the
+Boards: ``icebreaker`` (iCE40 UP5K, 12 MHz, the compact core behind its word-serial wrapper),
+``ulx3s-25f`` (ECP5-25F, 25 MHz, the compact core), ``ulx3s-85f`` (ECP5-85F, 25 MHz, the
 pipelined core). The UART is the board's USB serial port (8N1, default 3 Mbaud); the protocol is
 docs/protocol.md. Writes ``ik5r_board.bin`` (iCE40) or ``ik5r_board.bit`` (ECP5) and
 ``record.json`` into -o DIR (default ``build/board/BOARD``); ``--record`` also stores the record
