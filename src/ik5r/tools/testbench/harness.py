@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ik5r.core.cbuild import cache_root
+from ik5r.core.cbuild import cache_root, path_lock
 
 from ..design import Design
 from .bulk import compare_chunk
@@ -109,8 +109,16 @@ def _to_cache(key: str, binary: Path) -> None:
 def build_harness(design: Design, *, cflags: str = DEFAULT_CFLAGS) -> tuple[Path, PortMap, float]:
     """(the harness binary of ``design``, its port map, seconds spent building: 0 when reused).
     A binary is reused from the build folder while its stamp matches, else from the cache under
-    :func:`~ik5r.core.cbuild.cache_root` keyed by the Verilog's body, the main and the flags."""
+    :func:`~ik5r.core.cbuild.cache_root` keyed by the Verilog's body, the main and the flags.
+    One process at a time per build folder (pytest's workers run two patterns of one design side
+    by side: the second waits, then finds the binary built)."""
     bdir = harness_dir(design)
+    bdir.mkdir(parents=True, exist_ok=True)
+    with path_lock(bdir / ".harness.lock"):
+        return _build_harness(design, bdir, cflags)
+
+
+def _build_harness(design: Design, bdir: Path, cflags: str) -> tuple[Path, PortMap, float]:
     vpath, jpath = generate_sources(design, bdir / "src")
     pm = load_portmap(jpath)
     models = PRIMITIVE_MODELS.get(design.options.dsp, [])
