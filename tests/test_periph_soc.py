@@ -51,11 +51,11 @@ def test_cli_peripheral_json(tmp_path, capsys):
     assert r["vectors"] == 8 and r["cycles_per_solve"]["mean"] == r["call_cycles"]["mean"]
     assert "0 differing words hardware vs software" in capsys.readouterr().out
     # The record names the SoC Verilog it ran: this checkout's for its CPU, RAM, core and config,
-    # not that of the SoC with the other core.
+    # not that of the SoC without the core.
     from ik5r.tools.softcpu import firmware_verilog_sha256
 
     assert r["verilog_sha256"] == firmware_verilog_sha256(r)
-    assert r["verilog_sha256"] != firmware_verilog_sha256({**r, "peripheral": "pipelined"})
+    assert r["verilog_sha256"] != firmware_verilog_sha256({**r, "peripheral": None})
 
 
 def _host_compile(tmp_path: Path, *flags: str) -> Path:

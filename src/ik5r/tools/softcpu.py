@@ -26,6 +26,7 @@ import subprocess
 import tempfile
 import time
 from dataclasses import dataclass, field
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 
@@ -103,12 +104,21 @@ def firmware_verilog_sha256(r: dict) -> str:
     record ``r`` (its CPU, RAM, peripheral, config and arm): equal to the record's
     ``verilog_sha256`` where the record ran this checkout's hardware."""
     from ik5r.core.arm import is_seed_arm, load_arm
+
+    arm = load_arm(r.get("arm"))
+    return _soc_body_sha256(r["cpu"], r["ram_bytes"] // 4, r.get("peripheral"), r["config"],
+                            None if is_seed_arm(arm) else r.get("arm"))
+
+
+@lru_cache(maxsize=None)
+def _soc_body_sha256(cpu: str, ram_words: int, kind: str | None, config: str, arm: str | None) -> str:
+    """:func:`firmware_verilog_sha256` of one design point (a README regeneration asks per route)."""
+    from ik5r.core.arm import load_arm
     from ik5r.core.fxconfig import Constants, load_config
     from ik5r.hdl.provenance import body_sha256
 
-    arm = load_arm(r.get("arm"))
-    k = Constants(load_config(r["config"]), load_arm(None) if is_seed_arm(arm) else arm)
-    return body_sha256(sim_soc_verilog(r["cpu"], r["ram_bytes"] // 4, peripheral(k, r.get("peripheral"))))
+    k = Constants(load_config(config), load_arm(arm))
+    return body_sha256(sim_soc_verilog(cpu, ram_words, peripheral(k, kind)))
 
 
 def build_model(cpu: str, ram_words: int = SIM_RAM_WORDS, periph=None) -> tuple[Path, str]:
