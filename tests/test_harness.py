@@ -283,3 +283,33 @@ def test_harness_binary_comes_from_the_cache(monkeypatch, tmp_path):
     binary, pm, seconds = harness.build_harness(design, cflags="-O0")
     assert seconds == 0.0 and binary.parent.parent == tmp_path / "fresh"
     assert binary.read_bytes() == first.read_bytes() and pm.top
+
+
+def test_harness_main_is_built_with_the_flags(monkeypatch, tmp_path):
+    """``cflags`` reaches the harness's own C++ (the stimulus and the compare run every clock):
+    verilated.mk's ``OPT_FAST`` (-Os) would come after ``-CFLAGS`` on that file's line, so the
+    build sets it; a flag that is not one option is refused."""
+    from ik5r.tools.testbench import harness
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    real_run = harness.subprocess.run
+
+    def verilator(cmd, **kw):
+        if cmd[0] != "verilator" or "--build-jobs" not in cmd:
+            return real_run(cmd, **kw)
+        seen["env"] = kw["env"]
+        raise Stop                    # before anything is built
+
+    monkeypatch.setattr(harness, "harness_dir", lambda d: tmp_path)
+    monkeypatch.setattr(harness, "_cache_key", lambda *a: "no-cache")
+    monkeypatch.setattr(harness, "_from_cache", lambda key, binary: False)
+    monkeypatch.setattr(harness.subprocess, "run", verilator)
+    with pytest.raises(Stop):
+        harness.build_harness(small(), cflags="-O3")
+    assert "OPT_FAST=-O3" in seen["env"]["MAKEFLAGS"].split()
+    with pytest.raises(ValueError, match="one compiler option"):
+        harness.build_harness(small(), cflags="-O2 -g")

