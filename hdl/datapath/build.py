@@ -127,7 +127,7 @@ def build_pipelined(dp, m, inputs, payload_of, i, o, dsp, budget: DspBudget):
         o.payload.eq(fifo.r_data),
         fifo.r_en.eq(o.ready),
     ]
-    build_stash(m, stashes.links)
+    build_stash(m, stashes.links, dsp)
 
 
 # --- iterative ----------------------------------------------------------------------------------

@@ -6,9 +6,9 @@ partial products. Same latency, same bits as the generic operators; simulated wi
 
 from __future__ import annotations
 
-from amaranth.hdl import ClockSignal, Const, Instance, Signal, signed
+from amaranth.hdl import Cat, ClockSignal, Const, Instance, Signal, signed
 
-__all__ = ["ECP5_ADD_SUB_MODULE", "CCU2C_ADD_SUB_INIT", "MULT_BITS", "ccu2c_add_sub",
+__all__ = ["ECP5_ADD_SUB_MODULE", "CCU2C_ADD_SUB_INIT", "MULT_BITS", "BRAM_BITS", "BRAM_DEPTH", "ccu2c_add_sub", "dp16kd_delay",
            "ecp5_add_sub_verilog", "mult18x18d"]
 
 #: Operand width of a MULT18X18D (signed).
@@ -107,3 +107,45 @@ def mult18x18d(m, name: str, a18, b18):
         i_CLK0=ClockSignal(), i_CE0=Const(1, 1), i_RST0=Const(0, 1),
         **{f"o_P{bit}": product[bit] for bit in range(2 * MULT_BITS)})
     return product
+
+
+#: Data bits and depth of a ``DP16KD`` in the configuration :func:`dp16kd_delay` uses.
+BRAM_BITS, BRAM_DEPTH = 18, 1024
+
+
+def dp16kd_delay(m, name: str, word, distance: int):
+    """``word`` as it was ``distance`` clocks ago (``distance >= 4``): a ring buffer of
+    ``DP16KD`` block RAMs side by side (18 bits, 1,024 deep each), written every clock through
+    port A and read through port B into the RAM's own output register (``REGMODE_B="OUTREG"``:
+    its clock-to-output is that of a register, where the unregistered read port's is ~5.6 ns),
+    then a flip-flop. Address counters of its own step every clock, the read one
+    ``distance - 3`` behind the write one (three clocks from the read address to the flip-flop)."""
+    if not 4 <= distance < BRAM_DEPTH:
+        raise ValueError(f"a DP16KD delay line spans 4 to {BRAM_DEPTH - 1} clocks, not {distance}")
+    bits = (BRAM_DEPTH - 1).bit_length()
+    write_ptr = Signal(bits, name=f"{name}_wptr")
+    read_ptr = Signal(bits, name=f"{name}_rptr", init=-(distance - 3) % BRAM_DEPTH)
+    m.d.sync += [write_ptr.eq(write_ptr + 1), read_ptr.eq(read_ptr + 1)]
+    lanes = []
+    for lane in range(-(-len(word) // BRAM_BITS)):
+        data = word[lane * BRAM_BITS:(lane + 1) * BRAM_BITS]
+        q = Signal(BRAM_BITS, name=f"{name}_ram{lane}_q")
+        m.submodules[f"{name}_ram{lane}"] = Instance(
+            "DP16KD", p_DATA_WIDTH_A=BRAM_BITS, p_DATA_WIDTH_B=BRAM_BITS, p_REGMODE_A="NOREG",
+            p_REGMODE_B="OUTREG", p_RESETMODE="SYNC", p_ASYNC_RESET_RELEASE="SYNC",
+            p_CSDECODE_A="0b000", p_CSDECODE_B="0b000", p_WRITEMODE_A="NORMAL", p_WRITEMODE_B="NORMAL",
+            p_GSR="DISABLED",
+            **{f"i_DIA{bit}": data[bit] if bit < len(data) else Const(0, 1) for bit in range(BRAM_BITS)},
+            **{f"i_ADA{bit}": Const(1, 1) if bit < 2 else Const(0, 1) if bit < 4 else write_ptr[bit - 4]
+               for bit in range(14)},
+            i_CEA=Const(1, 1), i_OCEA=Const(0, 1), i_CLKA=ClockSignal(), i_WEA=Const(1, 1), i_RSTA=Const(0, 1),
+            **{f"i_CSA{bit}": Const(0, 1) for bit in range(3)},
+            **{f"i_DIB{bit}": Const(0, 1) for bit in range(BRAM_BITS)},
+            **{f"i_ADB{bit}": Const(0, 1) if bit < 4 else read_ptr[bit - 4] for bit in range(14)},
+            i_CEB=Const(1, 1), i_OCEB=Const(1, 1), i_CLKB=ClockSignal(), i_WEB=Const(0, 1), i_RSTB=Const(0, 1),
+            **{f"i_CSB{bit}": Const(0, 1) for bit in range(3)},
+            **{f"o_DOB{bit}": q[bit] for bit in range(BRAM_BITS)})
+        lanes.append(q)
+    out = Signal(len(word), name=f"{name}_q", reset_less=True)
+    m.d.sync += out.eq(Cat(*lanes)[:len(word)])
+    return out

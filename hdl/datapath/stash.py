@@ -17,6 +17,10 @@ from __future__ import annotations
 from amaranth.hdl import Cat, Module, Signal, Value, unsigned
 from amaranth.lib.memory import Memory
 
+from ik5r.core.modes import Dsp
+
+from .ecp5 import dp16kd_delay
+
 __all__ = ["REGISTER_DELAY_MAX", "Stashed", "Stashes", "build_stash", "delay_line"]
 
 #: Stash distances up to this many stages use a register chain instead of a RAM ring buffer.
@@ -75,14 +79,20 @@ class Stashes:
             raise ValueError(f"stashed but never taken back: {left}")
 
 
-def build_stash(m: Module, links) -> None:
+def build_stash(m: Module, links, dsp: str = Dsp.GENERIC) -> None:
     """Drive each link's ``dst`` from its ``value`` delayed by ``where - origin`` cycles, one
-    delay line per (origin, where) pair carrying its links side by side (pipelined build)."""
+    delay line per (origin, where) pair carrying its links side by side (pipelined build);
+    ``dsp="ecp5"``: the RAM ring buffers are ``DP16KD`` primitives read through their output
+    register (:func:`~.ecp5.dp16kd_delay`)."""
     groups = {}
     for link in links:
         groups.setdefault((link[2], link[3]), []).append(link)
     for (origin, where), group in sorted(groups.items()):
-        out = delay_line(m, Cat(*(link[1] for link in group)), origin, where)
+        word = Cat(*(link[1] for link in group))
+        if dsp == Dsp.ECP5 and where - origin > REGISTER_DELAY_MAX:
+            out = dp16kd_delay(m, f"stash_{origin}_{where}", word, where - origin)
+        else:
+            out = delay_line(m, word, origin, where)
         lsb = 0
         for _, value, _, _, dst in group:
             part = out[lsb:lsb + len(value)]

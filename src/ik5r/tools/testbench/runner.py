@@ -76,7 +76,7 @@ def build_dir_for(design: Design, sim: str) -> Path:
 
 #: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
 PRIMITIVE_MODELS = {Dsp.ECP5: [Path(str(resources.files("ik5r.hdl.sim") / f"{cell}.v"))
-                              for cell in ("MULT18X18D", "CCU2C")]}
+                              for cell in ("MULT18X18D", "CCU2C", "DP16KD")]}
 
 
 def _write_if_changed(path: Path, text: str) -> None:
