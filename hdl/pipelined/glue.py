@@ -49,12 +49,12 @@ def _sel(ctx, name, n) -> Unit:
 def _wrap(ctx, name, n) -> Unit:
     pi = ctx.ki.pi_a
     return ctx.selecting(name, n.args, n, [lambda a: a > pi, lambda a: a < -pi],
-                         lambda f, a: Mux(f[0], a - 2 * pi, Mux(f[1], a + 2 * pi, a)))
+                         lambda f, a: a + Mux(f[0], -2 * pi, Mux(f[1], 2 * pi, 0)))
 
 
 def _opp(ctx, name, n) -> Unit:
     pi = ctx.ki.pi_a
-    return ctx.selecting(name, n.args, n, [lambda a: a > 0], lambda f, a: Mux(f[0], a - pi, a + pi))
+    return ctx.selecting(name, n.args, n, [lambda a: a > 0], lambda f, a: a + Mux(f[0], -pi, pi))
 
 
 def _no_unit(ctx, name, n) -> Unit:
