@@ -47,6 +47,9 @@ def _sel(ctx, name, n) -> Unit:
 
 
 def _wrap(ctx, name, n) -> Unit:
+    # One adder whose constant operand the registered flags pick (in the carry cells' LUTs),
+    # not a select after two adders: the select's ripple after the carry chains was the
+    # placed core's critical path.
     pi = ctx.ki.pi_a
     return ctx.selecting(name, n.args, n, [lambda a: a > pi, lambda a: a < -pi],
                          lambda f, a: a + Mux(f[0], -2 * pi, Mux(f[1], 2 * pi, 0)))
