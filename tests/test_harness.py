@@ -286,9 +286,10 @@ def test_harness_binary_comes_from_the_cache(monkeypatch, tmp_path):
 
 
 def test_harness_main_is_built_with_the_flags(monkeypatch, tmp_path):
-    """``cflags`` reaches the harness's own C++ (the stimulus and the compare run every clock):
-    verilated.mk's ``OPT_FAST`` (-Os) would come after ``-CFLAGS`` on that file's line, so the
-    build sets it; a flag that is not one option is refused."""
+    """``cflags`` reaches the harness's own C++ (the stimulus and the compare run every clock) and
+    the model's run-time code through verilated.mk's ``OPT_FAST``/``OPT_GLOBAL``; the code run
+    once (``OPT_SLOW``) is built at -O0, so ``-CFLAGS`` (after them on every line) holds no level;
+    a flag that is not one option is refused."""
     from ik5r.tools.testbench import harness
 
     seen = {}
@@ -301,7 +302,7 @@ def test_harness_main_is_built_with_the_flags(monkeypatch, tmp_path):
     def verilator(cmd, **kw):
         if cmd[0] != "verilator" or "--build-jobs" not in cmd:
             return real_run(cmd, **kw)
-        seen["env"] = kw["env"]
+        seen["env"], seen["cmd"] = kw["env"], cmd
         raise Stop                    # before anything is built
 
     monkeypatch.setattr(harness, "harness_dir", lambda d: tmp_path)
@@ -310,6 +311,9 @@ def test_harness_main_is_built_with_the_flags(monkeypatch, tmp_path):
     monkeypatch.setattr(harness.subprocess, "run", verilator)
     with pytest.raises(Stop):
         harness.build_harness(small(), cflags="-O3")
-    assert "OPT_FAST=-O3" in seen["env"]["MAKEFLAGS"].split()
+    make_vars = seen["env"]["MAKEFLAGS"].split()
+    assert {"OPT_FAST=-O3", "OPT_GLOBAL=-O3", "OPT_SLOW=-O0"} <= set(make_vars)
+    cflags = seen["cmd"][seen["cmd"].index("-CFLAGS") + 1]
+    assert not any(flag.startswith("-O") for flag in cflags.split())
     with pytest.raises(ValueError, match="one compiler option"):
         harness.build_harness(small(), cflags="-O2 -g")

@@ -56,12 +56,14 @@ DEFAULT_CFLAGS = "-O2"
 
 
 def _make_vars(cflags: str) -> list[str]:
-    """The make variables that give the harness's own C++ (the main: the stimulus, the compare)
-    ``cflags`` too: verilated.mk puts its ``OPT_FAST`` (-Os) after ``-CFLAGS`` on that file's
-    command line, where the model's files get ``-CFLAGS`` last."""
+    """The make variables of a harness build: ``cflags`` for the model's run-time code and the
+    main (verilated.mk's ``OPT_FAST``, and ``OPT_GLOBAL`` for its run-time library), -O0 for the
+    code run once (``OPT_SLOW``: the constructors, which for a flat netlist are most of the C++,
+    e.g. 169 ``__Slow`` files of the ECP5 q32w core, about a minute each at -O2). The level is
+    not in ``-CFLAGS``, which comes after these on every command line and would override them."""
     if not cflags or any(ch.isspace() for ch in cflags):
         raise ValueError(f"cflags: one compiler option (e.g. -O2), not {cflags!r}")
-    return [f"OPT_FAST={cflags}"]
+    return [f"OPT_FAST={cflags}", f"OPT_GLOBAL={cflags}", "OPT_SLOW=-O0"]
 
 
 def verilated_name(name: str) -> str:
@@ -137,10 +139,13 @@ def _build_harness(design: Design, bdir: Path, cflags: str) -> tuple[Path, PortM
     header.write_text(ports_header(pm))
     main = Path(str(resources.files("ik5r.tools.testbench") / "harness.cpp"))
     sources = [vpath, main, *models]
-    args = [*VERILATOR_ARGS, "--top-module", pm.top, "-Mdir", str(bdir / "obj"), "-o", "harness",
-            "-CFLAGS", f"{cflags} -I{header.parent}", *map(str, sources)]
+    # One object folder per optimisation level: make rebuilds on changed sources, not on changed
+    # make variables, so a folder of one level must never be finished at another.
+    odir = bdir / f"obj{cflags}"
+    args = [*VERILATOR_ARGS, "--top-module", pm.top, "-Mdir", str(odir), "-o", "harness",
+            "-CFLAGS", f"-I{header.parent}", *map(str, sources)]
     stamp_doc = {"args": args, "make": _make_vars(cflags), "sources": {str(s): _source_digest(s) for s in sources}, "header": header.read_text()}
-    stamp, binary = bdir / "build.stamp", bdir / "obj" / "harness"
+    stamp, binary = odir / "build.stamp", odir / "harness"
     if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
         return binary, pm, 0.0
     verilator_path()
