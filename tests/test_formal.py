@@ -246,3 +246,15 @@ def test_fifo_lemma_needs_its_premises(fifo_shape, without):
         broken = prove_fifo_lemma(layout, depth, method=method, **kwargs)
         assert broken["status"] in (("FAIL", "UNKNOWN") if method == "k-induction" else ("FAIL",)), broken
         assert broken["failed"] and set(broken["failed"]) <= FIFO_MUTANTS[without], broken
+
+
+def test_an_engine_error_says_why(tmp_path):
+    """A job that ends in ERROR reports the solver's own words (sby says only "returned ERROR")."""
+    from ik5r.hdl.formal.run import _engine_errors
+
+    engine = tmp_path / "engine_0"
+    engine.mkdir()
+    (engine / "logfile.txt").write_text("SMT-solver: boolector\nboolector: out of memory in 'bv_mul'\n")
+    why = _engine_errors(tmp_path, "Traceback ...\nBrokenPipeError: [Errno 32] Broken pipe\n")
+    assert "engine_0: boolector: out of memory in 'bv_mul'" in why.splitlines()
+    assert "stderr: BrokenPipeError: [Errno 32] Broken pipe" in why.splitlines()

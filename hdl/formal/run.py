@@ -277,6 +277,8 @@ def _run_sby(text: str, names: dict, mode: str, depth: int, memories: str, workd
                               capture_output=True, text=True)
         status = _status(workdir / "contract", proc)
         detail = "" if status == "PASS" else _detail(proc.stdout)
+        if status == "ERROR":
+            detail = "\n".join(filter(None, [detail, _engine_errors(workdir / "contract", proc.stderr)]))
         failed = _failed_assertions(proc.stdout, names) if status in ("FAIL", "UNKNOWN") else []
         cpu = re.search(r"Elapsed process time \[H:MM:SS \(secs\)\]: \S+ \((\d+)\)", proc.stdout)
     finally:
@@ -298,6 +300,17 @@ def _detail(log: str) -> str:
     """The failed assertions (or the last lines) of an sby log."""
     lines = [line for line in log.splitlines() if "Assert failed" in line or "failed assertion" in line]
     return "\n".join(lines[-4:] or log.splitlines()[-6:])
+
+
+def _engine_errors(jobdir: Path, stderr: str) -> str:
+    """Why a job ended in ERROR, in the tools' own words: sby says only that an engine "returned
+    ERROR"; the solver's message is in the engine's log (and a crash's in sby's stderr)."""
+    lines = []
+    for log in sorted(jobdir.glob("engine_*/logfile.txt")):
+        text = log.read_text(errors="replace").splitlines()
+        lines += [f"{log.parent.name}: {line}" for line in text[-8:]]
+    lines += [f"stderr: {line}" for line in stderr.splitlines()[-8:]]
+    return "\n".join(lines)
 
 
 def _failed_assertions(log: str, names: dict) -> list:
