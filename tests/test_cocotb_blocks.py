@@ -11,7 +11,8 @@ The default run keeps to a few minutes on 2 cores: each (block, arch, config) on
 for the sqrt block's iterative q18 case on Verilator (a Verilator case is a C++ build of tens of CPU
 seconds, an Icarus one a few; every block is simulated in Verilator inside the IK cores,
 tests/test_cocotb_core.py); the ECP5 variants in the slow set (their mapping runs by default inside
-the ECP5 IK core); iterative cases use fewer vectors (an item takes latency cycles). ``IK5R_SIM_FULL=1`` runs the
+the ECP5 IK core); 300 + 1000 vectors on the pipelined blocks, 50 + 100 on the iterative ones (an
+item takes latency cycles), each plus the edge set. ``IK5R_SIM_FULL=1`` runs the
 full matrix on both simulators with 2000 + 2000 vectors everywhere; ``make test-slow`` the rest of the
 matrix. Cases run two at a time in a
 thread pool (each is a simulator subprocess), started when the first case is reached.
@@ -58,8 +59,8 @@ def _sizes(arch: str, dsp: str) -> tuple[int, int]:
     if FULL:
         return 2000, 2000
     if arch != "pipelined":
-        return 150, 250
-    return (2000, 2000) if dsp == "generic" else (100, 100)
+        return 50, 100
+    return (300, 1000) if dsp == "generic" else (100, 100)
 
 
 CASES = [

@@ -53,7 +53,7 @@ def _sizes(arch: str, config: str, dsp: str, sim: str) -> tuple[int, int]:
         # thousands on Verilator).
         return 16, 16
     if arch == "pipelined":
-        return (100, 300) if sim == "icarus" and not FULL else (500, 3000)
+        return (100, 300) if sim == "icarus" and not FULL else (500, 3000) if FULL else (200, 1000)
     return 4, 20          # one pose per `latency` cycles
 
 

@@ -282,9 +282,8 @@ def test_verilog_deterministic(block):
         # A conversion in this process against one through the cache (the testbenches' tag
         # widths): when another test process converted it first, that is determinism across
         # processes (other hash seeds); on a cold cache, two conversions here.
-        tag_width = DEFAULT_TAG_WIDTH if arch == "pipelined" else 0
-        text_a, map_a = generate(block, arch, k, tag_width)
-        text_b, map_b = generate_cached(block, arch, k, tag_width)
+        text_a, map_a = generate(block, arch, k, DEFAULT_TAG_WIDTH)
+        text_b, map_b = generate_cached(block, arch, k, DEFAULT_TAG_WIDTH)
         assert text_a == text_b
         assert map_a == map_b
         assert f"module {module_name(block, arch)}(" in text_a
@@ -379,10 +378,9 @@ def test_verilator_lint(cfg, part, tmp_path):
     for block, options in _lint_variants(k, part):
         archs = ("pipelined",) if "dsp" in options else ("compact",) if "serial" in options else archs_of(block)
         for arch in archs:
-            # The testbenches' tag width on the pipelined ones: the cocotb runs convert the same
-            # (cached, ik5r.tools.testbench.runner.generate_cached); the others without a tag.
-            text, pmap = generate_cached(block, arch, k, DEFAULT_TAG_WIDTH if arch == "pipelined" else 0,
-                                         **options)
+            # The testbenches' tag width: the cocotb runs convert the same (cached,
+            # ik5r.tools.verilog_cache.generate_cached), one conversion for both.
+            text, pmap = generate_cached(block, arch, k, DEFAULT_TAG_WIDTH, **options)
             source = tmp_path / f"{pmap['module']}.v"
             source.write_text(text)
             code, stderr = _lint(verilator, [*stubs.get(options.get("dsp"), []), source], pmap["module"])

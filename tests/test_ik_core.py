@@ -76,14 +76,14 @@ def with_tags(items, expected):
 @pytest.mark.parametrize("cfg", PIPELINED_CONFIGS)
 def test_pipelined(cfg):
     k = _k(cfg)
-    poses = poses_for(k, 200, seed=1)
+    poses = poses_for(k, 48, seed=1)
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))
     dut = IKCore(constants=k, arch="pipelined", tag_width=TAG_WIDTH)
     assert dut.cycles_per_result == 1
     # Full rate; random gaps and back-pressure with one long stall; the output held until the
     # core is full, then released (the poses again, as many as needed): one simulation.
-    sub = slice(0, 150)
+    sub = slice(0, 120)
     repeats, count = -(-(dut.capacity + 40) // len(items)), dut.capacity + 40
     held_items, held_expected = (items * repeats)[:count], (expected * repeats)[:count]
     full, stalled, held = run_phases(dut, [(items, {}), (items[sub], {"stall_seed": 5, "long_stall": True}),

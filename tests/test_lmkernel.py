@@ -137,7 +137,7 @@ def test_backend_checked():
         multistart.solve(chain, targets, backend="fortran")
 
 
-@pytest.mark.parametrize("opt", ["-O2", "-O3"])
+@pytest.mark.parametrize("opt", [pytest.param("-O2", marks=pytest.mark.slow), "-O3"])
 def test_strict_warnings(opt, tmp_path):
     """The kernel and its driver compile clean under -Wall -Wextra -Werror -std=c99 -pedantic."""
     flags = (opt,) + csolver.WARN_FLAGS[1:]
