@@ -90,8 +90,33 @@ def _f_writes(ins: Ins) -> bool:
     return ins.alu in (A_CMPGT, A_CMPLT, A_SETF)
 
 
+#: One bit per claim (a unit, a register, an instruction field), given at first sight: the
+#: table tests a block's claims as integer masks (a hill climb places tens of thousands of blocks).
+_BITS: dict[str, int] = {}
+
+
+def _mask(keys) -> int:
+    mask = 0
+    for key in keys:
+        mask |= _BITS.setdefault(key, 1 << len(_BITS))
+    return mask
+
+
+def _offsets(masks) -> dict[int, list[int]]:
+    """Per claim bit, the clocks (offsets in the block) that claim it."""
+    offsets: dict[int, list[int]] = {}
+    for t, mask in enumerate(masks):
+        while mask:
+            bit = mask & -mask
+            offsets.setdefault(bit, []).append(t)
+            mask ^= bit
+    return offsets
+
+
 class Block:
-    """One block's code and, per clock, what it claims; its memory reads and writes."""
+    """One block's code and, per clock, what it claims (``claims``: names) under which condition
+    (``conds``); the same per claim bit of :data:`_BITS` and per condition (``offsets``: the
+    clocks, ``clocks``: as bits); its memory reads and writes."""
 
     def __init__(self, code: list):
         self.code = code = hazards(fold(code))
@@ -116,40 +141,60 @@ class Block:
         if past:
             self.claims.append(past)
             self.conds.append(None)
+        self.offsets, self.cond_offsets = _offsets(map(_mask, self.claims)), {}
+        for t, cond in enumerate(self.conds):
+            if cond is not None:
+                self.cond_offsets.setdefault(cond, []).append(t)
+        self.clocks = {bit: sum(1 << t for t in ts) for bit, ts in self.offsets.items()}
+        self.cond_clocks = {cond: sum(1 << t for t in ts) for cond, ts in self.cond_offsets.items()}
         self.reads = [(t, _var_read(ins)) for t, ins in enumerate(code) if _var_read(ins)]
         self.writes = [(t, ins.wa.name) for t, ins in enumerate(code) if ins.wr]
 
 
 class Table:
-    """The program being scheduled: per clock, the claims and the condition of what is placed."""
+    """The program being scheduled: per claim (a bit of :data:`_BITS`) and per condition, the
+    clocks taken, as integers (bit t: clock t), so that a block's first free start is found at
+    once (:meth:`first_fit`) rather than tried clock by clock."""
 
     def __init__(self):
-        self.claims: list[set] = []
-        self.conds: list = []
+        self.busy: dict[int, int] = {}        # claim bit -> clocks it is taken
+        self.under: dict = {}                 # condition -> clocks placed under it
+        self.conditional = 0                  # clocks placed under any condition
         # The placements in order; the instructions are merged once, for the schedule kept
         # (merging every trial's words was most of the hill climb's time).
         self.placed: list[tuple[Block, int]] = []
         self.end = 0
 
+    def _taken(self, b: Block) -> int:
+        """The starts at which ``b`` does not fit (bit s: start s): a claim of b at offset t
+        meets a clock taken at s + t, or a condition of b another one placed there."""
+        taken = 0
+        for bit, offsets in b.offsets.items():
+            busy = self.busy.get(bit, 0)
+            if busy:
+                for t in offsets:
+                    taken |= busy >> t
+        for cond, offsets in b.cond_offsets.items():
+            other = self.conditional & ~self.under.get(cond, 0)
+            if other:
+                for t in offsets:
+                    taken |= other >> t
+        return taken
+
     def fits(self, b: Block, start: int) -> bool:
-        for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
-            at = start + t
-            if at >= len(self.claims):
-                return True
-            if keys & self.claims[at]:
-                return False
-            if cond is not None and self.conds[at] is not None and cond != self.conds[at]:
-                return False
-        return True
+        return not (self._taken(b) >> start) & 1
+
+    def first_fit(self, b: Block, start: int) -> int:
+        """The first clock from ``start`` at which ``b`` fits."""
+        taken = self._taken(b) >> start
+        return start + (~taken & (taken + 1)).bit_length() - 1
 
     def place(self, b: Block, start: int):
-        while len(self.claims) < start + len(b.claims):
-            self.claims.append(set())
-            self.conds.append(None)
-        for t, (keys, cond) in enumerate(zip(b.claims, b.conds)):
-            self.claims[start + t] |= keys
-            if cond is not None:
-                self.conds[start + t] = cond
+        for bit, clocks in b.clocks.items():
+            self.busy[bit] = self.busy.get(bit, 0) | clocks << start
+        for cond, clocks in b.cond_clocks.items():
+            self.under[cond] = self.under.get(cond, 0) | clocks << start
+            self.conditional |= clocks << start
         self.placed.append((b, start))
         self.end = max(self.end, start + len(b.code))
 
@@ -238,9 +283,7 @@ class _Placer:
             self.written[name] = t + t_write
 
     def first_fit(self, i: int, t: int) -> int:
-        while not self.table.fits(self.blocks[i], t):
-            t += 1
-        return t
+        return self.table.first_fit(self.blocks[i], t)
 
     def run(self) -> list:
         last = len(self.blocks) - 1

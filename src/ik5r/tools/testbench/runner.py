@@ -74,6 +74,9 @@ def build_dir_for(design: Design, sim: str) -> Path:
     return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 
+#: Verilator's lint waivers for the generated Verilog (files named ``ik5r_*.v``).
+LINT_WAIVERS = Path(str(resources.files("ik5r.hdl") / "verilator.vlt"))
+
 #: Simulation models of the vendor primitives a ``dsp`` variant instantiates.
 PRIMITIVE_MODELS = {Dsp.ECP5: [Path(str(resources.files("ik5r.hdl.sim") / f"{cell}.v"))
                               for cell in ("MULT18X18D", "CCU2C", "DP16KD")]}
@@ -89,13 +92,14 @@ from ..verilog_cache import VERILOG_CACHE, generate_cached  # noqa: E402,F401 (t
 
 def generate_sources(design: Design, out_dir: Path, portmap: str | Path | None = None,
                      verilog: str | Path | None = None) -> tuple[Path, Path]:
-    """Write <block>.v and <block>.json into out_dir (:meth:`Design.verilog`, or given files)."""
+    """Write <module>.v and <block>.json into out_dir (:meth:`Design.verilog`, or given files)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
         vtext, pmdoc = design.verilog()
-    vpath, jpath = out_dir / f"{design.block}.v", out_dir / f"{design.block}.json"
+    # The file named as its module: Verilator's lint waivers (LINT_WAIVERS) are by file name.
+    vpath, jpath = out_dir / f"{pmdoc['module']}.v", out_dir / f"{design.block}.json"
     _write_if_changed(vpath, vtext)
     _write_if_changed(jpath, json.dumps(pmdoc, indent=1, sort_keys=True))
     return vpath, jpath
@@ -132,7 +136,9 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
         # --no-public-flat-rw undoes the runner's --public-flat-rw: the testbench touches only the
         # wrapper's ports (public anyway), and every internal signal public halves what Verilator
         # can optimise away and doubles the C++ (IK core q18: 12 MB -> 5.6 MB).
-        build_args = ["--no-public-flat-rw", "-Wno-fatal", "-Wno-lint", "-Wno-style", "-O3", "--x-assign",
+        # -Wall with the waivers, not fatal: the build is also the design's lint
+        # (:func:`lint_warnings`), at no cost (Verilator's front end runs either way).
+        build_args = ["--no-public-flat-rw", "-Wno-fatal", "-Wall", str(LINT_WAIVERS), "-O3", "--x-assign",
                       "fast", "--x-initial", "fast", "-CFLAGS", cflags]
         if waves:
             # Verilator's FST writer needs lz4.h (Debian: liblz4-dev); without it, VCD.
@@ -213,6 +219,16 @@ def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, st
             shutil.rmtree(tmp, ignore_errors=True)
     stamp.write_text(json.dumps(stamp_doc))
     return time.perf_counter() - t0
+
+
+def lint_warnings(build_dir: Path, source: Path) -> list[str] | None:
+    """The ``-Wall`` warnings (waivers applied) of a Verilator build in ``build_dir`` on the file
+    ``source``; None when there is no build log (a verbose build printed it)."""
+    log = build_dir / "build.log"
+    if not log.is_file():
+        return None
+    return [line for line in log.read_text().splitlines()
+            if line.startswith("%Warning") and f"{source.name}:" in line]
 
 
 def _run_cocotb(sim: str, bdir: Path, work: Path, job: dict, waves: bool, seed: int, quiet: bool
@@ -331,6 +347,7 @@ def run_block(design: Design, sim: str | None = None, *,
             "cocotb_tests": tests, "cocotb_failed": failed,
             "generate_seconds": t_gen, "build_seconds": build_seconds, "sim_wall_seconds": sim_wall,
             "build_dir": str(bdir), "waves": _wave_file(sim, bdir, work) if waves else None,
+            "lint_warnings": lint_warnings(bdir, sources[0]) if sim == "verilator" else None,
             "log": str(work / "sim.log")}
 
 
