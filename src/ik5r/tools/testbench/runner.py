@@ -22,6 +22,7 @@ from importlib import resources
 from pathlib import Path
 
 from ik5r.core.cbuild import path_lock
+from ik5r.core.verilator_runtime import reusing_runtime
 from ik5r.core.modes import Block, CoreArch, Dsp
 
 from ..design import Design
@@ -105,18 +106,8 @@ def generate_sources(design: Design, out_dir: Path, portmap: str | Path | None =
     return vpath, jpath
 
 
-#: Verilator's runtime objects (the same for every design): built once per flag set, then copied
-#: into each new build directory so that make skips them (they take ~40 s of a ~55 s build).
-_RUNTIME_OBJS = ("verilated", "verilated_vpi", "verilated_threads", "verilated_dpi")
-
-
 def _have_lz4() -> bool:
     return any(Path(d, "lz4.h").exists() for d in ("/usr/include", "/usr/local/include"))
-
-
-def _runtime_cache(build_args: list[str]) -> Path:
-    key = hashlib.sha1(json.dumps(build_args).encode()).hexdigest()[:12]
-    return ROOT / "build" / "sim" / "_verilator_runtime" / key
 
 
 def _source_digest(path: Path) -> str:
@@ -150,19 +141,13 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
     if binary.exists() and stamp.exists() and json.loads(stamp.read_text()) == stamp_doc:
         return 0.0
     t0 = time.perf_counter()
-    cache = _runtime_cache(build_args) if sim == "verilator" else None
-    if cache is not None and cache.is_dir():
-        for obj in _RUNTIME_OBJS:
-            for ext in (".o", ".d"):
-                src = cache / f"{obj}{ext}"
-                if src.exists():
-                    shutil.copy2(src, build_dir / src.name)
-                    # verilated.mk makes them depend on Vtop.mk, which every verilator run rewrites:
-                    # date them ahead so make keeps them.
-                    ahead = time.time() + 10 * 365 * 86400
-                    os.utime(build_dir / src.name, (ahead, ahead))
-    with _build_lock():     # one build at a time (make -j uses every core); MAKEFLAGS is process-wide
-        return _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0)
+    # The runtime's objects do not depend on the waivers' path (a checkout's).
+    runtime = (reusing_runtime("verilator", build_dir, [a for a in build_args if a != str(LINT_WAIVERS)])
+               if sim == "verilator" else contextlib.nullcontext())
+    with _build_lock(), runtime:     # one build at a time (make -j uses every core); MAKEFLAGS is process-wide
+        _build_locked(sim, sources, build_dir, waves, verbose, build_args)
+    stamp.write_text(json.dumps(stamp_doc))
+    return time.perf_counter() - t0
 
 
 _BUILD_LOCK = threading.Lock()
@@ -188,7 +173,7 @@ def _build_lock():
         yield
 
 
-def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, stamp_doc, cache, t0) -> float:
+def _build_locked(sim, sources, build_dir, waves, verbose, build_args) -> None:
     from cocotb_tools.runner import get_runner
 
     runner = get_runner(sim)
@@ -206,19 +191,6 @@ def _build_locked(sim, sources, build_dir, waves, verbose, build_args, stamp, st
             os.environ.pop("MAKEFLAGS", None)
         else:
             os.environ["MAKEFLAGS"] = saved
-    if cache is not None and not cache.is_dir():
-        tmp = cache.with_name(cache.name + f".tmp{os.getpid()}")
-        tmp.mkdir(parents=True, exist_ok=True)
-        for obj in _RUNTIME_OBJS:
-            for ext in (".o", ".d"):
-                if (build_dir / f"{obj}{ext}").exists():
-                    shutil.copy2(build_dir / f"{obj}{ext}", tmp / f"{obj}{ext}")
-        try:
-            tmp.rename(cache)
-        except OSError:
-            shutil.rmtree(tmp, ignore_errors=True)
-    stamp.write_text(json.dumps(stamp_doc))
-    return time.perf_counter() - t0
 
 
 def lint_warnings(build_dir: Path, source: Path) -> list[str] | None:
