@@ -280,13 +280,15 @@ def test_verilog_deterministic(block):
     k = _k("q18")
     for arch in archs_of(block):
         # A conversion in this process against one through the cache (the testbenches' tag
-        # widths): when another test process converted it first, that is determinism across
+        # widths and variants: the pipelined IK core's is the ECP5 one, which the cocotb run
+        # converts): when another test process converted it first, that is determinism across
         # processes (other hash seeds); on a cold cache, two conversions here.
-        text_a, map_a = generate(block, arch, k, DEFAULT_TAG_WIDTH)
-        text_b, map_b = generate_cached(block, arch, k, DEFAULT_TAG_WIDTH)
+        options = {"dsp": "ecp5"} if (block, arch) == ("ik", "pipelined") else {}
+        text_a, map_a = generate(block, arch, k, DEFAULT_TAG_WIDTH, **options)
+        text_b, map_b = generate_cached(block, arch, k, DEFAULT_TAG_WIDTH, **options)
         assert text_a == text_b
         assert map_a == map_b
-        assert f"module {module_name(block, arch)}(" in text_a
+        assert f"module {module_name(block, arch, **options)}(" in text_a
         for fragment in ("/work", "/tmp", "/home", "/root", str(Path.cwd())):
             assert fragment not in text_a
         # The port map names the real ports, with the widths of the text.
@@ -350,22 +352,25 @@ def test_primitive_models_lint(tmp_path):
 #: generate), which is linted at q18; q32's IK core (the same generator as q32w's) and q32w's ECP5
 #: variant in the slow set. Both q32w cores themselves are linted by their Verilator builds in
 #: tests/test_cocotb_core.py (-Wall with these waivers: the same check, Verilator's front end run
-#: once); here their word-serial wrapper.
+#: once); here their word-serial wrapper, and at q18 the compact core, its wrapper and the
+#: pipelined core's ECP5 variant (the generic one's generator is the q32w core's).
 LINT_CASES = [("q18", "blocks"), ("q18", "ik"), ("q32", "blocks"), ("q32w", "ik-generic"),
-              pytest.param("q32", "ik", marks=pytest.mark.slow), pytest.param("q32w", "ik-ecp5", marks=pytest.mark.slow)]
+              pytest.param("q32", "ik-all", marks=pytest.mark.slow), pytest.param("q32w", "ik-ecp5", marks=pytest.mark.slow)]
 
 
-def _lint_variants(k, part: str) -> list[tuple[str, dict]]:
-    """(block, options) to lint: the blocks (and their ECP5 variants), or the IK core's variants."""
+def _lint_variants(k, part: str) -> list[tuple[str, tuple[str, ...], dict]]:
+    """(block, archs, options) to lint: the blocks (and their ECP5 variants), or the IK core's
+    variants."""
     if part == "blocks":
-        variants = [(block, {}) for block in BLOCKS if block != "ik"]
-        variants += [("atan2", {"magnitude": False}), ("sqrt", {"radicand_bits": 64})]
-        return variants + [(block, {"dsp": "ecp5"}) for block in ("atan2", "rotate", "acos")]
+        variants = [(block, archs_of(block), {}) for block in BLOCKS if block != "ik"]
+        variants += [("atan2", ARCHS, {"magnitude": False}), ("sqrt", ARCHS, {"radicand_bits": 64})]
+        return variants + [(block, ("pipelined",), {"dsp": "ecp5"}) for block in ("atan2", "rotate", "acos")]
     # The ECP5 variant, with the model of the primitive it instantiates (linted with it), and the
     # compact core's word-serial wrapper.
-    ecp5 = [("ik", {"dsp": "ecp5"})]
-    generic = [("ik", {}), ("ik", {"serial": 16})]
-    return {"ik": generic + ecp5, "ik-generic": generic[1:], "ik-ecp5": ecp5}[part]
+    ecp5 = [("ik", ("pipelined",), {"dsp": "ecp5"})]
+    serial = [("ik", ("compact",), {"serial": 16})]
+    return {"ik": [("ik", ("compact",), {})] + serial + ecp5, "ik-generic": serial, "ik-ecp5": ecp5,
+            "ik-all": [("ik", archs_of("ik"), {})] + serial + ecp5}[part]
 
 
 @pytest.mark.parametrize("cfg,part", LINT_CASES)
@@ -377,8 +382,7 @@ def test_verilator_lint(cfg, part, tmp_path):
     # Only the IK core has an internal format; its blocks are the word config's.
     assert part != "blocks" or not k.cfg.internal_guard_bits
     stubs = {dsp: _port_stubs(models, tmp_path) for dsp, models in PRIMITIVE_MODELS.items()}
-    for block, options in _lint_variants(k, part):
-        archs = ("pipelined",) if "dsp" in options else ("compact",) if "serial" in options else archs_of(block)
+    for block, archs, options in _lint_variants(k, part):
         for arch in archs:
             # The testbenches' tag width: the cocotb runs convert the same (cached,
             # ik5r.tools.verilog_cache.generate_cached), one conversion for both.
