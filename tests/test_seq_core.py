@@ -218,7 +218,7 @@ FULL_RATE_DEFAULT = {("q18", True)}
     for cfg, wide in (("q18", False), ("q32", False), ("q32w", False), ("q18", True), ("q32w", True))])
 def test_core_full_rate_and_stalls(cfg, wide):
     k = _k(cfg)
-    step = {"q18": 12, "q32": 40, "q32w": 24}[cfg]
+    step = {"q18": 24, "q32": 40, "q32w": 24}[cfg]
     poses = concat(directed_poses(k)[::step], random_poses(k, 1, seed=2)[:2])
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))

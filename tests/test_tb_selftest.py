@@ -78,7 +78,7 @@ def test_stream_stride_and_bulk_rest_split_the_edge_set(tmp_path):
     from ik5r.tools.testbench.job import Job
     from ik5r.tools.testbench.runner import generate_sources, sim_design
 
-    _, portmap = generate_sources(sim_design("ik", "pipelined", "q18"), tmp_path)
+    _, portmap = generate_sources(sim_design("ik", "compact", "q18"), tmp_path)   # a small IK core
     path = tmp_path / "job.json"
     path.write_text(json.dumps({"portmap": str(portmap), "block": "ik", "config": "q18", "work_dir": str(tmp_path)}))
     job = Job(str(path))
