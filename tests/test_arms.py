@@ -202,3 +202,14 @@ def test_build_id_hashes_do_not_depend_on_where_the_arm_file_lives(tmp_path):
     ids = [regmap.id_values(k, "1.2.3", "compact", 1)["ARM_HASH"] for k in ks]
     assert ids[0] == ids[1]
     assert link.arm_hash(constants(load_config("q32w"), load_arm("px150"))) != link.arm_hash(ks[0])
+
+
+def test_arm_of_record_by_name_is_the_default_design_point():
+    """``--arm hu-5r`` builds what no ``--arm`` builds (the records of the arm of record are
+    matched against the default design point, ``ik5r.tools.results``)."""
+    from ik5r.tools.design import Design
+
+    default = Design.resolve("ik", "compact", config="q18")
+    named = Design.resolve("ik", "compact", config="q18", arm="hu-5r")
+    assert named.constants == default.constants
+    assert named.verilog()[0] == default.verilog()[0]

@@ -64,8 +64,8 @@ class VerilogOfCheckout:
         arm = r.get("arm")
         if arm is not None:
             from ik5r.core.arm import is_seed_arm, load_arm
-            # The arm of record by name builds other firmware words than the default arm (a
-            # difference not yet tracked down); the runs of the arm of record use the default.
+            # The arm of record by any name is the default arm (the same Verilog, and the same
+            # firmware in a SoC: compared); its records are of the default design point.
             arm = None if is_seed_arm(load_arm(arm)) else arm
         per_stage = r.get("rotations_per_stage", 1)
         # The compact core's wide product step (records made before the key: in the module name).
