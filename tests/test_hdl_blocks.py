@@ -397,15 +397,19 @@ def test_verilator_lint(cfg, part, tmp_path):
 
 def test_build_lint_names_the_design_file_only(tmp_path):
     """A Verilator build's lint (``runner.lint_warnings``): the warnings on the design's own file,
-    not the testbench wrapper's; no log (a verbose build printed it): None, not clean."""
+    not the testbench wrapper's; no log (a verbose build printed it), or a log of a Verilator run
+    that read no sources (a front end skipped): None, not clean."""
     from ik5r.tools.testbench.runner import lint_warnings
 
     core = tmp_path / "src" / "ik5r_ik_pipelined.v"
     assert lint_warnings(tmp_path, core) is None
+    report = "- Verilator: Built from {} MB sources in {} modules, into 1.2 MB in 3 C++ files\n"
+    (tmp_path / "build.log").write_text(report.format("0.000", 0))
+    assert lint_warnings(tmp_path, core) is None
     (tmp_path / "build.log").write_text(
         f"%Warning-BLKSEQ: {tmp_path}/src/ik5r_tb_top.v:57:17: Blocking assignment\n"
         f"%Warning-WIDTHTRUNC: {core}:12:3: Operator ASSIGNW expects 4 bits\n"
-        "                    : ... note: In instance 'ik5r_tb_top.dut'\n")
+        "                    : ... note: In instance 'ik5r_tb_top.dut'\n" + report.format("2.960", 4))
     assert lint_warnings(tmp_path, core) == [f"%Warning-WIDTHTRUNC: {core}:12:3: Operator ASSIGNW expects 4 bits"]
 
 

