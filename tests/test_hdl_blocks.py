@@ -354,7 +354,8 @@ def test_primitive_models_lint(tmp_path):
 #: generate), which is linted at q18; q32's IK core (the same generator as q32w's) and q32w's ECP5
 #: variant in the slow set. Both q32w cores themselves are linted by their Verilator builds in
 #: tests/test_cocotb_core.py (-Wall with these waivers: the same check, Verilator's front end run
-#: once); here their word-serial wrapper, and at q18 the compact core, its wrapper and the
+#: once, on the text with each run of one repeated bit as a replication: the same lines and
+#: expressions, ik5r.tools.testbench.simtext); here their word-serial wrapper, and at q18 the compact core, its wrapper and the
 #: pipelined core's ECP5 variant (the generic one's generator is the q32w core's).
 LINT_CASES = [("q18", "blocks"), ("q18", "ik"), ("q32", "blocks"), ("q32w", "ik-generic"),
               pytest.param("q32", "ik-all", marks=pytest.mark.slow), pytest.param("q32w", "ik-ecp5", marks=pytest.mark.slow)]
