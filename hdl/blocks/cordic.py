@@ -263,7 +263,7 @@ def _add_rotation_front(dp: Datapath, k: Constants):
         out = drop(s, "x", "y", "rz", "up", "down")
         out["rx"] = Mux(up, -y, Mux(down, y, x))
         out["ry"] = Mux(up, x, Mux(down, -x, y))
-        out["cz"] = Mux(up, z - k.half_pi_z, Mux(down, z + k.half_pi_z, z))
+        out["cz"] = z + Mux(up, -k.half_pi_z, Mux(down, k.half_pi_z, 0))
         return out
 
     dp.add("ro_quadrant", quadrant)

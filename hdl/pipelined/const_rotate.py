@@ -41,7 +41,7 @@ def rotate_const_chain(k, vector: tuple[int, int], *, skewed: bool, adders) -> D
         out = drop(s, "qz", "up", "down")
         out["cx"] = Mux(up, cases["up"][0], Mux(down, cases["down"][0], cases["none"][0]))
         out["cy"] = Mux(up, cases["up"][1], Mux(down, cases["down"][1], cases["none"][1]))
-        out["cz"] = Mux(up, z - h, Mux(down, z + h, z))
+        out["cz"] = z + Mux(up, -h, Mux(down, h, 0))
         return out
 
     chain = Datapath("rotate_const", adders=adders, inputs=("angle",), outputs=("x", "y", "saturated"))
