@@ -111,3 +111,20 @@ def test_core_matches_model(sim_pool, arch, config, dsp, sim):
     if arch == "pipelined":
         # A full-rate burst with the output always ready: one pose per clock.
         assert r["cycles_per_result"] == 1
+
+
+@pytest.mark.slow
+def test_ecp5_core_with_dsp_output_regs_matches_model():
+    """The ECP5 variant with a fabric register after each DSP (``--dsp-output-regs 1``, q18 on
+    Icarus, like the default ECP5 case): the same bits, the latency of its port map, a pose a
+    clock."""
+    from ik5r.tools.testbench.runner import run_block, sim_design
+
+    design = sim_design("ik", "pipelined", "q18", dsp="ecp5", dsp_output_regs=1)
+    r = run_block(design, "icarus", stream_vectors=16, bulk_vectors=16, seed=2024, edge_stride=4,
+                  bulk_edge_rest=True)
+    assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
+    assert r["tag_errors"] == 0 and r["stale_outputs"] == 0
+    assert r["stream"] is not None and r["bulk"] is not None and r["vectors"] >= 32
+    assert r["latency_cycles"] == r["latency_cycles_portmap"] == design.verilog()[1]["latency_cycles"]
+    assert r["cycles_per_result"] == 1

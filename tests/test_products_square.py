@@ -9,6 +9,7 @@ simulations (``tests/test_ik_core.py``, ``tests/test_cocotb_core.py``, ``tests/t
 
 from __future__ import annotations
 
+import gc
 import random
 
 import pytest
@@ -189,3 +190,96 @@ def test_max_dsp_caps_the_dsp_count(tmp_path):
     assert capped.count("MULT18X18D ") == 3
     refused = run("--max-dsp", "3")
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "--max-dsp" in refused.stderr
+
+
+class _Multiplier:
+    """A pipelined stream block of one 32 x 32 signed product (:func:`add_products`), ECP5 adders
+    with ``dsp_output_regs`` and every partial product in LUTs (``max_dsp=0``: no primitive, so
+    Amaranth's simulator runs it): the stages the option adds, simulated."""
+
+    @staticmethod
+    def build(regs: int):
+        from ik5r.core.fxconfig import constants, load_config
+        from ik5r.hdl.blocks.stream_block import StreamBlock
+        from ik5r.hdl.datapath.adders import adders_for
+        from ik5r.hdl.datapath.products import add_products
+        from ik5r.hdl.datapath.stages import Datapath
+
+        word = signed(32)
+
+        class Multiplier(StreamBlock):
+            def __init__(self):
+                dp = Datapath("mul", adders=adders_for("ecp5", regs), inputs=("a", "b"), outputs=("p",))
+                self.stages = add_products(dp, "t", [(lambda s: s["a"], word, (lambda s: s["b"], word), "p")])
+                super().__init__(constants=constants(load_config("q18")), arch="pipelined", tag_width=0,
+                                 in_fields={"a": (word, 0, "a"), "b": (word, 0, "b")},
+                                 out_fields={"p": (signed(64), 0, "a * b")}, datapath=dp, dsp="ecp5",
+                                 max_dsp=0, dsp_output_regs=regs)
+
+            def _inputs(self, payload):
+                return {"a": payload.a, "b": payload.b}
+
+            def _outputs(self, state):
+                return {"p": state["p"]}
+
+        return Multiplier()
+
+
+@pytest.mark.parametrize("regs", [0, 1, 2])
+def test_dsp_output_regs_add_stages_and_keep_the_product(regs):
+    """``dsp_output_regs=N``: N register stages after the partial products, N cycles more
+    latency, the exact product at full rate (extremes and random words)."""
+    from ik5r.tools.testbench.amaranth_stream import compare, run_stream
+
+    dut, base = _Multiplier.build(regs), _Multiplier.build(0)
+    base._MustUse__used = True      # only its stages and latency are wanted
+    assert dut.stages == base.stages + regs and dut.latency == base.latency + regs
+    assert dut.options.get("dsp_output_regs") == (regs or None)
+    rng = random.Random(regs)
+    lo, hi = -(1 << 31), (1 << 31) - 1
+    words = [lo, hi, 0, -1, 1] + [rng.randint(lo, hi) for _ in range(40)]
+    items = [{"a": a, "b": b} for a, b in zip(words, reversed(words))]
+    outputs, accepted, produced = run_stream(dut, items)
+    compare(items, [{"p": item["a"] * item["b"]} for item in items], outputs)
+    assert [b - a for a, b in zip(accepted, produced)] == [dut.latency] * len(items)
+
+
+@pytest.mark.filterwarnings("ignore:.*created but never used")
+def test_dsp_output_regs_of_the_ik_core(tmp_path):
+    """The pipelined IK core's ECP5 variant with ``--dsp-output-regs``: each register a fixed
+    number of cycles more (the product stages on the critical path), the module named for it;
+    refused (exit 2, one line) without ECP5 DSPs, for another core or block, out of range."""
+    import subprocess
+    import sys
+
+    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.hdl.pipelined.core import IKCore
+
+    k = constants(load_config("q18"))
+    def latency_of(**options):
+        core = IKCore(constants=k, arch="pipelined", **options)
+        core._MustUse__used = True      # only its latency is wanted
+        return core.latency
+
+    latency = [latency_of(dsp="ecp5", dsp_output_regs=regs) for regs in (0, 1, 2)]
+    assert latency[0] == latency_of()
+    assert latency[2] - latency[1] == latency[1] - latency[0] > 0
+    for bad in ({"dsp_output_regs": 1}, {"dsp": "ecp5", "dsp_output_regs": 3},
+                {"dsp": "ecp5", "dsp_output_regs": True}):
+        with pytest.raises(ValueError, match="dsp_output_regs"):
+            IKCore(constants=k, arch="pipelined", **bad)
+    gc.collect()    # the refused cores are never elaborated: warn here, not in a later test
+
+    def run(*extra):
+        return subprocess.run([sys.executable, "-m", "ik5r", "verilog", "--config", "q18", "-o", str(tmp_path),
+                               *extra], capture_output=True, text=True)
+
+    done = run("--block", "ik", "--arch", "pipelined", "--dsp", "ecp5", "--dsp-output-regs", "1")
+    assert done.returncode == 0, done.stderr
+    assert f"latency {latency[1]} cycles" in done.stdout
+    assert (tmp_path / "ik5r_ik_dspecp5_dsp_output_regs1_pipelined.v").is_file()
+    for extra in (("--block", "ik", "--arch", "pipelined"), ("--block", "ik", "--arch", "compact"),
+                  ("--block", "rotate", "--arch", "pipelined", "--dsp", "ecp5")):
+        refused = run(*extra, "--dsp-output-regs", "1")
+        assert refused.returncode == 2 and refused.stderr.count("\n") == 1, refused.stderr
+        assert "--dsp-output-regs" in refused.stderr

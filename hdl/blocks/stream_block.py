@@ -52,14 +52,15 @@ class StreamBlock(wiring.Component):
     """
 
     def __init__(self, *, constants, arch, tag_width, in_fields, out_fields, datapath,
-                 dsp=Dsp.GENERIC, rotations_per_stage=1, max_dsp=None):
+                 dsp=Dsp.GENERIC, rotations_per_stage=1, max_dsp=None, dsp_output_regs=0):
         check_common(constants, arch, tag_width, dsp)
         if max_dsp is not None and (dsp != Dsp.ECP5 or not isinstance(max_dsp, int) or max_dsp < 0):
             raise ValueError(f"max_dsp (a non-negative int) applies to dsp={Dsp.ECP5.value!r}, "
                              f"got max_dsp={max_dsp!r} with dsp={dsp!r}")
-        if datapath.adders.dsp != dsp:
-            raise ValueError(f"datapath {datapath.name!r} made with adders for "
-                             f"{datapath.adders.dsp!r}, block built with dsp={dsp!r}")
+        if (datapath.adders.dsp, datapath.adders.dsp_output_regs) != (dsp, dsp_output_regs):
+            raise ValueError(f"datapath {datapath.name!r} made with adders for {datapath.adders.dsp!r} "
+                             f"(dsp_output_regs={datapath.adders.dsp_output_regs}), block built with "
+                             f"dsp={dsp!r} (dsp_output_regs={dsp_output_regs!r})")
         self.constants = constants
         self.arch = arch
         self.tag_width = tag_width
@@ -75,6 +76,10 @@ class StreamBlock(wiring.Component):
         self.max_dsp = max_dsp
         if max_dsp is not None:
             self.options = dict(getattr(self, "options", {}), max_dsp=max_dsp)
+        #: Fabric registers after each DSP output of ``dsp="ecp5"`` (0: the DSP's own register only).
+        self.dsp_output_regs = dsp_output_regs
+        if dsp_output_regs:
+            self.options = dict(getattr(self, "options", {}), dsp_output_regs=dsp_output_regs)
         if tag_width:
             in_fields = dict(in_fields, tag=(unsigned(tag_width), 0, "carried unchanged to o.tag"))
             out_fields = dict(out_fields, tag=(unsigned(tag_width), 0, "i.tag of the same item"))

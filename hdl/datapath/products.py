@@ -147,7 +147,8 @@ def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
     must fit ``a_shape``); ``b`` is a non-negative int constant or ``(b_of, b_shape)``.
 
     Stage 1 registers the operands (in their shapes), stage 2 forms the LIMB_BITS x LIMB_BITS
-    partial products (one DSP each, nothing else in the stage); each further stage adds pairs of
+    partial products (one DSP each, nothing else in the stage), then the ECP5 build's
+    ``dsp_output_regs`` register stages (:func:`_output_regs`); each further stage adds pairs of
     partial sums (one adder level), until one sum per multiplier is left under ``out_key``.
     ``parallel(state) -> dict`` adds other work to stage 1 (e.g. a rounding), and ``drop_keys``
     are removed from the state at stage 1. Returns the number of stages.
@@ -166,7 +167,22 @@ def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
     dp.add(f"{prefix}_op", _operands_stage(prefix, [(a_of, b) for a_of, _, b, _ in specs],
                                            parallel, drop_keys))
     dp.add(f"{prefix}_mul", _products_stage(prefix, trees))
-    return 2 + _add_adder_tree(dp, prefix, trees)
+    holds = _output_regs(dp, trees)
+    for index in range(holds):
+        dp.add(f"{prefix}_hold{index}", dict)
+    return 2 + holds + _add_adder_tree(dp, prefix, trees)
+
+
+def _output_regs(dp, trees) -> int:
+    """Register stages the ECP5 build adds after the partial products (``dsp_output_regs`` of
+    its adders): a ``MULT18X18D`` sits in a DSP row, and the route from its output register to
+    the first adder of its sum is long (the q32w core's critical path on the ECP5-85k: 5.1 of
+    8.0 ns routing); a fabric register lets the placer put a flip-flop next to the DSP and the
+    adder next to the flip-flop. None where no term can take a DSP (:class:`DspBudget`: at most
+    :data:`LUT_ROWS` rows)."""
+    if not any(_term_rows(a_range, b_part) > LUT_ROWS for _, _, terms in trees for _, _, a_range, b_part in terms):
+        return 0
+    return dp.adders.dsp_output_regs
 
 
 #: The ``b`` of a multiplier that squares its ``a`` (see :func:`_is_square`).

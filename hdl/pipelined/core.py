@@ -71,12 +71,15 @@ class IKCore(StreamBlock):
     instances with their input and output registers and the CORDIC add/subtracts as ``CCU2C``
     chains (same latency, same bits). ``rotations_per_stage`` (1, 2 or 4): CORDIC
     micro-rotations and square-root digits per pipeline stage, the same steps in fewer, longer
-    stages (fewer cycles of latency, a lower Fmax; same bits). The small IK core (``compact``)
+    stages (fewer cycles of latency, a lower Fmax; same bits). ``dsp_output_regs`` (0, 1 or 2;
+    ``dsp="ecp5"``): fabric registers after each DSP's output register, so a DSP's output has a
+    clock to reach the fabric (a cycle of latency more per product stage on the way; same bits). The small IK core (``compact``)
     is another design, the sequenced engine :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
-                 dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1, max_dsp: int | None = None):
+                 dsp: str = Dsp.GENERIC, rotations_per_stage: int = 1, max_dsp: int | None = None,
+                 dsp_output_regs: int = 0):
         if arch != CoreArch.PIPELINED:
             raise ValueError(f"IKCore is the {CoreArch.PIPELINED} IK core, got arch {arch!r} (the "
                              f"{CoreArch.COMPACT} one is hdl.sequenced.engine.SequencedIKCore)")
@@ -86,11 +89,11 @@ class IKCore(StreamBlock):
             # The blocks' chains the graph's units are made of take the micro-rotations (and
             # square-root digits) per stage from the context.
             with steps_per_stage(micro_steps(Arch.PIPELINED, rotations_per_stage)):
-                dp = graph_datapath(constants, bool(tag_width), adders_for(dsp))
+                dp = graph_datapath(constants, bool(tag_width), adders_for(dsp, dsp_output_regs))
         self.options = {}
         super().__init__(constants=constants, arch=Arch.PIPELINED, tag_width=tag_width, in_fields=in_fields,
                          out_fields=out_fields, datapath=dp, dsp=dsp, rotations_per_stage=rotations_per_stage,
-                         max_dsp=max_dsp)
+                         max_dsp=max_dsp, dsp_output_regs=dsp_output_regs)
         self.arch = arch
 
     def _inputs(self, p):

@@ -15,7 +15,7 @@ from __future__ import annotations
 from enum import StrEnum
 
 __all__ = ["Block", "Arch", "CoreArch", "Dsp", "Target", "BoardCore", "BLOCKS", "ARCHS", "CORE_ARCHS",
-           "ARCH_NAMES", "DSPS", "TARGETS", "BOARD_CORES"]
+           "ARCH_NAMES", "DSPS", "DSP_OUTPUT_REGS", "TARGETS", "BOARD_CORES"]
 
 
 class Block(StrEnum):
@@ -71,5 +71,7 @@ CORE_ARCHS = tuple(a.value for a in CoreArch)
 #: Every architecture name a command accepts (``iterative`` and ``compact`` both name the small one).
 ARCH_NAMES = tuple(dict.fromkeys(ARCHS + CORE_ARCHS))
 DSPS = tuple(d.value for d in Dsp)
+#: Fabric registers after each ECP5 DSP's output register that the pipelined IK core offers.
+DSP_OUTPUT_REGS = (0, 1, 2)
 TARGETS = tuple(t.value for t in Target)
 BOARD_CORES = tuple(c.value for c in BoardCore)

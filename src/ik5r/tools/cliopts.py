@@ -16,7 +16,7 @@ import os
 import re
 import sys
 
-from ik5r.core.modes import Arch, Block, CoreArch, Dsp
+from ik5r.core.modes import DSP_OUTPUT_REGS, Arch, Block, CoreArch, Dsp
 
 _MARKUP = (
     (re.compile(r":[a-z]+:`~?\.*([^`]+)`"), r"\1"),   # :mod:`ik5r.tools.sweep`, :func:`~.x` -> the name
@@ -136,6 +136,30 @@ def max_dsp_option(args, arch: str, dsp: str) -> dict:
     if arch != Arch.PIPELINED or dsp != Dsp.ECP5:
         raise InputError("--max-dsp", f"applies to the pipelined architecture with --dsp ecp5, not to {arch} with {dsp}")
     return {"max_dsp": cap}
+
+
+def add_dsp_output_regs(parser) -> None:
+    """``--dsp-output-regs N`` (verilog, synth)."""
+    parser.add_argument("--dsp-output-regs", type=int, choices=DSP_OUTPUT_REGS, default=0, metavar="N",
+                        help="pipelined IK core with ECP5 DSPs: N registers in the fabric after each "
+                             "MULT18X18D's own output register (0, 1 or 2), so that a DSP's output has a "
+                             "clock of its own to reach the adders: a higher Fmax for N more cycles per "
+                             "product on the way, the same bits (module name ..._dsp_output_regsN_...; "
+                             "default: 0)")
+
+
+def dsp_output_regs_option(args, block: str, arch: str, dsp: str) -> dict:
+    """The generator option of ``--dsp-output-regs`` (none at 0); exit 2 when it is asked of
+    anything but the pipelined IK core with ECP5 DSPs."""
+    from ik5r.core.errors import InputError
+
+    regs = getattr(args, "dsp_output_regs", 0)
+    if not regs:
+        return {}
+    if (block, arch, dsp) != (Block.IK, Arch.PIPELINED, Dsp.ECP5):
+        raise InputError("--dsp-output-regs", f"applies to the pipelined IK core with --dsp ecp5, "
+                                              f"not to {block} {arch} with {dsp}")
+    return {"dsp_output_regs": regs}
 
 
 def add_wide_product(parser) -> None:

@@ -34,6 +34,7 @@ class DesignOptions:
     rotations_per_stage: int = 1    # pipelined arch: CORDIC micro-rotations per register stage
     max_dsp: int | None = None      # pipelined arch, dsp="ecp5": cap on MULT18X18D (the rest in LUTs)
     wide_product: bool = False      # compact IK core: a 16 x 31 product step (two DSPs), fewer clocks
+    dsp_output_regs: int = 0        # pipelined IK core, dsp="ecp5": fabric registers after each DSP
 
     def generate_kwargs(self) -> dict:
         """The options of ``ik5r.hdl.generate.generate`` (module name, constructor)."""
@@ -41,7 +42,8 @@ class DesignOptions:
                ({} if self.serial is None else {"serial": self.serial}) | \
                ({} if self.rotations_per_stage == 1 else {"rotations_per_stage": self.rotations_per_stage}) | \
                ({} if self.max_dsp is None else {"max_dsp": self.max_dsp}) | \
-               ({"wide_product": True} if self.wide_product else {})
+               ({"wide_product": True} if self.wide_product else {}) | \
+               ({"dsp_output_regs": self.dsp_output_regs} if self.dsp_output_regs else {})
 
 
 @dataclass(frozen=True)
@@ -58,7 +60,8 @@ class Design:
     def resolve(cls, block: str, arch: str, *, config: FixedConfig | str | Path | None = None,
                 arm: Arm | str | Path | None = None, tag_width: int = 0, dsp: str = Dsp.GENERIC,
                 serial: int | None = None, rotations_per_stage: int = 1,
-                max_dsp: int | None = None, wide_product: bool = False) -> "Design":
+                max_dsp: int | None = None, wide_product: bool = False,
+                dsp_output_regs: int = 0) -> "Design":
         """Load the config (name or file) and the arm (name or file) once, resolve the arch
         (``iterative``/``compact``: the small one) and check the arm fits the config."""
         from ik5r.hdl.generate import resolve_arch
@@ -68,7 +71,7 @@ class Design:
         if block not in ("cpu",):
             arch = resolve_arch(block, arch)
         design = cls(block, arch, cfg, arm_, DesignOptions(tag_width, dsp, serial, rotations_per_stage,
-                                                          max_dsp, wide_product))
+                                                          max_dsp, wide_product, dsp_output_regs))
         design.constants        # noqa: B018 -- builds and checks (armfit) now, not at generation
         return design
 

@@ -70,13 +70,16 @@ class VerilogOfCheckout:
         per_stage = r.get("rotations_per_stage", 1)
         # The compact core's wide product step (records made before the key: in the module name).
         wide = bool(r.get("wide_product")) or "_wide_product1_" in r.get("module", "")
-        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm, per_stage, wide)
+        cap, regs = r.get("max_dsp"), r.get("dsp_output_regs", 0)
+        key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm, per_stage, wide,
+               cap, regs)
         if key in self._texts:
             return self._texts[key]
         try:
             design = Design.resolve(r["block"], r["arch"], config=r["config"], arm=arm,
                                     tag_width=r.get("tag_width", 0), dsp=dsp, serial=serial,
-                                    rotations_per_stage=per_stage, wide_product=wide)
+                                    rotations_per_stage=per_stage, wide_product=wide, max_dsp=cap,
+                                    dsp_output_regs=regs)
         except InputError:
             self._texts[key] = ""
             return ""
@@ -217,6 +220,8 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
         arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
         per_stage = r.get("rotations_per_stage", 1)
         arch += f", {per_stage} micro-rotations per stage" if per_stage != 1 else ""
+        regs = r.get("dsp_output_regs", 0)
+        arch += f", {regs} fabric register{'s' * (regs > 1)} after each DSP" if regs else ""
         lines.append(f"| {r['block']} | {arch} | {r.get('dsp', Dsp.GENERIC)} | {r['config']} | {r['target']}-{r['device']}"
                      f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
                      f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "

@@ -179,12 +179,15 @@ def _design(design, opts: SynthOptions):
         serial = ICE40_BEAT_BITS
     if opts.rotations_per_stage != 1 and design.arch != Arch.PIPELINED:
         raise InputError("--rotations-per-stage", f"applies to the pipelined architecture, not to {design.arch}")
+    if opts.dsp_output_regs and (design.block, design.arch) != (Block.IK, CoreArch.PIPELINED):
+        raise InputError("--dsp-output-regs", f"applies to the pipelined IK core, not to {design.block} {design.arch}")
     if opts.wide_product and (design.block, design.arch) != (Block.IK, CoreArch.COMPACT):
         raise InputError("--wide-product", f"applies to the compact IK core, not to {design.block} {design.arch}")
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
                             tag_width=opts.tag_width, dsp=dsp, serial=serial,
                             rotations_per_stage=opts.rotations_per_stage, wide_product=opts.wide_product,
-                            max_dsp=opts.max_dsp if dsp == Dsp.ECP5 else None)
+                            max_dsp=opts.max_dsp if dsp == Dsp.ECP5 else None,
+                            dsp_output_regs=opts.dsp_output_regs if dsp == Dsp.ECP5 else 0)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
 
@@ -291,6 +294,8 @@ def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict
         # The results tool rebuilds a record's Verilog from these keys (a default is left out).
         **({"rotations_per_stage": design.options.rotations_per_stage}
            if design.options.rotations_per_stage != 1 else {}),
+        **({"max_dsp": design.options.max_dsp} if design.options.max_dsp is not None else {}),
+        **({"dsp_output_regs": design.options.dsp_output_regs} if design.options.dsp_output_regs else {}),
         "arm": design.arm.name, "arm_sha256": arm_hash(design.constants), "arm_reach_cm": design.arm.reach,
         "width": cfg.width, "iterations": cfg.iterations, "config_toml": cfg.to_toml(),
         "target": opts.target, "device": opts.device, "package": opts.package,
@@ -318,8 +323,8 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items()
-             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp", "wide_product")}
-    # --rotations-per-stage, --max-dsp and --wide-product are in the Verilog and the module name
+             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp", "wide_product", "dsp_output_regs")}
+    # --rotations-per-stage, --max-dsp, --wide-product and --dsp-output-regs are in the Verilog and the module name
     # already (old keys stay valid).
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid

@@ -61,6 +61,7 @@ class SynthOptions:
     rotations_per_stage: int = 1    # pipelined: CORDIC micro-rotations (square-root digits) per stage
     max_dsp: int | None = None      # pipelined, ECP5 DSPs: at most this many MULT18X18D (the rest in LUTs)
     wide_product: bool = False      # compact IK core: the 16 x 31 product step
+    dsp_output_regs: int = 0        # pipelined IK core, ECP5 DSPs: fabric registers after each DSP
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
@@ -85,4 +86,6 @@ class SynthOptions:
             raise InputError("--dsp", f"{self.target}: must be generic or {self.target}, got {dsp!r}")
         if self.max_dsp is not None and (self.max_dsp < 0 or dsp != Dsp.ECP5):
             raise InputError("--max-dsp", f"a cap >= 0 on ECP5 DSPs (--dsp ecp5), got {self.max_dsp} with {dsp}")
+        if self.dsp_output_regs and dsp != Dsp.ECP5:
+            raise InputError("--dsp-output-regs", f"applies to ECP5 DSPs (--dsp ecp5), not to {dsp}")
         return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)

@@ -10,6 +10,7 @@ Results are cached under ``build/synth/`` (keyed by the Verilog, the tool versio
 from __future__ import annotations
 
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -61,6 +62,7 @@ def register(subparsers) -> None:
                              "Yosys (default: ecp5 on ECP5, generic on iCE40)")
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_max_dsp(parser)
+    cliopts.add_dsp_output_regs(parser)
     cliopts.add_wide_product(parser)
     parser.add_argument("--cache", default="build/synth", metavar="DIR",
                         help="cache folder (default: build/synth)")
@@ -104,13 +106,17 @@ def run(args) -> int:
     from ik5r.tools.synth import SynthOptions, format_table, synthesize
 
     blocks, cpus = _blocks_and_cpus(args)
+    if args.dsp_output_regs and (args.block, args.arch) != (Block.IK, CoreArch.PIPELINED):
+        from ik5r.core.errors import InputError   # before anything runs (not at the first other block)
+        raise InputError("--dsp-output-regs", f"applies to the pipelined IK core (--block ik --arch pipelined), "
+                                              f"not to --block {args.block} --arch {args.arch}")
     # The config and the arm, loaded once; an arm the config cannot hold is refused here (exit 2).
     base = Design.resolve(Block.IK, CoreArch.PIPELINED, config=args.config, arm=args.arm)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
                         seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp,
                         rotations_per_stage=args.rotations_per_stage, max_dsp=args.max_dsp,
-                        wide_product=args.wide_product).resolved()
+                        wide_product=args.wide_product, dsp_output_regs=args.dsp_output_regs).resolved()
 
     def log(message):
         if not args.quiet:
@@ -131,6 +137,11 @@ def run(args) -> int:
                                     log=log, timeout=args.timeout)
             except (RuntimeError, OSError) as exc:  # also SoftCpuError
                 print(f"error: {block} {arch}: {exc}", file=sys.stderr)
+                failed += 1
+                continue
+            except subprocess.TimeoutExpired:
+                print(f"error: {block} {arch}: a tool run took longer than --timeout {args.timeout:g} s "
+                      "and was stopped", file=sys.stderr)
                 failed += 1
                 continue
             result["wall_seconds"] = round(time.perf_counter() - start, 2)

@@ -56,6 +56,7 @@ def register(subparsers) -> None:
                              "(default: generic)")
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_max_dsp(parser)
+    cliopts.add_dsp_output_regs(parser)
     cliopts.add_wide_product(parser)
     parser.set_defaults(run=run)
 
@@ -73,6 +74,10 @@ def run(args) -> int:
     cliopts.max_dsp_option(args, Arch.PIPELINED if args.arch == "all" else args.arch, args.dsp)
     if args.block != "all" and args.arch != "all":
         cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
+    if args.dsp_output_regs:
+        # The pipelined IK core's option (of --block all / --arch all, that core).
+        cliopts.dsp_output_regs_option(args, Block.IK if args.block == "all" else args.block,
+                                       Arch.PIPELINED if args.arch == "all" else args.arch, args.dsp)
     # The config and the arm, loaded once; an arm the config cannot hold is refused (exit 2).
     base = Design.resolve(Block.IK, CoreArch.PIPELINED, config=args.config, arm=args.arm)
     blocks = BLOCKS if args.block == "all" else (args.block,)
@@ -87,6 +92,8 @@ def run(args) -> int:
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
             # --wide-product: the compact IK core's option (of --block all / --arch all, that core).
             wide = {"wide_product": True} if args.wide_product and (block, arch) == (Block.IK, CoreArch.COMPACT) else {}
+            if (block, arch, dsp) == (Block.IK, Arch.PIPELINED, Dsp.ECP5):
+                wide.update(cliopts.dsp_output_regs_option(args, block, arch, dsp))
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
                                     dsp=dsp, rotations_per_stage=per_stage, **wide,
                                     **(cliopts.max_dsp_option(args, arch, dsp) if dsp == Dsp.ECP5 else {}))

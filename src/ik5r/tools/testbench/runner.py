@@ -63,17 +63,18 @@ def default_simulator() -> str:
 
 
 def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int = DEFAULT_TAG_WIDTH,
-               dsp: str = Dsp.GENERIC, serial: int | None = None, rotations_per_stage: int = 1) -> Design:
+               dsp: str = Dsp.GENERIC, serial: int | None = None, rotations_per_stage: int = 1,
+               dsp_output_regs: int = 0) -> Design:
     """:meth:`Design.resolve` with the testbench's default tag field (8 bits: order and loss)."""
     return Design.resolve(block, arch, config=config, arm=arm, tag_width=tag_width, dsp=dsp, serial=serial,
-                          rotations_per_stage=rotations_per_stage)
+                          rotations_per_stage=rotations_per_stage, dsp_output_regs=dsp_output_regs)
 
 
 def build_dir_for(design: Design, sim: str) -> Path:
     o = design.options
     variant = (("" if o.dsp == Dsp.GENERIC else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
                + ("" if o.rotations_per_stage == 1 else f"_rps{o.rotations_per_stage}")
-               + ("_wide" if o.wide_product else ""))
+               + ("_wide" if o.wide_product else "") + (f"_regs{o.dsp_output_regs}" if o.dsp_output_regs else ""))
     return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 
