@@ -151,6 +151,70 @@ def test_tool_timeout_is_one_line(tmp_path, capsys, monkeypatch):
     assert err.startswith("error: sqrt iterative: ") and "--timeout 0.5 s" in err
 
 
+#: nextpnr log lines of each phase (ECP5, nextpnr 0.11), and the status each leaves.
+PHASE_LINES = [
+    ("Info: Packing FFs...", "packing"),
+    ("Info:     at initial placer iter 2, wirelen = 53865", "analytic placement (HeAP): start"),
+    ("Info:     at iteration #7, type ALL: wirelen solved = 220072, spread = 644802, legal = 849659; time = 17.16s",
+     "analytic placement (HeAP): iteration 7, wirelength 849,659"),
+    ("Info: Running simulated annealing placer for refinement.", "placement refinement (SA)"),
+    ("Info:   at iteration #25: temp = 0.000000, timing cost = 1417, wirelen = 576526",
+     "placement refinement (SA): iteration 25, wirelength 576,526"),
+    ("Info: Routing 293247 arcs.", "routing 293,247 arcs"),
+    ("Info:      34000 |     7135      26864 |   74   926 |    270552|       3.36     208.58|",
+     "routing (router1): 270,552 arcs left after 34,000 iterations"),
+    ("Info:     iter=4 wires=79033 overused=658 overuse=666 archfail=NA",
+     "routing (router2): iteration 4, 658 wires overused"),
+]
+
+
+def test_nextpnr_phase_is_read_from_the_log(tmp_path):
+    """The status line of ``ik5r synth``: the newest line of a known phase says where nextpnr is
+    (the lines after it, such as the slack histogram, say nothing); no log, or none yet: None."""
+    from ik5r.tools.synth_progress import nextpnr_phase
+
+    log = tmp_path / "nextpnr.log"
+    assert nextpnr_phase(log) is None
+    log.write_text("Info: Logic utilisation before packing:\n")
+    assert nextpnr_phase(log) is None
+    lines = []
+    for line, phase in PHASE_LINES:
+        lines += [line, "Info: [ -1296,   -945) |+", ""]
+        log.write_text("\n".join(lines) + "\n")
+        assert nextpnr_phase(log) == phase, line
+    # Only the tail is read: a long log costs no more than a short one.
+    log.write_text("Info: Packing LUTs...\n" + "Info: nothing to say\n" * 5000)
+    assert nextpnr_phase(log) is None
+
+
+def test_status_line_rewrites_itself_and_clears():
+    import io
+
+    from ik5r.tools.synth_progress import StatusLine
+
+    out = io.StringIO()
+    status = StatusLine(out)
+    status.clear()
+    assert out.getvalue() == ""
+    status.show("ik5r_ik q32w: nextpnr, packing")
+    status.show("ik5r_ik q32w: nextpnr, routing 5 arcs")
+    status.clear()
+    text = out.getvalue()
+    assert text.count("\r\033[K") == 3 and "\n" not in text
+    assert text.endswith("[0:00:00] ik5r_ik q32w: nextpnr, routing 5 arcs\r\033[K")
+
+
+def test_tool_run_ticks_every_second(tmp_path):
+    import sys
+
+    from ik5r.tools.synth import _run
+
+    ticks = []
+    _run([sys.executable, "-c", "import time; time.sleep(2.5)"], tmp_path / "t.log", tmp_path, timeout=None,
+         on_tick=lambda: ticks.append(1))
+    assert 2 <= len(ticks) <= 4
+
+
 def _router_log(path, lefts):
     """A nextpnr log with router1's progress reports (one per 1,000 iterations) of ``lefts``."""
     head = ("Info: Routing..\nInfo:            |   (re-)routed arcs  |   delta    | remaining|       time spent     |\n"

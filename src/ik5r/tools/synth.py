@@ -34,6 +34,7 @@ from ik5r.core.modes import Arch, Block, CoreArch, Dsp, Target
 from .synth_figures import (_cell_counts, _critical_path, _figures, _fmax, _log_utilisation, _overflow, _overused,
                             _router_stalled)
 from .synth_options import TARGETS, SynthOptions  # noqa: F401 (this module's API of old)
+from .synth_progress import nextpnr_phase
 
 #: Bump when the figures or the flow change in a way the cache key does not see.
 FLOW_VERSION = 1
@@ -105,9 +106,10 @@ class RouterStalled(RuntimeError):
     """nextpnr's router1 in a livelock (:func:`~.synth_figures._router_stalled`), stopped."""
 
 
-def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None, stop_when=None) -> float:
+def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None, stop_when=None, on_tick=None) -> float:
     """Run a tool, its output in ``log_path``'s ``.stdout``; seconds taken. ``stop_when()``, asked
-    every second, stops it (:class:`_Stopped`) when it returns a reason."""
+    every second, stops it (:class:`_Stopped`) when it returns a reason; ``on_tick()`` is called
+    every second too (progress)."""
     start = time.perf_counter()
     with open(log_path.with_suffix(".stdout"), "w") as stdout:
         proc = subprocess.Popen(cmd, cwd=cwd, stdout=stdout, stderr=subprocess.STDOUT)
@@ -118,6 +120,8 @@ def _run(cmd: list[str], log_path: Path, cwd: Path, timeout: float | None, stop_
                 reason = stop_when() if stop_when is not None else None
                 if reason:
                     raise _Stopped(reason)
+                if on_tick is not None:
+                    on_tick()
                 time.sleep(1.0)
         finally:
             if proc.poll() is None:
@@ -253,15 +257,17 @@ def _yosys(folder: Path, text: str, pmap: dict, yosys_key: str, opts: SynthOptio
     return cells, yosys_s
 
 
-def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str):
+def _nextpnr(folder: Path, opts: SynthOptions, timeout, say, label: str, progress=None):
     """nextpnr on the netlist: (report or None, seconds or None, overflow message or None); a
-    design that does not fit the device is a result (its overflow), not an error."""
+    design that does not fit the device is a result (its overflow), not an error. ``progress``
+    receives nextpnr's phase every second (:func:`~.synth_progress.nextpnr_phase`)."""
     say(f"{label}: nextpnr {opts.target} {opts.device} "
         f"{'speed ' + str(opts.speed) + ' ' if opts.speed else ''}@ {opts.freq_mhz:g} MHz ...")
     log = folder / "nextpnr.log"
     try:
         pnr_s = _run(_command(TARGETS[opts.target]["nextpnr"]) + _nextpnr_args(opts),
-                     log, folder, timeout, stop_when=lambda: _overused(log) or _router_stalled(log))
+                     log, folder, timeout, stop_when=lambda: _overused(log) or _router_stalled(log),
+                     on_tick=progress and (lambda: progress(f"{label}: nextpnr, {nextpnr_phase(log) or 'starting'}")))
     except _Stopped as stopped:
         if _router_stalled(log):
             raise RouterStalled(f"{stopped}, stopped: place it with --router router2 (or another "
@@ -335,11 +341,12 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
 
 def synthesize(design, opts: SynthOptions | None = None, *,
                cache_dir: str | Path = DEFAULT_CACHE, force: bool = False, log=None,
-               timeout: float | None = None) -> dict:
+               timeout: float | None = None, progress=None) -> dict:
     """Synthesise, place and route one :class:`~ik5r.tools.design.Design` (its tag width and
     DSP mapping come from ``opts``); returns the figures (see the module docstring).
 
-    ``log(message)`` receives progress lines (default: silent).
+    ``log(message)`` receives progress lines (default: silent), ``progress(status)`` where
+    nextpnr is, every second while it runs (a terminal's one-line status; default: none).
     """
     from ik5r.hdl.provenance import strip_header
 
@@ -360,7 +367,7 @@ def synthesize(design, opts: SynthOptions | None = None, *,
     folder.mkdir(parents=True, exist_ok=True)
     yosys_key = _hash(FLOW_VERSION, body, json.dumps(tools, sort_keys=True), opts.target)
     cells, yosys_s = _yosys(folder, text, pmap, yosys_key, opts, force, timeout, say, label)
-    report, pnr_s, pnr_error = _nextpnr(folder, opts, timeout, say, label) if opts.pnr else (None, None, None)
+    report, pnr_s, pnr_error = _nextpnr(folder, opts, timeout, say, label, progress) if opts.pnr else (None, None, None)
     figures = _figures(opts.target, cells, report or (_log_utilisation(folder / "nextpnr.log")
                                                       if pnr_error else None))
     if pnr_error:
@@ -377,24 +384,3 @@ def synthesize(design, opts: SynthOptions | None = None, *,
         say(f"{label}: nextpnr done in {pnr_s:.0f} s: {figures['luts']} LUT, "
             f"{figures['ffs']} FF, {figures['dsps']} DSP, Fmax {fmax:.1f} MHz")
     return result
-
-
-def summary_row(r: dict) -> list:
-    """One row of the terminal / HTML table."""
-    return [r["module"], r["config"], r["luts"], r["ffs"], r["carry"], r["dsps"], r["brams"],
-            {True: "yes", False: "NO", None: "?"}[r.get("fits_device")],
-            None if r["fmax_mhz"] is None else round(r["fmax_mhz"], 1), r["latency_cycles"],
-            r["cycles_per_result"],
-            None if r["results_per_second"] is None else r["results_per_second"] / 1e6]
-
-
-SUMMARY_HEADER = ["module", "config", "LUTs", "FFs", "carry", "DSP", "BRAM", "fits", "Fmax MHz",
-                  "latency", "cycles/result", "Mresults/s"]
-
-
-def format_table(results: list[dict]) -> str:
-    rows = [[("–" if v is None else (f"{v:.3g}" if isinstance(v, float) and i == len(SUMMARY_HEADER) - 1 else str(v)))
-             for i, v in enumerate(summary_row(r))] for r in results]
-    widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(SUMMARY_HEADER)]
-    line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))  # noqa: E731
-    return "\n".join([line(SUMMARY_HEADER)] + [line(row) for row in rows])

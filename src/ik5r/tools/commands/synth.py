@@ -100,10 +100,21 @@ def _blocks_and_cpus(args) -> tuple[tuple, tuple]:
     return (args.block,), ()
 
 
+def _synthesize_one(synthesize, design, opts, args, log, status):
+    """One design through the flow, nextpnr's phase on the status line (cleared after)."""
+    try:
+        return synthesize(design, opts, cache_dir=args.cache, force=args.force, log=log,
+                          timeout=args.timeout, progress=status and status.show)
+    finally:
+        if status:
+            status.clear()
+
+
 def run(args) -> int:
     from ik5r.hdl.generate import archs_of
     from ik5r.tools.design import Design
-    from ik5r.tools.synth import SynthOptions, format_table, synthesize
+    from ik5r.tools.synth import SynthOptions, synthesize
+    from ik5r.tools.synth_progress import StatusLine, format_table
 
     blocks, cpus = _blocks_and_cpus(args)
     if args.dsp_output_regs and (args.block, args.arch) != (Block.IK, CoreArch.PIPELINED):
@@ -118,7 +129,12 @@ def run(args) -> int:
                         rotations_per_stage=args.rotations_per_stage, max_dsp=args.max_dsp,
                         wide_product=args.wide_product, dsp_output_regs=args.dsp_output_regs).resolved()
 
+    # Where nextpnr is (hours on the 85k), in one line rewritten in place: on a terminal only.
+    status = StatusLine(sys.stderr) if cliopts.show_progress(args) else None
+
     def log(message):
+        if status:
+            status.clear()
         if not args.quiet:
             print(f"[{time.strftime('%H:%M:%S')}] {message}", file=sys.stderr, flush=True)
 
@@ -133,8 +149,7 @@ def run(args) -> int:
             start = time.perf_counter()
             design = Design.resolve(block, arch, config=base.config, arm=base.arm)
             try:
-                result = synthesize(design, opts, cache_dir=args.cache, force=args.force,
-                                    log=log, timeout=args.timeout)
+                result = _synthesize_one(synthesize, design, opts, args, log, status)
             except (RuntimeError, OSError) as exc:  # also SoftCpuError
                 print(f"error: {block} {arch}: {exc}", file=sys.stderr)
                 failed += 1
