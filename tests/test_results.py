@@ -81,13 +81,14 @@ def test_a_router2_run_is_its_own_design_point(tmp_path):
 def test_the_routes_verdict_names_a_record_of_other_verilog(tmp_path):
     from ik5r.tools import routes
 
-    def synth(name, luts, fmax, cycles, module):
+    def synth(name, luts, fmax, cycles, module, **more):
         path = tmp_path / "synth" / f"{name}.json"
         path.parent.mkdir(exist_ok=True)
         path.write_text(json.dumps({"target": "ecp5", "device": name.rsplit("-", 1)[1], "luts": luts,
                                     "ffs": 1, "dsps": 1, "brams": 1, "fmax_mhz": fmax,
-                                    "cycles_per_result": cycles, "latency_cycles": cycles, "module": module}))
+                                    "cycles_per_result": cycles, "latency_cycles": cycles, "module": module, **more}))
     synth("ik5r_soc_vexriscv_q32w_ecp5-25k", 3000, 80.0, 1, "soc")
+    synth("ik5r_ik_dspecp5_dsp_output_regs1_pipelined_q32w_ecp5-85k", 60000, 110.0, 1, "regs", router="router2")
     synth("ik5r_ik_compact_q32w_ecp5-25k", 4000, 80.0, 700, "compact")
     synth("ik5r_ik_dspecp5_pipelined_q32w_ecp5-85k", 60000, 100.0, 1, "pipelined")
     (tmp_path / "firmware").mkdir()
@@ -100,6 +101,8 @@ def test_the_routes_verdict_names_a_record_of_other_verilog(tmp_path):
     assert "(record of other Verilog) on the ecp5-85k" in pipelined
     assert pipelined.endswith("that record beats the soft CPU per LUT.")
     assert "| pipelined IK core (ECP5 DSP + carry primitives) (record of other Verilog) |" in text
+    # A route placed with router2 (the others: router1) says so.
+    assert "| pipelined IK core, a fabric register after each DSP (ECP5 primitives), routed by nextpnr's router2 |" in text
 
 
 def test_a_firmware_record_of_other_verilog_is_named(tmp_path):

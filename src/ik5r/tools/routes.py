@@ -67,6 +67,9 @@ def route_rows(records: Path, is_current, firmware_current=_firmware_current) ->
             cycles, latency_cycles = s["cycles_per_result"], s["latency_cycles"]
         fmax = s["fmax_mhz"]
         poses = fmax * 1e6 / cycles
+        # A route placed with another router than the others' router1 says so.
+        router = s.get("router", "router1")
+        label += "" if router == "router1" else f", routed by nextpnr's {router}"
         rows.append({"label": label, "device": f"{s['target']}-{s['device']}", "luts": s["luts"],
                      "ffs": s["ffs"], "dsps": s["dsps"], "brams": s["brams"], "fmax": fmax,
                      "cycles": cycles, "latency_us": latency_cycles / fmax, "poses": poses,
