@@ -283,3 +283,7 @@ def test_dsp_output_regs_of_the_ik_core(tmp_path):
         refused = run(*extra, "--dsp-output-regs", "1")
         assert refused.returncode == 2 and refused.stderr.count("\n") == 1, refused.stderr
         assert "--dsp-output-regs" in refused.stderr
+    # ik5r sim takes it too (the variant it synthesises can be simulated): refused alike.
+    refused = subprocess.run([sys.executable, "-m", "ik5r", "sim", "--block", "ik", "--config", "q18",
+                              "--dsp-output-regs", "1"], capture_output=True, text=True)
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1 and "--dsp-output-regs" in refused.stderr

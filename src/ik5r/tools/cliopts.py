@@ -139,7 +139,7 @@ def max_dsp_option(args, arch: str, dsp: str) -> dict:
 
 
 def add_dsp_output_regs(parser) -> None:
-    """``--dsp-output-regs N`` (verilog, synth)."""
+    """``--dsp-output-regs N`` (verilog, sim, synth)."""
     parser.add_argument("--dsp-output-regs", type=int, choices=DSP_OUTPUT_REGS, default=0, metavar="N",
                         help="pipelined IK core with ECP5 DSPs: N registers in the fabric after each "
                              "MULT18X18D's own output register (0, 1 or 2), so that a DSP's output has a "

@@ -97,6 +97,7 @@ def register(subparsers) -> None:
                              "--stream-vectors random poses (default: min(--vectors, 1000)) plus the "
                              "directed set")
     cliopts.add_rotations_per_stage(parser)
+    cliopts.add_dsp_output_regs(parser)
     cliopts.add_wide_product(parser)
     parser.add_argument("--harness", action="store_true",
                         help="the bulk run on the Verilator C++ harness fed from a file (much faster than "
@@ -121,7 +122,9 @@ def run(args) -> int:
     from ik5r.hdl.generate import resolve_arch
 
     per_stage = cliopts.rotations_option(args, resolve_arch(args.block, args.arch)).get("rotations_per_stage", 1)
-    wide = cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
+    arch = resolve_arch(args.block, args.arch)
+    options = {**cliopts.wide_option(args, args.block, arch),
+               **cliopts.dsp_output_regs_option(args, args.block, arch, args.dsp)}
     if args.harness and (args.serial is not None or sim != "verilator"):
         print("ik5r sim: --harness is a Verilator bulk run: use it with --simulator verilator, without --serial",
               file=sys.stderr)
@@ -130,7 +133,7 @@ def run(args) -> int:
     # InputError (exit 2) on a bad config or arm, or an arm the config cannot hold.
     design = Design.resolve(args.block, args.arch, config=args.config, arm=args.arm, tag_width=args.tag_width,
                             dsp=args.dsp, serial=args.serial,
-                            rotations_per_stage=per_stage, **wide)
+                            rotations_per_stage=per_stage, **options)
     t0 = time.perf_counter()
     result = run_block(design, sim, stream_vectors=stream_vectors, seed=args.seed,
                        bulk_vectors=0 if args.serial or args.harness else max(args.vectors, 1),
