@@ -205,6 +205,24 @@ def test_status_line_rewrites_itself_and_clears():
     assert text.endswith("[0:00:00] ik5r_ik q32w: nextpnr, routing 5 arcs\r\033[K")
 
 
+def test_critical_path_line_names_its_ends_and_longest_route():
+    from ik5r.tools.synth_figures import _critical_path
+    from ik5r.tools.synth_progress import critical_path_line
+
+    def step(kind, delay, cell, net=None):
+        return {"type": kind, "delay": delay, "net": net, "from": {"cell": cell, "port": "Q"},
+                "to": {"cell": cell, "port": "D"}}
+
+    report = {"critical_paths": [{"from": "posedge clk", "to": "posedge clk", "path": [
+        step("clk-to-q", 0.74, "p0_dsp"), step("routing", 5.07, "p0_dsp", "p0_p[18]"),
+        step("logic", 0.45, "sum_ccu2c"), step("routing", 0.0, "sum_ccu2c", "carry"),
+        step("routing", 1.2, "sum_ccu2c", "s[3]"), step("logic", 0.5, "q_ff")]}]}
+    line = critical_path_line({"module": "ik5r_ik", "config": "q32w", "critical_path": _critical_path(report)})
+    assert line == ("critical path of ik5r_ik q32w: 7.96 ns = 0.95 logic + 6.27 routing + 0.74 clock-to-out "
+                    "and setup, p0_dsp -> q_ff; longest route 5.07 ns (p0_p[18])")
+    assert critical_path_line({"module": "m", "config": "q18", "critical_path": None}) is None
+
+
 def test_tool_run_ticks_every_second(tmp_path):
     import sys
 

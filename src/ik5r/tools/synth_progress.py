@@ -88,3 +88,18 @@ def format_table(results: list[dict]) -> str:
     widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(SUMMARY_HEADER)]
     line = lambda cells: "  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(cells, widths)))  # noqa: E731
     return "\n".join([line(SUMMARY_HEADER)] + [line(row) for row in rows])
+
+
+def critical_path_line(r: dict) -> str | None:
+    """The critical path of a result in one line (what to fix next): its total, logic and
+    routing, its two ends and its longest route."""
+    path = r.get("critical_path")
+    if not path:
+        return None
+    routes = [step for step in path["steps"] if step["type"] == "routing"]
+    longest = max(routes, key=lambda step: step["ns"], default=None)
+    other = path["total_ns"] - path["logic_ns"] - path["routing_ns"]     # clock to out, setup
+    return (f"critical path of {r['module']} {r['config']}: {path['total_ns']:.2f} ns = {path['logic_ns']:.2f} "
+            f"logic + {path['routing_ns']:.2f} routing + {other:.2f} clock-to-out and setup, "
+            f"{path['from_cell']} -> {path['to_cell']}"
+            + (f"; longest route {longest['ns']:.2f} ns ({longest['name']})" if longest else ""))

@@ -114,7 +114,7 @@ def run(args) -> int:
     from ik5r.hdl.generate import archs_of
     from ik5r.tools.design import Design
     from ik5r.tools.synth import SynthOptions, synthesize
-    from ik5r.tools.synth_progress import StatusLine, format_table
+    from ik5r.tools.synth_progress import StatusLine, critical_path_line, format_table
 
     blocks, cpus = _blocks_and_cpus(args)
     if args.dsp_output_regs and (args.block, args.arch) != (Block.IK, CoreArch.PIPELINED):
@@ -166,6 +166,8 @@ def run(args) -> int:
               f"{' speed ' + str(opts.speed) if opts.speed else ''} {opts.package}, "
               f"clock constraint {opts.freq_mhz:g} MHz, placer {opts.placer}, {opts.router}")
         print(format_table(results))
+        for line in filter(None, map(critical_path_line, results)):
+            print(line)
     if args.json:
         path = Path(args.json)
         path.parent.mkdir(parents=True, exist_ok=True)
