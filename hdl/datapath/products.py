@@ -176,9 +176,9 @@ def add_products(dp, prefix: str, specs, *, parallel=None, drop_keys=()):
 def _output_regs(dp, trees) -> int:
     """Register stages the ECP5 build adds after the partial products (``dsp_output_regs`` of
     its adders): a ``MULT18X18D`` sits in a DSP row, and the route from its output register to
-    the first adder of its sum is long (the q32w core's critical path on the ECP5-85k: 5.1 of
-    8.0 ns routing); a fabric register lets the placer put a flip-flop next to the DSP and the
-    adder next to the flip-flop. None where no term can take a DSP (:class:`DspBudget`: at most
+    the first adder of its sum is long (the critical path of the q32w core's ECP5-85k record);
+    a fabric register lets the placer put a flip-flop next to the DSP and the adder next to the
+    flip-flop. None where no term can take a DSP (:class:`DspBudget`: at most
     :data:`LUT_ROWS` rows)."""
     if not any(_term_rows(a_range, b_part) > LUT_ROWS for _, _, terms in trees for _, _, a_range, b_part in terms):
         return 0

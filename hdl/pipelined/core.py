@@ -73,8 +73,9 @@ class IKCore(StreamBlock):
     micro-rotations and square-root digits per pipeline stage, the same steps in fewer, longer
     stages (fewer cycles of latency, a lower Fmax; same bits). ``dsp_output_regs`` (0, 1 or 2;
     ``dsp="ecp5"``): fabric registers after each DSP's output register, so a DSP's output has a
-    clock to reach the fabric (a cycle of latency more per product stage on the way; same bits). The small IK core (``compact``)
-    is another design, the sequenced engine :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
+    clock to reach the fabric (a cycle of latency more per product stage on the way; same
+    bits). The small IK core (``compact``) is another design, the sequenced engine
+    :class:`~ik5r.hdl.sequenced.engine.SequencedIKCore`.
     """
 
     def __init__(self, *, constants: Constants, arch: str, tag_width: int = 0,
