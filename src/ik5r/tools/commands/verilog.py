@@ -90,12 +90,13 @@ def run(args) -> int:
             per_stage = 1
             if args.arch != "all" or arch == Arch.PIPELINED:
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)
-            # --wide-product: the compact IK core's option (of --block all / --arch all, that core).
-            wide = {"wide_product": True} if args.wide_product and (block, arch) == (Block.IK, CoreArch.COMPACT) else {}
+            # --wide-product (the compact IK core's option) and --dsp-output-regs (the pipelined
+            # one's, with ECP5 DSPs): of --block all / --arch all, that core.
+            options = {"wide_product": True} if args.wide_product and (block, arch) == (Block.IK, CoreArch.COMPACT) else {}
             if (block, arch, dsp) == (Block.IK, Arch.PIPELINED, Dsp.ECP5):
-                wide.update(cliopts.dsp_output_regs_option(args, block, arch, dsp))
+                options.update(cliopts.dsp_output_regs_option(args, block, arch, dsp))
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,
-                                    dsp=dsp, rotations_per_stage=per_stage, **wide,
+                                    dsp=dsp, rotations_per_stage=per_stage, **options,
                                     **(cliopts.max_dsp_option(args, arch, dsp) if dsp == Dsp.ECP5 else {}))
             text, pmap = design.verilog()
             module = pmap["module"]
