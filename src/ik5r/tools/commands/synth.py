@@ -81,10 +81,14 @@ def _available_blocks() -> tuple[str, ...]:
 
 def _blocks_and_cpus(args) -> tuple[tuple, tuple]:
     """The blocks ``--block`` names (``cpu``: the soft CPU) and the CPUs ``--cpu`` names (all when
-    not given); InputError (exit 2) on a block ``ik5r.hdl.generate`` does not have or an unknown
-    CPU."""
+    not given); InputError (exit 2) on a block ``ik5r.hdl.generate`` does not have, an unknown
+    CPU, or ``--dsp-output-regs`` asked of anything but the pipelined IK core."""
     from ik5r.core.errors import InputError
 
+    if args.dsp_output_regs and (args.block, args.arch) != (Block.IK, CoreArch.PIPELINED):
+        # Before anything runs (not at the first other block of --block all).
+        raise InputError("--dsp-output-regs", f"applies to the pipelined IK core (--block ik --arch pipelined), "
+                                              f"not to --block {args.block} --arch {args.arch}")
     available = _available_blocks()
     if args.block == "all":
         return available, ()
@@ -117,10 +121,6 @@ def run(args) -> int:
     from ik5r.tools.synth_progress import StatusLine, critical_path_line, format_table
 
     blocks, cpus = _blocks_and_cpus(args)
-    if args.dsp_output_regs and (args.block, args.arch) != (Block.IK, CoreArch.PIPELINED):
-        from ik5r.core.errors import InputError   # before anything runs (not at the first other block)
-        raise InputError("--dsp-output-regs", f"applies to the pipelined IK core (--block ik --arch pipelined), "
-                                              f"not to --block {args.block} --arch {args.arch}")
     # The config and the arm, loaded once; an arm the config cannot hold is refused here (exit 2).
     base = Design.resolve(Block.IK, CoreArch.PIPELINED, config=args.config, arm=args.arm)
     opts = SynthOptions(target=args.target, device=args.device, package=args.package,
