@@ -170,14 +170,18 @@ def test_solve_on_simulated_board_with_reset(k, model, tmp_path, capsys):
     assert (tmp_path / "board.csv").read_text() == (tmp_path / "fixed.csv").read_text()
 
 
-def test_simulated_link_throughput(k):
+def test_simulated_link_throughput(k, tmp_path, monkeypatch):
     """300 poses: 0 differing words, poses/s within 10% of the line-rate bound (simulated time;
-    5,000 poses in the slow set)."""
+    5,000 poses in the slow set); no scratch folder left behind."""
+    import tempfile
+
     from ik5r.tools.boardsim import run_link
 
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
     record = run_link(k, 300, seed=7)
     assert record["differing_words"] == 0
     assert record["poses_per_s"] >= 0.9 * record["line_poses_per_s"], record
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.slow

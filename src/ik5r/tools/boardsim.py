@@ -130,16 +130,18 @@ def run_link(k: Constants, count: int, *, seed: int = 0, reset_after: int | None
     from .boardlink import BoardClient, joints, pose_frames
 
     batch = random_poses(k, count, seed)
-    work = Path(work or tempfile.mkdtemp(prefix="ik5r-board-"))
-    sim = SimulatedBoard(build_model(k, core), SIM_CLOCK_HZ // SIM_BAUD, work / "stats.txt", reset_after)
-    try:
-        with BoardClient(sim.url) as client:
-            client.check(k)
-            q, status = joints(client.solve(pose_frames(*batch.args())))
-            stats = client.stats
-        board = sim.wait()
-    finally:
-        sim.close()
+    with tempfile.TemporaryDirectory(prefix="ik5r-board-") as scratch:
+        # The harness's statistics file lives in the caller's folder, or in one removed afterwards.
+        sim = SimulatedBoard(build_model(k, core), SIM_CLOCK_HZ // SIM_BAUD,
+                             Path(work or scratch) / "stats.txt", reset_after)
+        try:
+            with BoardClient(sim.url) as client:
+                client.check(k)
+                q, status = joints(client.solve(pose_frames(*batch.args())))
+                stats = client.stats
+            board = sim.wait()
+        finally:
+            sim.close()
     q_model, status_model = vector.solve_batch(k, *batch.args())
     seconds = (board["last_tx"] - board["first_rx"]) / SIM_CLOCK_HZ
     return {"config": k.cfg.name, "core": core, "poses": count, "seed": seed,
