@@ -287,6 +287,8 @@ def test_harness_binary_comes_from_the_cache(monkeypatch, tmp_path):
     from ik5r.tools.testbench import harness
 
     design = small()
+    # A folder of its own: the checkout's build folder may hold a binary the cache never saw.
+    monkeypatch.setattr(harness, "harness_dir", lambda d: tmp_path / "first")
     first, _, _ = harness.build_harness(design, cflags="-O0")      # built, or found in the cache
 
     def no_build():
