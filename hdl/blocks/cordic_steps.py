@@ -62,6 +62,30 @@ def tail_offset(k: Constants) -> int:
     return sum(k.atan_table[angle_tail(k):]) + half
 
 
+def vectoring_y_widths(k: Constants) -> list[int]:
+    """Signed width of the vectoring y after each micro-rotation i (entry i: y_(i+1)), at most
+    the register's. Bound (W = width, g = guard_bits, K < 1.6468 the gain, r0 the length after the
+    normalisation: 2**(W-3+g) <= r0 <= sqrt(2) * 2**(W-1+g)): each step is an exact scaled
+    rotation by atan(2**-i) plus a floor error below sqrt(2), so the state is K_i r0 at the
+    residual angle phi_i plus an error below e_i = sqrt(2) K i. A direction differs from the sign of
+    phi_i only where K_i r0 |sin phi_i| <= e_i, so |phi_i| <= eta = (pi/2) e_n / r0_min, and otherwise |phi_i| shrinks to
+    ||phi_i| - atan(2**-i)|; with atan(2**-(i-1)) <= 2 atan(2**-i) and |phi_0| <= pi/2 (x >= 0
+    after the coarse step) that gives |phi_(i+1)| <= atan(2**-i) + eta. So |y_(i+1)| <=
+    K sqrt(2) 2**(W-1+g) (atan(2**-i) + eta) + e_(i+1): taken here with a 1 % margin and 2 LSB."""
+    import math
+
+    c = k.cfg
+    full = c.width + c.guard_bits + 3
+    n, gain = len(k.atan_table), 1.6468
+    r_max, r_min = math.sqrt(2) * 2.0 ** (c.width - 1 + c.guard_bits), 2.0 ** (c.width - 3 + c.guard_bits)
+    eta = (math.pi / 2) * math.sqrt(2) * gain * n / r_min     # K_i >= 1 under the sine
+    widths = []
+    for i in range(n):
+        bound = gain * r_max * (math.atan(2.0 ** -i) + eta) + math.sqrt(2) * gain * (i + 1)
+        widths.append(min(full, math.ceil(bound * 1.01 + 2).bit_length() + 1))
+    return widths
+
+
 def cordic_step(k: Constants, *, rotate: bool, adders=None):
     """The circular CORDIC micro-rotation ``fn(state, i)`` on the keys ``cx``, ``cy``, ``cz``:
     vectoring (``rotate`` False: turn towards y = 0, by the sign of y;
@@ -81,9 +105,14 @@ def cordic_step(k: Constants, *, rotate: bool, adders=None):
                         cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
                         cz=add_sub(z, step, ~neg))         # z +- step
         down = ys[-1]     # ys < 0: rotate the other way
-        out = dict(s,
-                   cx=add_sub(xs, asr(ys, i), down),       # xs -+ (ys >> i)
-                   cy=add_sub(ys, asr(xs, i), ~down))      # ys +- (xs >> i)
+        out = dict(s, cx=add_sub(xs, asr(ys, i), down))  # xs -+ (ys >> i)
+        if isinstance(i, int):
+            # ys +- (xs >> i) fits y_widths[i] bits (its bound): so does its value modulo
+            # 2**y_widths[i], which only the operands' low bits make.
+            w = y_widths[i]
+            out["cy"] = add_sub(ys[:w].as_signed(), asr(xs, i)[:w].as_signed(), ~down)[:w].as_signed()
+        else:
+            out["cy"] = add_sub(ys, asr(xs, i), ~down)        # ys +- (xs >> i)
         if not isinstance(i, int) or i < tail:
             out["cz"] = add_sub(z, step, down)             # z -+ step
         elif i == tail:
@@ -98,6 +127,7 @@ def cordic_step(k: Constants, *, rotate: bool, adders=None):
         return out
 
     tail = angle_tail(k) if not rotate else None
+    y_widths = vectoring_y_widths(k) if not rotate else None
     return micro_rotation
 
 
