@@ -15,7 +15,7 @@ from ..datapath.stages import Datapath, adders_for
 from ..datapath.expr import drop, rshift_round, saturate
 from ..datapath.products import add_products
 from .cordic_steps import (add_magnitude, atan2_coarse, atan2_normalisation, atan2_widths, cordic_step,
-                           rotate_z_bound, skewed_rotation)
+                           rotate_z_bound, skewed_rotation, vectoring_angle)
 from .stream_block import StreamBlock, micro_steps
 
 __all__ = ["Atan2", "Rotate", "add_atan2", "atan2_widths"]
@@ -43,17 +43,16 @@ def add_atan2(dp: Datapath, k: Constants, *, y: str, x: str, magnitude: bool, ze
     dp.add("at_norm", normalise_shift_bytes)
     dp.add("at_norm_fine", normalise_shift_fine)
     dp.add_micro_steps("at_it", cordic_step(k, rotate=False, adders=dp.adders), c.iterations)
-    nearest = c.round_nearest
 
     def angle(s):
         # angle = rshift_round(z, angle_guard_bits); 0 for the zero vector.
-        return {"angle": Mux(s["czero"], 0, rshift_round(s["cz"], c.angle_guard_bits, nearest))}
+        return {"angle": Mux(s["czero"], 0, vectoring_angle(k, s))}
 
     keep_zero = {"zero": lambda s: s["czero"]} if zero else {}
 
     if not magnitude:
         def post(s):
-            out = drop(s, "cx", "cy", "cz", "norm", "czero")
+            out = drop(s, "cx", "cy", "cz", "cd", "norm", "czero")
             out.update(angle(s))
             out.update({key: fn(s) for key, fn in keep_zero.items()})
             return out
@@ -71,7 +70,10 @@ class Atan2(StreamBlock):
     point: a ones'-complement priority encoder finds the shift ``norm`` that puts the top bit of
     ``xs | ones_abs(ys)`` at bit W-2) and shifted up by ``guard_bits`` more, then
     ``iterations`` micro-rotations (arithmetic-shift, floor) drive y to 0 while an accumulator
-    sums ``atan_table``. The angle is rounded off its ``angle_guard_bits``; the magnitude is
+    sums ``atan_table`` (pipelined: up to the first step that is an exact power of two, and from
+    there on only the directions are kept, 1 bit a stage, and subtracted, doubled, in one adder at
+    the end: :func:`~ik5r.hdl.blocks.cordic_steps.angle_tail`; the same integer). The angle is
+    rounded off its ``angle_guard_bits``; the magnitude is
     ``(xs >> guard_bits) * inv_gain`` rounded-shifted by ``31 + norm`` and saturated.
 
     Payloads (W = ``constants.cfg.width``; Q m.n means n fraction bits, m + n = W):

@@ -12,7 +12,7 @@ from amaranth.hdl import Cat, Const, Mux, signed, unsigned
 from ik5r.core.fxconfig import Constants
 
 from ..datapath.adders import GenericAdders
-from ..datapath.expr import asr, drop, leading_zeros, table_entry
+from ..datapath.expr import asr, drop, leading_zeros, rshift_round, table_entry
 from ..datapath.products import add_products
 from ..datapath.stages import Datapath
 
@@ -35,6 +35,57 @@ def rotate_z_bound(k: Constants) -> int:
     return (1 << (c.width - 1 + c.angle_guard_bits)) + k.half_pi_z + sum(k.atan_table)
 
 
+def angle_tail(k: Constants) -> int:
+    """The first vectoring micro-rotation whose angle step, and every later one's, is an exact
+    power of two, ``atan_table[i] == 2**(zf - i)`` (zf: the accumulator's fraction bits); the
+    iteration count when there is none. From there on the pipelined atan2 keeps the rotation
+    directions instead of adding their steps (see :func:`cordic_step`)."""
+    c = k.cfg
+    zf = c.frac_angle + c.angle_guard_bits
+    start = len(k.atan_table)
+    while start > 1 and start - 1 <= zf and k.atan_table[start - 1] == 1 << (zf - start + 1):
+        start -= 1
+    return start
+
+
+def tail_directions_weight(k: Constants) -> int:
+    """The weight (a left shift) of the lowest bit of ``cd``: the last micro-rotation's step."""
+    c = k.cfg
+    return c.frac_angle + c.angle_guard_bits - (len(k.atan_table) - 1)
+
+
+def tail_offset(k: Constants) -> int:
+    """What the atan2 accumulator takes at :func:`angle_tail` in place of that step: every tail
+    step added (the directions' doubled steps come off at the end) and the rounding's half LSB."""
+    g = k.cfg.angle_guard_bits
+    half = 1 << (g - 1) if k.cfg.round_nearest and g > 0 else 0
+    return sum(k.atan_table[angle_tail(k):]) + half
+
+
+def vectoring_y_widths(k: Constants) -> list[int]:
+    """Signed width of the vectoring y after each micro-rotation i (entry i: y_(i+1)), at most
+    the register's. Bound (W = width, g = guard_bits, K < 1.6468 the gain, r0 the length after the
+    normalisation: 2**(W-3+g) <= r0 <= sqrt(2) * 2**(W-1+g)): each step is an exact scaled
+    rotation by atan(2**-i) plus a floor error below sqrt(2), so the state is K_i r0 at the
+    residual angle phi_i plus an error below e_i = sqrt(2) K i. A direction differs from the sign of
+    phi_i only where K_i r0 |sin phi_i| <= e_i, so |phi_i| <= eta = (pi/2) e_n / r0_min, and otherwise |phi_i| shrinks to
+    ||phi_i| - atan(2**-i)|; with atan(2**-(i-1)) <= 2 atan(2**-i) and |phi_0| <= pi/2 (x >= 0
+    after the coarse step) that gives |phi_(i+1)| <= atan(2**-i) + eta. So |y_(i+1)| <=
+    K sqrt(2) 2**(W-1+g) (atan(2**-i) + eta) + e_(i+1): taken here with a 1 % margin and 2 LSB."""
+    import math
+
+    c = k.cfg
+    full = c.width + c.guard_bits + 3
+    n, gain = len(k.atan_table), 1.6468
+    r_max, r_min = math.sqrt(2) * 2.0 ** (c.width - 1 + c.guard_bits), 2.0 ** (c.width - 3 + c.guard_bits)
+    eta = (math.pi / 2) * math.sqrt(2) * gain * n / r_min     # K_i >= 1 under the sine
+    widths = []
+    for i in range(n):
+        bound = gain * r_max * (math.atan(2.0 ** -i) + eta) + math.sqrt(2) * gain * (i + 1)
+        widths.append(min(full, math.ceil(bound * 1.01 + 2).bit_length() + 1))
+    return widths
+
+
 def cordic_step(k: Constants, *, rotate: bool, adders=None):
     """The circular CORDIC micro-rotation ``fn(state, i)`` on the keys ``cx``, ``cy``, ``cz``:
     vectoring (``rotate`` False: turn towards y = 0, by the sign of y;
@@ -54,12 +105,41 @@ def cordic_step(k: Constants, *, rotate: bool, adders=None):
                         cy=add_sub(ys, asr(xs, i), neg),   # ys -+ (xs >> i)
                         cz=add_sub(z, step, ~neg))         # z +- step
         down = ys[-1]     # ys < 0: rotate the other way
-        return dict(s,
-                    cx=add_sub(xs, asr(ys, i), down),      # xs -+ (ys >> i)
-                    cy=add_sub(ys, asr(xs, i), ~down),     # ys +- (xs >> i)
-                    cz=add_sub(z, step, down))             # z -+ step
+        out = dict(s, cx=add_sub(xs, asr(ys, i), down))  # xs -+ (ys >> i)
+        if isinstance(i, int):
+            # ys +- (xs >> i) fits y_widths[i] bits (its bound): so does its value modulo
+            # 2**y_widths[i], which only the operands' low bits make.
+            w = y_widths[i]
+            out["cy"] = add_sub(ys[:w].as_signed(), asr(xs, i)[:w].as_signed(), ~down)[:w].as_signed()
+        else:
+            out["cy"] = add_sub(ys, asr(xs, i), ~down)        # ys +- (xs >> i)
+        if not isinstance(i, int) or i < tail:
+            out["cz"] = add_sub(z, step, down)             # z -+ step
+        elif i == tail:
+            # The tail's steps are 2**(zf - i): z_n = z_tail + sum(steps) - 2 * (the directions
+            # as a binary number). The sum (and the rounding's half) goes in now, the directions'
+            # bits are kept (newest lowest) and come off in one subtraction at the angle stage:
+            # one adder instead of one per micro-rotation, the same integer.
+            out["cz"] = z + tail_offset(k)
+            out["cd"] = down
+        else:
+            out["cd"] = Cat(down, s["cd"])
+        return out
 
+    tail = angle_tail(k) if not rotate else None
+    y_widths = vectoring_y_widths(k) if not rotate else None
     return micro_rotation
+
+
+def vectoring_angle(k: Constants, s):
+    """The atan2 angle ``rshift_round(z_n, angle_guard_bits)`` of the state after the
+    micro-rotations (see :func:`cordic_step`): z_n and the rounding's half are ``cz`` less the
+    tail's directions doubled, when the pipelined build kept them (``cd``)."""
+    c = k.cfg
+    if "cd" not in s:
+        return rshift_round(s["cz"], c.angle_guard_bits, c.round_nearest)
+    doubled = s["cd"].as_unsigned().shift_left(tail_directions_weight(k) + 1)
+    return (s["cz"] - doubled).shift_right(c.angle_guard_bits)
 
 
 def skewed_rotation(k: Constants, adders):
@@ -172,7 +252,7 @@ def add_magnitude(dp: Datapath, k: Constants, angle, keep_zero):
 
     add_products(dp, "at_mag", [(lambda s: asr(s["cx"], guard)[:width + 1],
                                  unsigned(width + 1), k.inv_gain, "mag_p")],
-                 parallel=product_side, drop_keys=("cx", "cy", "cz", "czero"))
+                 parallel=product_side, drop_keys=("cx", "cy", "cz", "cd", "czero"))
     shift_const = k.inv_gain_frac - 1 if nearest else k.inv_gain_frac
 
     def denormalise_coarse(s):
