@@ -4,8 +4,8 @@ What is proved how (``hdl/formal/run.py``; the record: docs/results/records/form
 
 * ``control`` (hold, conservation, reset, credits): k-induction (depth 2, every reachable state)
   on the real component with its data abstracted, for every block (atan2, rotate, sqrt, acos;
-  pipelined and iterative) and IK core (pipelined, compact); the pipelined IK
-  core's (~40 CPU s: the occupancy by ghost prefix counters) too.
+  pipelined and iterative) and IK core (pipelined, compact; the cores' jobs in the slow set and
+  the committed records).
 * ``order`` (two marked items: none invented or duplicated, B not before A, A not lost):
   k-induction for the pipelined blocks (the marks tracked through the delay line, the FIFO's
   write register, its RAM and its output register: ``hdl/formal/pipelined.py``; the FIFO by
@@ -36,7 +36,10 @@ its test.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
 import pytest
 
@@ -72,11 +75,12 @@ MUTANTS = [pytest.param(mutation, block, arch, id=f"{mutation}-{block}-{arch}",
            for block, arch in (("sqrt", "pipelined"), ("sqrt", "iterative"))]
 
 
-#: Jobs left to the slow set: the pipelined IK core's control and order proofs (~50 and ~40 CPU s,
-#: the two longest jobs; proved in the committed record docs/results/records/formal_q18.json, which
-#: `make formal` rewrites). Every other job, both IK cores' broken holds and the compact core's
-#: proofs run by default.
-SLOW = {("control", "ik", "pipelined"), ("order", "ik", "pipelined")}
+#: Jobs left to the slow set: both IK cores' control and order proofs, the four longest jobs (the
+#: pipelined core's ~50 and ~40 CPU s, the compact core's ~55 and ~30 s cold: together a sixth of
+#: the default run's CPU), proved in the committed records docs/results/records/formal_q18.json
+#: and formal_q18_sequenced.json, which `make formal` re-makes. Every block's jobs, the lemmas and
+#: the fault self-tests below run by default.
+SLOW = {(check, "ik", arch) for check in ("control", "order") for arch in ("pipelined", "compact")}
 
 
 def _param(check, block, arch):
@@ -132,6 +136,39 @@ def test_contract_proved(proofs, check, block, arch):
         # Its FIFO lemma (hdl/formal/fifo.py) proved for its FIFO's width and depth.
         assert [lemma["status"] for lemma in r.lemmas] == ["PASS"], r.lemmas
         assert f"depth {r.capacity}," in r.lemmas[0]["lemma"], r.lemmas
+
+
+#: The committed records of the IK cores' proofs (the slow set's jobs), and the q18 design each
+#: fingerprints: ``design_sha256``, the SHA-256 of the core's Verilog body (header stripped) as the
+#: testbenches convert it (tag width 8; the pipelined core's ECP5 variant, whose conversion the
+#: default cocotb run shares; the compact core's the lint test's), taken when the record was made.
+RECORDS = Path(__file__).resolve().parents[1] / "docs" / "results" / "records"
+CORE_RECORDS = {"pipelined": ("formal_q18.json", {"dsp": "ecp5"}), "compact": ("formal_q18_sequenced.json", {})}
+
+
+def core_fingerprint(arch: str) -> str:
+    """``design_sha256`` of the IK core ``arch`` of this checkout (see :data:`CORE_RECORDS`)."""
+    from ik5r.hdl.provenance import strip_header
+    from ik5r.tools.testbench.runner import sim_design
+
+    text, _ = sim_design("ik", arch, "q18", **CORE_RECORDS[arch][1]).verilog()
+    return hashlib.sha256(strip_header(text).encode()).hexdigest()
+
+
+@pytest.mark.parametrize("arch", sorted(CORE_RECORDS))
+def test_core_proof_records_are_of_this_checkout(arch):
+    """The IK cores' proofs run in the slow set; their committed records (the README's "proved")
+    must be of this checkout's cores: both groups passed by k-induction, on the design this
+    checkout generates (a change of the core's Verilog needs `make formal` and a new record)."""
+    record = json.loads((RECORDS / CORE_RECORDS[arch][0]).read_text())
+    jobs = [j for j in record["jobs"] if (j["block"], j["arch"]) == ("ik", arch)]
+    assert sorted(j["check"] for j in jobs) == ["control", "order"], jobs
+    assert all(j["status"] == "PASS" and j["method"] == "k-induction" and j["mutation"] is None
+               and j["config"] == "q18" for j in jobs), jobs
+    fingerprint = core_fingerprint(arch)
+    assert all(j.get("design_sha256") == fingerprint for j in jobs), (
+        f"{CORE_RECORDS[arch][0]}: its ik/{arch} proofs are of another design than this checkout's "
+        f"(re-run `make formal` and re-make the record)")
 
 
 @pytest.mark.parametrize("mutation,block,arch", MUTANTS)

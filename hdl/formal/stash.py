@@ -2,7 +2,7 @@
 
 The pipelined IK core's tag leaves the state after stage ``origin - 1`` (``select``) and comes
 back ``distance`` stages later through a stash RAM ring buffer (:mod:`~ik5r.hdl.datapath.stash`; q18:
-from stage 0 to stage 185, 184 cycles, a 256-entry RAM), written every clock at a write
+from stage 1 to stage 203, 202 cycles, a 256-entry RAM), written every clock at a write
 pointer, read every clock ``distance - 2`` entries behind it, the read data registered twice.
 The order induction of :mod:`.pipelined` cannot see inside a RAM, and a shadow of all its
 entries (as the output FIFO once had) relates nothing to the stages' valid bits. So the proof is
