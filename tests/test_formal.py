@@ -293,6 +293,22 @@ def test_fifo_lemma_needs_its_premises(fifo_shape, without):
         assert broken["failed"] and set(broken["failed"]) <= FIFO_MUTANTS[without], broken
 
 
+def test_fifo_lemma_needs_its_writer_to_respect_w_rdy(fifo_shape):
+    """``CreditFifo`` does not refuse a write while full (the build's credits keep it from
+    one): without that premise the lemma's induction fails on the IK core's FIFO (depth 257),
+    and BMC from reset finds the overwritten item on a FIFO of depth 5 (the FIFO's own pointer
+    invariant, or the lemma's, fails)."""
+    layout, depth = fifo_shape
+    broken = prove_fifo_lemma(layout, depth, without="fifo_write_full")
+    assert broken["status"] in ("FAIL", "UNKNOWN") and broken["failed"], broken
+    assert set(broken["failed"]) <= FIFO_MUTANTS["fifo_mark_once"], broken
+    short = prove_fifo_lemma(layout, 5, method="bmc", bmc_depth=12, without="fifo_write_full")
+    assert short["status"] == "FAIL" and short["failed"], short
+    assert all(name in FIFO_MUTANTS["fifo_mark_once"] or name.startswith("output_fifo.py:")
+               for name in short["failed"]), short
+    assert prove_fifo_lemma(layout, 5)["status"] == "PASS"
+
+
 def test_an_engine_error_says_why(tmp_path):
     """A job that ends in ERROR reports the solver's own words (sby says only "returned ERROR")."""
     from ik5r.hdl.formal.run import _engine_errors

@@ -6,10 +6,10 @@ stages fed back). See
 from __future__ import annotations
 
 from amaranth.hdl import Cat, Mux, Signal, Value
-from amaranth.lib.fifo import SyncFIFOBuffered
 
 from ik5r.core.modes import ARCHS, DSPS, Arch, Dsp
 
+from .output_fifo import CreditFifo
 from .stages import Stage
 from .products import DspBudget, Product
 from .stash import Stashes, build_stash
@@ -56,7 +56,7 @@ def _credits(dp, m, i, o, depth):
     credits = Signal(range(depth + 1), init=depth, name=f"{dp.name}_credits")
     # ``credits != 0``, kept in a register of its own: ``i.ready`` is a flip-flop output.
     has_credit = Signal(init=1, name=f"{dp.name}_has_credit")
-    fifo = m.submodules[f"{dp.name}_output_fifo"] = SyncFIFOBuffered(
+    fifo = m.submodules[f"{dp.name}_output_fifo"] = CreditFifo(
         width=o.payload.shape().size, depth=depth)
     taken_in = Signal(name=f"{dp.name}_taken_in")
     taken_out = Signal(name=f"{dp.name}_taken_out")

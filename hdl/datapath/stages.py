@@ -64,8 +64,8 @@ __all__ = ["StageKind", "Stage", "GenericAdders", "Ecp5Adders", "adders_for",
            "check_steps_per_stage"]
 
 #: Cycles from the last stage of the pipelined architecture to the item on ``o``: the register
-#: in front of the output FIFO, then the FIFO's (``SyncFIFOBuffered``) RAM write and its RAM
-#: read into the output register.
+#: in front of the output FIFO, then the FIFO's (:class:`.output_fifo.CreditFifo`) RAM write and
+#: its RAM read into the output register.
 OUTPUT_FIFO_LATENCY = 3
 
 
@@ -297,8 +297,8 @@ class Datapath:
         is held it accepts this many, then ``i.ready`` stays low. Pipelined: the depth of the
         output FIFO, one more than a power of two at least the stream latency (the credit that
         lets an item in is registered, so one slot more than the items a full-rate stream keeps
-        in flight; ``SyncFIFOBuffered`` holds one item in its output register and the rest in a
-        RAM, whose pointers then wrap for free). Iterative: one."""
+        in flight; :class:`.output_fifo.CreditFifo` holds one item in its output register and the
+        rest in a RAM, whose pointers then wrap for free). Iterative: one."""
         if arch != Arch.PIPELINED:
             return 1
         return (1 << (self.stream_latency(arch) - 1).bit_length()) + 1

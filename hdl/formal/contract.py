@@ -39,8 +39,8 @@ reset.
   items are inside; its engine's control invariants (program counter, instruction registers);
 * *credits* (pipelined): the credit counter is ``capacity`` minus the items inside, ``i.ready``
   is exactly ``credits != 0``, and the output FIFO is never written while full (its
-  ``SyncFIFOBuffered`` would drop the item). With the FIFO's own invariant (its output register
-  is empty only while at most one item is queued) these are inductive.
+  ``CreditFifo`` does not check: it would overwrite an item). With the FIFO's own invariant
+  (its output register is empty only while at most one item is queued) these are inductive.
 
 ``order`` (the sequenced IK core: k-induction against a ghost queue of the tags accepted and not
 yet taken, :mod:`.sequenced`; the pipelined blocks and IK core (``inductive_order``): k-induction
@@ -356,7 +356,7 @@ class StreamContract(Elaboratable):
             self._invariant(credits + inside == capacity, "credits"),
             self._invariant(self.dut.i.ready == (credits != 0), "ready_is_credit"),
             self._invariant(~fifo.w_en | fifo.w_rdy, "fifo_no_overflow"),
-            # SyncFIFOBuffered's own invariant: its output register is empty only while at
+            # The FIFO's own invariant: its output register is empty only while at
             # most one item is queued behind it (it is refilled the cycle after).
             self._invariant(fifo.r_rdy | (fifo.level <= 1), "fifo_refill"),
         ]

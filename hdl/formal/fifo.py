@@ -1,8 +1,8 @@
 """The output FIFO keeps the marks' order: a lemma, so that a pipelined build's order job need
 not follow the marks through the FIFO's RAM entry by entry.
 
-The output FIFO of a pipelined build (``SyncFIFOBuffered``: a RAM between the ``consume`` and
-``produce`` pointers, then the output register) once was followed in the order job with a
+The output FIFO of a pipelined build (:class:`~ik5r.hdl.datapath.output_fifo.CreditFifo`: a
+RAM between the ``consume`` and ``produce`` pointers, then the output register) once was followed in the order job with a
 shadow of every RAM entry's tag: ~2 solver minutes for the pipelined acos's 64 entries, no
 verdict for the IK core's 256 (behind 187 stages). So the FIFO gets a proof of its own, for
 each build's payload layout and FIFO depth (:func:`.run.prove` runs it before the build's
@@ -15,10 +15,10 @@ until the FIFO reads that entry into its output register, where it is *out* unti
 while it is between the pointers (``address - consume < inner_level``, modulo the RAM's 2 ** n
 entries).
 
-**The lemma** (:class:`FifoLemma`: k-induction, depth 2, on the real ``SyncFIFOBuffered`` of
+**The lemma** (:class:`FifoLemma`: k-induction, depth 2, on the real ``CreditFifo`` of
 the build's payload width and FIFO depth): if the writer never writes tag 3 and never writes
-mark X while X is in the RAM or out (:func:`fifo_environment`; a write while full is refused,
-and is no write), then
+mark X while X is in the RAM or out, and never writes while the FIFO is full (``w_rdy`` low:
+the FIFO does not refuse such a write; :func:`fifo_environment`), then
 (:func:`fifo_contract`) the output shows mark X exactly while X is out, a mark in the RAM is
 between the pointers (``rank < inner_level``), never both in the RAM and out, and the output
 never shows tag 3.
@@ -43,8 +43,8 @@ entries had no verdict after 49 CPU minutes).
 
 *Why the read assumption is sound* (the cut RAM plus this ``Assume`` has every behaviour of the
 real one). A live entry's shadow is the real RAM's tag at that address: the write that made it
-live wrote both, the FIFO writes only at ``produce`` and never a live entry (``w_rdy`` is low
-while full) and reads only live entries. Take a real trace (the RAM not cut, the environment
+live wrote both, the FIFO writes only at ``produce`` and never a live entry (never a write
+while full: a premise) and reads only live entries. Take a real trace (the RAM not cut, the environment
 kept) and suppose some assertion of the lemma fails in it, first at cycle t, for the tracked
 address a. At every read before t the read address was live and ``fifo_read_entry`` held for
 it (no assertion failed before t, for any address), so the tag assumed there is the real RAM's.
@@ -69,7 +69,8 @@ import os
 from amaranth.hdl import Assert, Assume, Const, Elaboratable, Module, Mux, Signal
 from amaranth.hdl._ast import AnyConst
 from amaranth.lib import data
-from amaranth.lib.fifo import SyncFIFOBuffered
+
+from ik5r.hdl.datapath.output_fifo import CreditFifo
 
 __all__ = ["FifoLemma", "fifo_contract", "fifo_environment", "fifo_ghosts"]
 
@@ -124,8 +125,9 @@ def fifo_contract(fifo, r_tag, ghosts, check) -> list:
 
 def fifo_environment(fifo, w_tag, ghosts, check) -> list:
     """What the FIFO's writer must do (the lemma's assumptions): ``check(test, name)`` of each."""
-    # (Not that it never writes while full: a write the FIFO refuses is no write of the ghosts.)
-    checks = [check(~fifo.w_en | (w_tag != UNUSED), "mark_invented")]
+    # Never a write while full: the FIFO does not refuse it (the credits' invariant, in a build).
+    checks = [check(~fifo.w_en | (w_tag != UNUSED), "mark_invented"),
+              check(~fifo.w_en | fifo.w_rdy, "fifo_write_full")]
     for mark in MARKS:
         written, _, in_ram, out, _ = ghosts[mark]
         checks.append(check(~written | ~(in_ram | out), "fifo_mark_once"))
@@ -133,7 +135,7 @@ def fifo_environment(fifo, w_tag, ghosts, check) -> list:
 
 
 class FifoLemma(Elaboratable):
-    """The output FIFO of a pipelined build (``SyncFIFOBuffered(width, depth)``, the tag at
+    """The output FIFO of a pipelined build (``CreditFifo(width=, depth=)``, the tag at
     ``layout``'s ``tag`` field) keeps the marks' order (module docstring)."""
 
     def __init__(self, layout, depth: int, without: str | None = None, skew: int = 0):
@@ -162,7 +164,7 @@ class FifoLemma(Elaboratable):
 
     def elaborate(self, platform):
         m = Module()
-        fifo = SyncFIFOBuffered(width=self.layout.size, depth=self.depth)
+        fifo = CreditFifo(width=self.layout.size, depth=self.depth)
         inner = fifo.elaborate(platform)
         fifo._MustUse__silence = True
         m.submodules.fifo = inner

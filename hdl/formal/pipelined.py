@@ -3,7 +3,7 @@
 A pipelined block (:func:`~ik5r.hdl.datapath.build.build_pipelined`) is a delay line that steps
 every clock (stage ``s`` holds an item ``s + 1`` cycles after its input transfer: its
 ``<stage>_valid`` bit and ``<stage>_tag`` register), then the FIFO's write register
-(``<name>_fifo_write``, ``<name>_fifo_data``), then the output FIFO (``SyncFIFOBuffered``: a RAM of
+(``<name>_fifo_write``, ``<name>_fifo_data``), then the output FIFO (``CreditFifo``: a RAM of
 ``capacity - 1`` entries between the ``consume`` and ``produce`` pointers, and its output
 register, ``r_rdy``). So a marked item X (A = 1, B = 2, see :meth:`.contract.StreamContract._marks`)
 is, ``age`` cycles after it was accepted: in stage ``age - 1`` (``age`` <= latency of the stages

@@ -188,7 +188,8 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     if depth is None:
         order = check == "order"
         depth = INDUCTION_DEPTH if mode == "prove" else (2 * latency + 4 if order else latency + 8)
-    # "formal": SyncFIFOBuffered then asserts its own pointer invariants (needed by the induction).
+    # "formal": the output FIFO (CreditFifo) then asserts its own pointer invariants (needed by
+    # the induction).
     text = rtlil.convert(top, name="top", platform="formal", ports=top.ports)
     # The lemmas the job assumes, for a fault-free job (a fault's job must fail regardless).
     lemmas = [prove_stash_lemma(*link, workdir=workdir and workdir / f"stash_{link[0]}_{link[1]}")
@@ -250,7 +251,7 @@ def prove_fifo_lemma(layout, depth: int, workdir: Path | None = None, without: s
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, steps,
                                            _MEMORIES["control"], workdir, f"fifo-{depth}",
                                            traces=not (without or skew))
-    return {"lemma": f"the output FIFO (SyncFIFOBuffered, depth {depth}, {layout.size} bits) keeps "
+    return {"lemma": f"the output FIFO (CreditFifo, depth {depth}, {layout.size} bits) keeps "
                      "the marks' order" + (f" (without {without})" if without else "")
                      + (f" (read assumption at consume + {skew})" if skew else ""),
             "method": method, "depth": steps,
