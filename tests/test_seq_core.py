@@ -135,12 +135,13 @@ def test_program_is_short_and_shared():
     the approach near the base axis, 830 with it; 774 with its v-or-0 as loads, its magnitudes
     as a compare and a negation, two square-root digits a clock and the hill climb's lowered
     priorities; 752 with a load sharing the clock of another block's last read of the
-    accumulator and the clips to a format's range as one saturation), 717 with the wide product
-    step; units used side by side."""
+    accumulator and the clips to a format's range as one saturation; 721 with the CORDIC
+    vector's normalisations by powers of two), 692 with the wide product step; units used side
+    by side."""
     k = _k("q32w")
     prog = ik_program(k)
-    assert len(prog.code) <= 752
-    assert len(ik_program(k, wide_product=True).code) <= 717
+    assert len(prog.code) <= 721
+    assert len(ik_program(k, wide_product=True).code) <= 692
     both = [ins for ins in prog.code if seq_isa.nonzero(ins.cop) and (seq_isa.nonzero(ins.alu) or ins.pick)]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
@@ -334,3 +335,19 @@ def test_compact_verilog_structure():
     widths = {p["name"]: p["width"] for p in smap["ports"]}
     assert widths["i__payload"] == widths["o__payload"] == 16
     assert sum(widths.values()) <= 39         # the UP5K's SG48 package
+
+
+@pytest.mark.parametrize("most", range(1, 48))
+def test_normalising_shifts_shift_by_the_headroom_up_to_the_most(most):
+    """The conditional normalisations of an atan2 (each shift taken if the vector still fits)
+    shift by min(headroom, most) for every headroom, as the models' shifts by 8 then by 1 do."""
+    from ik5r.hdl.sequenced.asm import normalising_shifts
+
+    sizes = normalising_shifts(most)
+    assert sum(sizes) == most and all(size in seq_isa.NORMS.values() for size in sizes)
+    for headroom in range(64):
+        shifted = 0
+        for size in sizes:
+            if headroom - shifted >= size:
+                shifted += size
+        assert shifted == min(headroom, most), (sizes, headroom)

@@ -11,10 +11,10 @@ from dataclasses import dataclass, replace
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from ..blocks.cordic import atan2_widths, rotate_z_bound
-from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SATW, A_SHR1,
-                  A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO,
-                  K_COARSE, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, K_NORM1, K_NORM8, K_QROT, K_ROT,
-                  K_VEC, LIMB, READ_AHEAD, BusSource, nonzero, Const, Ins, MulLoad, Program, Var, Widths)
+from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SATW, A_SUB,
+                  B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO, K_COARSE, K_LDX,
+                  K_LDXG, K_LDY, K_LDYG, K_LDZA, K_QROT, K_ROT, K_VEC, LIMB, NORMS, READ_AHEAD,
+                  SHIFTS, BusSource, nonzero, Const, Ins, MulLoad, Program, Var, Widths)
 
 __all__ = ["Asm", "Const", "Check", "Bus"]
 
@@ -79,12 +79,25 @@ def st(name: str) -> Ins:
 
 
 def shr(n: int) -> list:
+    """acc >>= n (arithmetic): the largest shifts first."""
     ops = []
-    for size, op in ((16, A_SHR16), (4, A_SHR4), (1, A_SHR1)):
+    for op, size in sorted(SHIFTS.items(), key=lambda item: -item[1]):
         while n >= size:
             ops.append(alu(op))
             n -= size
     return ops
+
+
+def normalising_shifts(most: int) -> list[int]:
+    """Shifts (each of :data:`~.isa.NORMS`) whose conditional sequence, each taken if x and y
+    both still fit, shifts by exactly ``min(headroom, most)``: each at most one more than the
+    sum of those after it, so a shift skipped is made up by the rest."""
+    sizes, rest = [], most
+    while rest:
+        size = max(s for s in NORMS.values() if 2 * s <= rest + 1)
+        sizes.append(size)
+        rest -= size
+    return sizes
 
 
 class Asm:
@@ -206,8 +219,10 @@ class Asm:
     # -- CORDIC --
     def atan2_body(self) -> list:
         w = self.ki.cfg.width
-        return ([I(cop=K_COARSE, ci=self.ki.cfg.iterations)] + [I(cop=K_NORM8)] * ((w - 1) // 8)
-                + [I(cop=K_NORM1)] * 7
+        # The normalisation of the vector: up to 8 ((w - 1) // 8) + 7 bits (the models' shifts).
+        norm = {bits: op for op, bits in NORMS.items()}
+        return ([I(cop=K_COARSE, ci=self.ki.cfg.iterations)]
+                + [I(cop=norm[bits]) for bits in normalising_shifts(8 * ((w - 1) // 8) + 7)]
                 + [I(cop=K_VEC, ci=i) for i in range(self.ki.cfg.iterations)])
 
     def atan2_angle(self, zero_status=0) -> list:

@@ -177,8 +177,7 @@ class SeqEngine(wiring.Component):
             "right_root": adding & (bsel == X.B_ROOT),
             "cmp": alu_is(X.A_CMPGT, X.A_CMPLT), "gt": alu_is(X.A_CMPGT),
             "acc_total": alu_is(X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC),
-            "acc_cond": alu_is(X.A_LD, X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC, X.A_SHR1,
-                               X.A_SHR4, X.A_SHR16),
+            "acc_cond": alu_is(X.A_LD, X.A_ADD, X.A_SUB, X.A_NEG, X.A_MLD, X.A_MACC, *X.SHIFTS),
             "sat": alu_is(X.A_SATI, X.A_SATW),
             **{f"bus{source.value}": bsel == source for source in X.BusSource},
         }

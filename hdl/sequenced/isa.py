@@ -36,7 +36,7 @@ class BusSource(enum.Enum, shape=3):
 
 
 class AluOp(enum.Enum, shape=4):
-    """Accumulator operations (``alu``)."""
+    """Accumulator operations (``alu``); ``SHRn``: arithmetic shift right by n (:data:`SHIFTS`)."""
     NOP, LD, ADD, SUB, NEG, CMPGT, CMPLT, SHR1, SHR4, SHR16, SATI, SATW, MLD, MACC, SETF = range(15)
 
 
@@ -50,9 +50,9 @@ class CordicOp(enum.Enum, shape=4):
     """CORDIC operations (``cop``): loads from the B bus (x, y; ``G``: shifted up by the CORDIC
     guard bits, x also clears z; z shifted up by the angle guard bits), the vectoring coarse
     rotation (by -+90 degrees if x < 0; latches the zero-vector flag), the rotation quadrant step
-    (by -+90 degrees if F), the conditional normalising shifts by 8 and by 1, and micro-rotation
-    ``ci`` (vectoring or rotation)."""
-    NOP, LDX, LDY, LDXG, LDYG, LDZA, COARSE, QROT, NORM8, NORM1, VEC, ROT = range(12)
+    (by -+90 degrees if F), the conditional normalising shifts (``NORMn``: x and y by n bits if
+    both fit, :data:`NORMS`), and micro-rotation ``ci`` (vectoring or rotation)."""
+    NOP, LDX, LDY, LDXG, LDYG, LDZA, COARSE, QROT, NORM8, NORM1, VEC, ROT, NORM16, NORM4, NORM2 = range(15)
 
 
 class MulLoad(enum.Enum, shape=2):
@@ -78,9 +78,17 @@ B_MEM, B_IN, B_CX, B_CY, B_CZ, B_ROOT, B_REM, B_ACC = BusSource
  A_MLD, A_MACC, A_SETF) = AluOp
 C_ONE, C_F, C_BACK, C_DOWN, C_ROLL, C_ZERO = CondSource
 (K_NOP, K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA, K_COARSE, K_QROT, K_NORM8, K_NORM1, K_VEC,
- K_ROT) = CordicOp
+ K_ROT, K_NORM16, K_NORM4, K_NORM2) = CordicOp
 Q_NOP, Q_LOAD, Q_STEP, Q_STEP2 = SqrtOp
 IO_NOP, IO_IN, IO_FLAGS, IO_OUT, IO_STATUS = IoOp
+
+#: The accumulator's shifts right (:func:`.asm.shr`) and the CORDIC's normalising shifts left
+#: (:meth:`.asm.Asm.atan2_body`), by their bits. The normalisations are powers of two: up to M
+#: bits in about log2(M) clocks (with shifts by 8 and 1 only, M // 8 + 7). Shifts of the
+#: accumulator by 2 and 8 as well save a few clocks more, but put its wide result mux a level
+#: deeper: more LUTs than the clocks are worth (the figures: the commit that made this choice).
+SHIFTS = {A_SHR1: 1, A_SHR4: 4, A_SHR16: 16}
+NORMS = {K_NORM1: 1, K_NORM2: 2, K_NORM4: 4, K_NORM8: 8, K_NORM16: 16}
 
 #: The B-bus sources an adding ALU operation (``ADDING``) may take: the adder has its own operand
 #: select of these few registers, off the B bus (the input word's and the CORDIC's paths through

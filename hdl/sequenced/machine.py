@@ -12,7 +12,7 @@ from ik5r.core.fxconfig import CHECK_BITS
 
 from ..graph.inputs import INPUT_WORDS
 from .isa import (ADDER_SOURCES, ADDING, LIMB, READ_AHEAD, AluOp, BusSource, CondSource, CordicOp,
-                  Ins, IoOp, MulLoad, Program, SqrtOp)
+                  NORMS, SHIFTS, Ins, IoOp, MulLoad, Program, SqrtOp)
 
 __all__ = ["Machine", "run", "limb", "check_word", "wrap_signed", "fits"]
 
@@ -141,8 +141,8 @@ class Machine:
     #: The accumulator after an arithmetic operation: f(acc, B bus, the shifted product).
     _ARITHMETIC = {AluOp.NOP: lambda acc, b, prod: acc, AluOp.LD: lambda acc, b, prod: b,
                    AluOp.ADD: lambda acc, b, prod: acc + b, AluOp.SUB: lambda acc, b, prod: acc - b,
-                   AluOp.NEG: lambda acc, b, prod: -acc, AluOp.SHR1: lambda acc, b, prod: acc >> 1,
-                   AluOp.SHR4: lambda acc, b, prod: acc >> 4, AluOp.SHR16: lambda acc, b, prod: acc >> 16,
+                   AluOp.NEG: lambda acc, b, prod: -acc,
+                   **{op: (lambda bits: lambda acc, b, prod: acc >> bits)(bits) for op, bits in SHIFTS.items()},
                    AluOp.MLD: lambda acc, b, prod: prod, AluOp.MACC: lambda acc, b, prod: acc + prod}
 
     def _cordic(self, ins: Ins, b: int, cond: int):
@@ -157,8 +157,8 @@ class Machine:
             z = b << w.angle_guard
         elif op in (CordicOp.COARSE, CordicOp.QROT):
             x, y, z = self._quarter(op, x, y, z)
-        elif op in (CordicOp.NORM8, CordicOp.NORM1):
-            s = 8 if op == CordicOp.NORM8 else 1
+        elif op in NORMS:
+            s = NORMS[op]
             v = x | (~y if y < 0 else y)
             if v >> (w.internal - 1 - s + w.cordic_guard) == 0:
                 x, y = x << s, y << s

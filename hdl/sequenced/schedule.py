@@ -18,13 +18,13 @@ from dataclasses import replace
 
 from .asm import fold, hazards
 from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A_SATW, A_SETF,
-                  A_SHR1, A_SHR4, A_SHR16, A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT,
+                  A_SUB, B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT,
                   C_F, C_ZERO, IO_OUT, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, Q_LOAD, READ_AHEAD,
-                  Ins, Var, nonzero)
+                  SHIFTS, Ins, Var, nonzero)
 
 COND_FIELDS = ("ca", "cai", "cb", "cbi")
-ACC_WRITE = {A_LD, A_ADD, A_SUB, A_NEG, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW, A_MLD, A_MACC}
-ACC_READ = {A_ADD, A_SUB, A_NEG, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW, A_MACC, A_CMPGT, A_CMPLT}
+ACC_WRITE = {A_LD, A_ADD, A_SUB, A_NEG, *SHIFTS, A_SATI, A_SATW, A_MLD, A_MACC}
+ACC_READ = {A_ADD, A_SUB, A_NEG, *SHIFTS, A_SATI, A_SATW, A_MACC, A_CMPGT, A_CMPLT}
 BUS_ALU = {A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT}
 LOADS = {K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA}
 

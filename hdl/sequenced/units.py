@@ -63,12 +63,9 @@ def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
     with m.Switch(ins.alu):
         with m.Case(X.A_LD):
             m.d.comb += early.eq(bus)
-        with m.Case(X.A_SHR1):
-            m.d.comb += early.eq(acc.shift_right(1))
-        with m.Case(X.A_SHR4):
-            m.d.comb += early.eq(acc.shift_right(4))
-        with m.Case(X.A_SHR16):
-            m.d.comb += early.eq(acc.shift_right(16))
+        for op, bits in X.SHIFTS.items():
+            with m.Case(op):
+                m.d.comb += early.eq(acc.shift_right(bits))
         with m.Case(X.A_SATI):
             m.d.comb += [early.eq(sat_i), other_event.eq(cond & clip_i)]
         with m.Case(X.A_SATW):
@@ -101,8 +98,6 @@ def cordic(m, ins, dec, shift, bus, cond, step, regs, run, w):
     ones_abs = Mux(y[-1], ~y, y)
     v = (x | ones_abs).as_unsigned()
     top = w.internal - 1 + w.cordic_guard
-    fits8 = v[top - 8:] == 0
-    fits1 = v[top - 1:] == 0
     go = Mux(op == X.K_COARSE, x[-1], Mux(op == X.K_QROT, regs["flag"], 1))
     with m.If(run), m.Switch(op):
         with m.Case(X.K_LDX, X.K_LDXG):
@@ -116,12 +111,10 @@ def cordic(m, ins, dec, shift, bus, cond, step, regs, run, w):
         with m.Case(X.K_LDZA):
             with m.If(cond):
                 m.d.sync += z.eq(bus.shift_left(w.angle_guard))
-        with m.Case(X.K_NORM8):
-            with m.If(fits8):
-                m.d.sync += [x.eq(x.shift_left(8)), y.eq(y.shift_left(8))]
-        with m.Case(X.K_NORM1):
-            with m.If(fits1):
-                m.d.sync += [x.eq(x.shift_left(1)), y.eq(y.shift_left(1))]
+        for norm, bits in X.NORMS.items():
+            with m.Case(norm):
+                with m.If(v[top - bits:] == 0):     # both fit shifted: the top bits + 1 are zero
+                    m.d.sync += [x.eq(x.shift_left(bits)), y.eq(y.shift_left(bits))]
         with m.Case(X.K_COARSE, X.K_QROT, X.K_VEC, X.K_ROT):
             with m.If(go):
                 m.d.sync += [x.eq(x_next), y.eq(y_next), z.eq(z_next)]
