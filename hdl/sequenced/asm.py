@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+from ik5r.core import fixedpoint
 from ik5r.core.fxconfig import CHECK_BITS, Constants
 
 from ..blocks.cordic import atan2_widths, rotate_z_bound
@@ -235,21 +236,42 @@ class Asm:
         inputs, the micro-rotations, the outputs rounded and saturated (``stat`` where ``gates``)."""
         ki = self.ki
         c = ki.cfg
+        gained = self.gained_constants(x, y)
+        if gained:
+            x, y = map(Const, gained)
         code = [I(cop=K_LDZA, **operand(angle)), I(cop=K_LDX, **operand(x)), I(cop=K_LDY, **operand(y)),
                 alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations),
                 alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations)]
-        gain = Const(ki.inv_gain)
-        for src, load in ((CX, K_LDX), (CY, K_LDY)):
-            code += self.products([(src, c.width + 1, gain, ki.inv_gain.bit_length() + 1, False, 0)])
-            code += self.round_shift(ki.inv_gain_frac - c.guard_bits)
-            if load == K_LDX:
-                code += [st(temp)]
-        code += [I(cop=K_LDY, bsel=B_ACC), I(cop=K_LDX, **operand(temp))]
+        if not gained:
+            gain = Const(ki.inv_gain)
+            for src, load in ((CX, K_LDX), (CY, K_LDY)):
+                code += self.products([(src, c.width + 1, gain, ki.inv_gain.bit_length() + 1, False, 0)])
+                code += self.round_shift(ki.inv_gain_frac - c.guard_bits)
+                if load == K_LDX:
+                    code += [st(temp)]
+            code += [I(cop=K_LDY, bsel=B_ACC), I(cop=K_LDX, **operand(temp))]
         code += [I(cop=K_ROT, ci=i) for i in range(c.iterations)]
         for src, dest in ((CX, dest_x), (CY, dest_y)):
             code += [alu(A_LD, src)] + self.round_shift(c.guard_bits)
             code += [alu(A_SATI, None, *gates, stat=stat), st(dest)]
         return code
+
+    def gained_constants(self, x, y) -> tuple[int, int] | None:
+        """The constant vector (x, y) times the rotation's gain 1/K, rounded as the models round
+        it, where that may come before the quadrant step: the step turns the vector by a quarter
+        (negating one coordinate), and the rounding is odd for both coordinates (no tie), so
+        rounding then turning is turning then rounding. None for other operands (and ties)."""
+        if not (isinstance(x, Const) and isinstance(y, Const)):
+            return None
+        ki = self.ki
+        shift, nearest = ki.inv_gain_frac - ki.cfg.guard_bits, ki.cfg.round_nearest
+
+        def gain(v):
+            return fixedpoint.rshift_round(v * ki.inv_gain, shift, nearest)
+
+        if any(gain(-v.value) != -gain(v.value) for v in (x, y)):
+            return None
+        return gain(x.value), gain(y.value)
 
     # -- assembly --
     def finish(self, code: list, widths: Widths) -> Program:
