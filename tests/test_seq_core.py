@@ -137,12 +137,12 @@ def test_program_is_short_and_shared():
     as a compare and a negation, two square-root digits a clock and the hill climb's lowered
     priorities; 752 with a load sharing the clock of another block's last read of the
     accumulator and the clips to a format's range as one saturation; 721 with the CORDIC
-    vector's normalisations by powers of two; 691 with the rotation of a constant vector
-    gained before its quadrant step), 662 with the wide product step; units used side by side."""
+    vector's normalisations by powers of two; 656 with the rotations of constant vectors
+    gained before their quadrant steps), 633 with the wide product step; units used side by side."""
     k = _k("q32w")
     prog = ik_program(k)
-    assert len(prog.code) <= 691
-    assert len(ik_program(k, wide_product=True).code) <= 662
+    assert len(prog.code) <= 656
+    assert len(ik_program(k, wide_product=True).code) <= 633
     both = [ins for ins in prog.code if seq_isa.nonzero(ins.cop) and (seq_isa.nonzero(ins.alu) or ins.pick)]
     assert len(both) > 100       # CORDIC micro-rotations beside products and glue
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
@@ -150,13 +150,12 @@ def test_program_is_short_and_shared():
 
 @pytest.mark.parametrize("cfg", ("q18", "q32w"))
 def test_rotation_of_a_constant_vector_is_gained_before_its_quadrant_step(cfg):
-    """The IK's rotation of (1, 0): its gain products are constants, loaded instead of computed;
-    where the rounding of a coordinate times 1/K is a tie (not odd), the products stay."""
+    """The IK's rotations of constant vectors: their gain products are constants, loaded instead
+    of computed; where the rounding of a coordinate times 1/K is a tie (not odd), the quarter
+    turn's coordinate is loaded again after the turn, under its condition."""
     a, Const = seq_asm.Asm(_k(cfg)), seq_isa.Const
     ki = a.ki
-    one = Const(1 << (ki.cfg.width - 2))
     args = ("angle", "dx", "dy", "temp", 0)
-    assert not any(i.pick for i in a.rotate(one, Const(0), *args))
     assert any(i.pick for i in a.rotate("x", "y", *args))
     shift = ki.inv_gain_frac - ki.cfg.guard_bits
     odd, twos = ki.inv_gain, 0
@@ -165,8 +164,14 @@ def test_rotation_of_a_constant_vector_is_gained_before_its_quadrant_step(cfg):
     modulus = 1 << (shift - twos)
     tie = (pow(odd, -1, modulus) << (shift - 1 - twos)) % modulus    # tie * 1/K: exactly half an LSB
     assert (tie * ki.inv_gain) % (1 << shift) == 1 << (shift - 1)
-    assert a.gained_constants(Const(tie), Const(0)) is None and a.gained_constants(one, Const(0))
-    assert any(i.pick for i in a.rotate(Const(tie), Const(0), *args))
+    one = 1 << (ki.cfg.width - 2)
+    for x, y, fixes in ((one, 0, 0), (tie, 0, 1), (one, tie, 1), (tie, tie, 2)):
+        code = a.rotate(Const(x), Const(y), *args)
+        assert not any(i.pick for i in code)
+        again = [i for i in code if i.cop in (seq_isa.K_LDX, seq_isa.K_LDY) and i.ca == seq_isa.C_F]
+        assert len(again) == fixes
+        quadrants = a.gained_quadrants(Const(x), Const(y))
+        assert (quadrants["up_x"] is None) == (y != tie) and (quadrants["down_y"] is None) == (x != tie)
 
 
 def test_register_occupancy_lets_a_load_share_the_last_read():

@@ -233,15 +233,19 @@ class Asm:
 
     def rotate(self, x, y, angle, dest_x: str, dest_y: str, temp: str, stat: int, gates=()) -> list:
         """(dest_x, dest_y) = cordic_rotate(x, y, angle): the quadrant steps, the gain on the
-        inputs, the micro-rotations, the outputs rounded and saturated (``stat`` where ``gates``)."""
+        inputs, the micro-rotations, the outputs rounded and saturated (``stat`` where ``gates``).
+        A constant vector is gained first (:meth:`gained_quadrants`): no products."""
         ki = self.ki
         c = ki.cfg
-        gained = self.gained_constants(x, y)
+        gained = self.gained_quadrants(x, y)
         if gained:
-            x, y = map(Const, gained)
+            x, y = map(Const, gained["none"])
+        up, down = ([] if not gained or gained[case] is None
+                    else [I(F, cop=load, rd=Const(gained[case]))]
+                    for case, load in (("up_x", K_LDX), ("down_y", K_LDY)))
         code = [I(cop=K_LDZA, **operand(angle)), I(cop=K_LDX, **operand(x)), I(cop=K_LDY, **operand(y)),
-                alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations),
-                alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations)]
+                alu(A_LD, CZ), alu(A_CMPGT, Const(ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations), *up,
+                alu(A_LD, CZ), alu(A_CMPLT, Const(-ki.half_pi_z)), I(cop=K_QROT, ci=c.iterations), *down]
         if not gained:
             gain = Const(ki.inv_gain)
             for src, load in ((CX, K_LDX), (CY, K_LDY)):
@@ -256,11 +260,13 @@ class Asm:
             code += [alu(A_SATI, None, *gates, stat=stat), st(dest)]
         return code
 
-    def gained_constants(self, x, y) -> tuple[int, int] | None:
-        """The constant vector (x, y) times the rotation's gain 1/K, rounded as the models round
-        it, where that may come before the quadrant step: the step turns the vector by a quarter
-        (negating one coordinate), and the rounding is odd for both coordinates (no tie), so
-        rounding then turning is turning then rounding. None for other operands (and ties)."""
+    def gained_quadrants(self, x, y) -> dict | None:
+        """For a constant vector (x, y), its coordinates times the rotation's gain 1/K as the
+        models round them, to load before the quadrant step instead of multiplying after it:
+        ``none`` the gained vector; the quarter turn up makes (-y, x) of it, right unless the
+        rounding of y is a tie (not odd), so ``up_x`` is then gained(-y), loaded after the
+        turn (else None); likewise ``down_y``, gained(-x), after the turn down to (y, -x).
+        None for other operands."""
         if not (isinstance(x, Const) and isinstance(y, Const)):
             return None
         ki = self.ki
@@ -269,9 +275,10 @@ class Asm:
         def gain(v):
             return fixedpoint.rshift_round(v * ki.inv_gain, shift, nearest)
 
-        if any(gain(-v.value) != -gain(v.value) for v in (x, y)):
-            return None
-        return gain(x.value), gain(y.value)
+        def turned(v):
+            return None if gain(-v) == -gain(v) else gain(-v)
+
+        return {"none": (gain(x.value), gain(y.value)), "up_x": turned(y.value), "down_y": turned(x.value)}
 
     # -- assembly --
     def finish(self, code: list, widths: Widths) -> Program:
