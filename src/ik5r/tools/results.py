@@ -218,6 +218,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
+        arch += ", 16 x 31-bit product step" if r.get("wide_product") else ""
         per_stage = r.get("rotations_per_stage", 1)
         arch += f", {per_stage} micro-rotations per stage" if per_stage != 1 else ""
         regs = r.get("dsp_output_regs", 0)
