@@ -57,6 +57,10 @@ class SeqEngine(wiring.Component):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         _check_wide(wide_product)
         self.prog = ik_program(constants, wide_product=wide_product)
+        clash = X.read_write_clash(self.prog.code)
+        if clash is not None:
+            raise ValueError(f"instruction {clash} writes the memory word that instruction "
+                             f"{(clash + X.READ_AHEAD) % len(self.prog.code)} reads in the same clock")
         if any(i.alu in X.ADDING and (i.bsel or X.B_MEM) not in X.ADDER_SOURCES for i in self.prog.code):
             raise ValueError(f"the program adds a B-bus source outside {X.ADDER_SOURCES} (seq_isa.ADDER_SOURCES)")
         self.widths = w = self.prog.widths
@@ -134,8 +138,11 @@ class SeqEngine(wiring.Component):
         # it), then ``exe`` (it executes, with the read data registered).
         fetched = Signal(layout)
         exe = Signal(layout)
+        # Before ``started`` ``fetched`` keeps its reset value, a no-op: an enable, not a mux.
         with m.If(~stall):
-            m.d.sync += [fetched.eq(Mux(started, rom_rd.data, 0)), exe.eq(fetched)]
+            m.d.sync += exe.eq(fetched)
+        with m.If(~stall & started):
+            m.d.sync += fetched.eq(rom_rd.data)
         return pc, rom_rd.data, fetched, exe
 
     def _memories(self, m, fetch, stall):
@@ -143,10 +150,15 @@ class SeqEngine(wiring.Component):
         registered: (the memory word, the step angle, the memory's write port)."""
         prog, w = self.prog, self.widths
         mem_shape = signed(w.mem)
-        m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init)
+        # The program never reads a word in the clock it is written (``read_write_clash``), so
+        # synthesis need not emulate the old word on a collision (no_rw_check: a bypass register
+        # and mux per bit otherwise); the step-angle table is a block RAM, not LUTs.
+        m.submodules.mem = mem = Memory(shape=mem_shape, depth=len(prog.mem_init), init=prog.mem_init,
+                                        attrs={"no_rw_check": 1})
         mem_rd = mem.read_port(transparent_for=())
         mem_wr = mem.write_port()
-        m.submodules.atan = atan = Memory(shape=signed(w.z), depth=len(prog.atan), init=prog.atan)
+        m.submodules.atan = atan = Memory(shape=signed(w.z), depth=len(prog.atan), init=prog.atan,
+                                          attrs={"rom_style": "block"})
         atan_rd = atan.read_port()
         mem_q = Signal(mem_shape, name="mem_q")
         step = Signal(signed(w.z), name="step")

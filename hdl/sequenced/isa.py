@@ -52,7 +52,10 @@ class CordicOp(enum.Enum, shape=4):
     rotation (by -+90 degrees if x < 0; latches the zero-vector flag), the rotation quadrant step
     (by -+90 degrees if F), the conditional normalising shifts (``NORMn``: x and y by n bits if
     both fit, :data:`NORMS`), and micro-rotation ``ci`` (vectoring or rotation)."""
-    NOP, LDX, LDY, LDXG, LDYG, LDZA, COARSE, QROT, NORM8, NORM1, VEC, ROT, NORM16, NORM4, NORM2 = range(15)
+    NOP, LDX, LDY, LDXG, LDYG, LDZA, COARSE, QROT, NORM8, NORM1, VEC, ROT = range(12)
+    # 12 and 13 are free: the code of NORM2 changes how the x and y registers' muxes map to
+    # LUTs (this one: 3,324 LUT4 and 85-88 MHz over five nextpnr seeds; 12: 3,498 and 78-80).
+    NORM2 = 14
 
 
 class MulLoad(enum.Enum, shape=2):
@@ -78,17 +81,19 @@ B_MEM, B_IN, B_CX, B_CY, B_CZ, B_ROOT, B_REM, B_ACC = BusSource
  A_MLD, A_MACC, A_SETF) = AluOp
 C_ONE, C_F, C_BACK, C_DOWN, C_ROLL, C_ZERO = CondSource
 (K_NOP, K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA, K_COARSE, K_QROT, K_NORM8, K_NORM1, K_VEC,
- K_ROT, K_NORM16, K_NORM4, K_NORM2) = CordicOp
+ K_ROT, K_NORM2) = CordicOp
 Q_NOP, Q_LOAD, Q_STEP, Q_STEP2 = SqrtOp
 IO_NOP, IO_IN, IO_FLAGS, IO_OUT, IO_STATUS = IoOp
 
 #: The accumulator's shifts right (:func:`.asm.shr`) and the CORDIC's normalising shifts left
-#: (:meth:`.asm.Asm.atan2_body`), by their bits. The normalisations are powers of two: up to M
-#: bits in about log2(M) clocks (with shifts by 8 and 1 only, M // 8 + 7). Shifts of the
-#: accumulator by 2 and 8 as well save a few clocks more, but put its wide result mux a level
-#: deeper: more LUTs than the clocks are worth (the figures: the commit that made this choice).
+#: (:meth:`.asm.Asm.atan2_body`), by their bits. Three normalising shifts (8, 2, 1: M bits in
+#: M // 8 + 4 clocks at most) rather than five (16, 8, 4, 2, 1: about log2(M)): each shift is an
+#: option of the x and y registers' mux, on the micro-rotation's path; the two more cost more
+#: LUTs and clock than their few clocks are worth. Shifts of the accumulator by 2 and 8 as well
+#: save a few clocks more, but put its wide result mux a level deeper: more LUTs than the clocks
+#: are worth. (The figures: the commits that made these choices.)
 SHIFTS = {A_SHR1: 1, A_SHR4: 4, A_SHR16: 16}
-NORMS = {K_NORM1: 1, K_NORM2: 2, K_NORM4: 4, K_NORM8: 8, K_NORM16: 16}
+NORMS = {K_NORM1: 1, K_NORM2: 2, K_NORM8: 8}
 
 #: The B-bus sources an adding ALU operation (``ADDING``) may take: the adder has its own operand
 #: select of these few registers, off the B bus (the input word's and the CORDIC's paths through
@@ -235,3 +240,14 @@ def encode(layout: data.StructLayout, ins: Ins) -> data.Const:
     """The word of ``ins`` in ``layout`` (an absent field is 0)."""
     return layout.const({name: getattr(ins, name) if name in ENUM_FIELDS else _number(ins, name)
                          for name in ins.present()})
+
+
+def read_write_clash(code: list[Ins]) -> int | None:
+    """The first instruction that writes the memory word read in the same clock (for the
+    instruction READ_AHEAD later; the program repeats, so past its end from its start), or
+    None. The engine's memory leaves such a collision undefined (no bypass logic)."""
+    for index, ins in enumerate(code):
+        reader = code[(index + READ_AHEAD) % len(code)]
+        if ins.wr and _number(ins, "wa") == _number(reader, "rd"):
+            return index
+    return None
