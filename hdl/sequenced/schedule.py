@@ -14,6 +14,7 @@ whose lifetimes do not overlap.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import replace
 
 from .asm import fold, hazards
@@ -231,10 +232,28 @@ def schedule(codes: list) -> list:
     its unit taken where it had room (the roll's atan2 behind the elbow's). So each block's
     priority is moved by a few steps in turn (lowered too: a block placed early may take a unit a
     more urgent one needs a little later), a change kept when the program gets shorter, until a
-    pass keeps none (a hill climb, deterministic)."""
+    pass keeps none (a hill climb); then the priorities of every two blocks are swapped in turn
+    (a climb's steps move one block past its neighbours; a swap trades two places at once), the
+    climb resumed after a shorter program, until no swap shortens it. Deterministic."""
     blocks = [Block(c) for c in codes]
     prio = _priorities(blocks, _Placer(blocks).producer)
-    best = _Placer(blocks, prio).run()
+    best, prio = _climb(blocks, prio, _Placer(blocks, prio).run())
+    while True:
+        shorter, swapped = _swap(blocks, prio, best)
+        if shorter is best:
+            break
+        best, prio = _climb(blocks, swapped, shorter)
+    return share_words(best.code())
+
+
+#: Hill-climbing passes over the priorities (each schedules the program once per block and step).
+PASSES = 8
+#: The priority steps tried per block.
+STEPS = (-200, -100, -40, -10, 10, 40, 100, 200, 400, 800)
+
+
+def _climb(blocks: list, prio: list, best):
+    """The hill climb on single priorities from ``prio`` (its program ``best``)."""
     for _ in range(PASSES):
         improved = False
         for i in range(1, len(blocks) - 1):
@@ -245,13 +264,19 @@ def schedule(codes: list) -> list:
                     best, prio, improved = table, trial, True
         if not improved:
             break
-    return share_words(best.code())
+    return best, prio
 
 
-#: Hill-climbing passes over the priorities (each schedules the program once per block and step).
-PASSES = 8
-#: The priority steps tried per block.
-STEPS = (-200, -100, -40, -10, 10, 40, 100, 200, 400, 800)
+def _swap(blocks: list, prio: list, best):
+    """The program made shorter by swapping two blocks' priorities (the first such swap, in
+    order), and its priorities; ``best`` itself if none is."""
+    for i, j in itertools.combinations(range(1, len(blocks) - 1), 2):
+        trial = list(prio)
+        trial[i], trial[j] = prio[j], prio[i]
+        table = _Placer(blocks, trial).run()
+        if len(table) < len(best):
+            return table, trial
+    return best, prio
 
 
 class _Placer:
