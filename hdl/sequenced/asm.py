@@ -226,10 +226,12 @@ class Asm:
                 + [I(cop=norm[bits]) for bits in normalising_shifts(8 * ((w - 1) // 8) + 7)]
                 + [I(cop=K_VEC, ci=i) for i in range(self.ki.cfg.iterations)])
 
-    def atan2_angle(self, zero_status=0) -> list:
-        """acc = the angle of the vectoring just run (0 for the zero vector)."""
-        return ([alu(A_LD, CZ)] + self.round_shift(self.ki.cfg.angle_guard_bits)
-                + [alu(A_LD, Const(0), (C_ZERO, 0), stat=zero_status)])
+    def atan2_angle(self, zero_status=0, zero_events=()) -> list:
+        """acc = the angle of the vectoring just run (0 for the zero vector: rounded, still 0).
+        The zero vector's load and ``zero_events`` (instructions under its latch) come first,
+        so the CORDIC is free before the rounding."""
+        return ([alu(A_LD, CZ), alu(A_LD, Const(0), (C_ZERO, 0), stat=zero_status), *zero_events]
+                + self.round_shift(self.ki.cfg.angle_guard_bits))
 
     def rotate(self, x, y, angle, dest_x: str, dest_y: str, temp: str, stat: int, gates=()) -> list:
         """(dest_x, dest_y) = cordic_rotate(x, y, angle): the quadrant steps, the gain on the

@@ -289,7 +289,7 @@ class Lower:
         zeros = [(leaf.bit, _gates(leaf.gates)) for leaf in self.events.zeros(n)]
         merged = zeros[0][0] if len(zeros) == 1 and not zeros[0][1] else 0
         tail = [] if merged else [alu(A_NOP, None, (C_ZERO, 0), *gates, stat=bit) for bit, gates in zeros]
-        return code + loads + self.a.atan2_body() + self.a.atan2_angle(merged) + tail
+        return code + loads + self.a.atan2_body() + self.a.atan2_angle(merged, tail)
 
     def _rotate(self, r):
         x, y, angle = r.args
