@@ -79,6 +79,36 @@ def test_program_on_interpreter(cfg, wide):
     assert not bad, f"{len(bad)} of {len(poses)} mismatch, first {bad[0]}"
 
 
+@pytest.mark.parametrize("cfg", ["q18", pytest.param("q32w", marks=pytest.mark.slow)])
+def test_two_pose_program_on_interpreter(cfg):
+    """A program of two poses (``poses=2``) runs each pose as the one-pose program does: pose
+    i beside pose i + 1, so every run mixes branches, flags and tags (a pose reading the other's
+    flags, status or words fails)."""
+    k = _k(cfg)
+    prog = ik_program(k, poses=2)
+    assert prog.poses == 2 and len(prog.code) < 2 * len(ik_program(k).code)
+    poses = concat(directed_poses(k), random_poses(k, 10, seed=12))
+    expected = ik_outputs(k, poses, model.solve_batch)
+    fields = poses.fields()
+    bad = []
+    for i in range(len(poses)):
+        pair = (i, (i + 1) % len(poses))
+        outs = machine.run_poses(prog, [_engine_words(fields, j, j % 64) for j in pair])
+        for j, out in zip(pair, outs):
+            got = {f"q{n + 1}": out[n] for n in range(5)} | {"status": out["status"]}
+            want = {name: int(expected[name][j]) for name in got}
+            if got != want or out["tag"] != j % 64:
+                bad.append((j, want, got))
+    assert not bad, f"{len(bad)} of {2 * len(poses)} mismatch, first {bad[0]}"
+
+
+def test_program_poses_checked():
+    with pytest.raises(ValueError, match="poses must be one of"):
+        ik_program(_k("q18"), poses=3)
+    with pytest.raises(ValueError, match="takes 2 poses a run"):
+        machine.run_poses(ik_program(_k("q18"), poses=2), [[0] * 14])
+
+
 def _frame_noise(k, poses, seed):
     """The poses with n, o, a moved by up to twice the orientation tolerance, by pose index mod 6:
     |n| off, |o| off, n towards o, or one component of a off (so that each check of
@@ -286,7 +316,7 @@ def test_engine_refuses_a_program_with_a_read_write_clash(monkeypatch):
     writer = next(i for i, ins in enumerate(prog.code) if ins.wr)
     reader = (writer + seq_isa.READ_AHEAD) % len(prog.code)
     prog.code[reader] = dataclasses.replace(prog.code[reader], rd=prog.code[writer].wa)
-    monkeypatch.setattr(seq_engine, "ik_program", lambda constants, wide_product: prog)
+    monkeypatch.setattr(seq_engine, "ik_program", lambda constants, wide_product, poses: prog)
     with pytest.raises(ValueError, match=f"instruction {writer} writes the memory word"):
         seq_engine.SeqEngine(constants=_k("q18"))
 
@@ -317,6 +347,34 @@ def test_core_full_rate_and_stalls(cfg, wide):
     sub = slice(0, 4)
     outputs, _, _ = run_stream(dut, items[sub], stall_seed=9, long_stall=True)
     compare(items[sub], expected[sub], outputs)
+
+
+@pytest.mark.parametrize("cfg", ["q18", pytest.param("q32w", marks=pytest.mark.slow)])
+def test_two_pose_core_full_rate_and_stalls(cfg):
+    """``poses=2``: two poses a program at full rate (the first into an idle core after
+    ``latency``; two results every program length), and with random input gaps and output
+    back-pressure, where the second pose of a program is skipped whenever none is there."""
+    k = _k(cfg)
+    poses = concat(directed_poses(k)[::24], random_poses(k, 1, seed=3)[:3])
+    items = inputs_of(poses, TAG_WIDTH)
+    expected = with_tags(items, expected_of(k, poses))
+    dut = SequencedIKCore(constants=k, tag_width=TAG_WIDTH, poses=2)
+    run_length = len(ik_program(k, poses=2).code)
+    assert dut.options == {"poses": 2} and dut.cycles_per_result == run_length / 2
+    outputs, accepted, produced = run_stream(dut, items)
+    compare(items, expected, outputs)
+    assert produced[0] - accepted[0] == dut.latency
+    assert all(b - a == run_length for a, b in zip(produced, produced[2:]))
+    outputs, _, _ = run_stream(dut, items[:9], stall_seed=4, long_stall=True)
+    compare(items[:9], expected[:9], outputs)
+    # One pose alone: the program's second pose is skipped, the first's result comes.
+    outputs, accepted, produced = run_stream(dut, items[:1])
+    compare(items[:1], expected[:1], outputs)
+    assert produced[0] - accepted[0] == dut.latency
+    # The output held: three poses in the core, as with one pose a program.
+    outputs, accepted, produced = run_stream(dut, items[:6], hold_output=5 * dut.latency)
+    compare(items[:6], expected[:6], outputs)
+    assert sum(a < 5 * dut.latency for a in accepted) == dut.capacity
 
 
 def test_core_output_held():

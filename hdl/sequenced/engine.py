@@ -32,7 +32,8 @@ from . import isa as X
 from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, tagged_fields
 from ..datapath.expr import select
 from . import units as U
-from .program import ik_program
+from .program import POSES, ik_program
+from .poses import PoseRegisters
 from .units import STATUS_BITS
 
 __all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
@@ -52,11 +53,13 @@ class SeqEngine(wiring.Component):
     16-bit limb of MA by 31 bits of MB (two DSPs): fewer clocks per pose, a longer product path.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False,
+                 poses: int = 1):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         _check_wide(wide_product)
-        self.prog = ik_program(constants, wide_product=wide_product)
+        _check_poses(poses)
+        self.prog = ik_program(constants, wide_product=wide_product, poses=poses)
         clash = X.read_write_clash(self.prog.code)
         if clash is not None:
             raise ValueError(f"instruction {clash} writes the memory word that instruction "
@@ -66,6 +69,10 @@ class SeqEngine(wiring.Component):
         self.widths = w = self.prog.widths
         w.tag = tag_width
         self.cycles = len(self.prog.code)
+        self.poses = poses
+        #: The first pose's status word: its last output.
+        self.first_status = next(t for t, ins in enumerate(self.prog.code)
+                                 if ins.io == X.IO_STATUS and not ins.ip)
         self.in_bits = max(w.word, 3 + tag_width)
         #: STATUS_BITS, or 7 for an arm with limits (OUT_OF_LIMITS): the tag sits above them.
         self.status_bits = w.status = constants.status_width
@@ -91,11 +98,18 @@ class SeqEngine(wiring.Component):
         reading, writing = Signal(name="io_reading"), Signal(name="io_writing")
         m.d.comb += [reading.eq((ins.io == X.IO_IN) | (ins.io == X.IO_FLAGS)),
                      writing.eq((ins.io == X.IO_OUT) | (ins.io == X.IO_STATUS))]
-        m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
         run = ~stall
 
         acc = Signal(signed(w.acc))
         regs = U.registers(w)
+        # The word ports: ``(in_take, in_ready, out_valid)``.
+        if prog.poses == 1:
+            m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
+            pose_regs, io = None, (reading & run, reading, writing)
+        else:
+            pose_regs = PoseRegisters(regs, prog.poses, w)
+            pose_stall, *io = pose_regs.ports(m, ins, self.in_valid, self.out_ready, run)
+            m.d.comb += stall.eq(pose_stall)
         in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
         bus = Signal(signed(w.acc), name="bus")
         options = [mem_q, in_word, regs["cx"], regs["cy"], regs["cz"], regs["root"], regs["rem"], acc]
@@ -105,18 +119,19 @@ class SeqEngine(wiring.Component):
         for term in terms[1:]:
             total_bus = total_bus | term
         m.d.comb += bus.eq(total_bus)
-        sources = [Const(1, 1), regs["flag"], regs["back"], regs["down"], regs["roll"], regs["zero"]]
+        flags = [pose_regs.of(name, ins.cp) if pose_regs else regs[name] for name in ("back", "down", "roll")]
+        sources = [Const(1, 1), regs["flag"], *flags, regs["zero"]]
         cond = ((select(sources, Value.cast(ins.ca)) ^ ins.cai)
                 & (select(sources, Value.cast(ins.cb)) ^ ins.cbi))
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=ins, bus=bus)
-        U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w)
+        U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs)
         U.cordic(m, ins, dec, shift, bus, cond, step, regs, run, w)
         U.multiplier(m, ins, pre.sh, bus, regs, run, w, prog.shifts)
         U.sqrt(m, ins, acc, regs, run, w)
         m.d.comb += [mem_wr.addr.eq(ins.wa), mem_wr.data.eq(acc), mem_wr.en.eq(ins.wr & run)]
 
-        self._ports(m, ins, pre, stall, reading, writing, acc, regs, run, w)
+        self._ports(m, ins, pre, stall, io, acc, regs, run, w, pose_regs)
         return m
 
     def _fetch(self, m, stall):
@@ -208,13 +223,19 @@ class SeqEngine(wiring.Component):
             m.d.sync += [dec[name].eq(value) for name, value in decoded.items()]
         return dec, shift
 
-    def _ports(self, m, ins, pre, stall, reading, writing, acc, regs, run, w):
-        """The word ports and the flags word."""
+    def _ports(self, m, ins, pre, stall, io, acc, regs, run, w, pose_regs):
+        """The word ports and the flags word (``io``: in_take, in_ready, out_valid)."""
         status = ins.io == X.IO_STATUS
-        m.d.comb += [self.in_index.eq(Mux(stall, ins.iw, pre.iw)), self.in_take.eq(reading & run),
-                     self.in_ready.eq(reading),
-                     self.out_valid.eq(writing), self.out_index.eq(Mux(status, 5, ins.iw)),
-                     self.out_data.eq(Mux(status, Cat(regs["status"], regs["tag"]), acc[:w.word]))]
+        in_take, in_ready, out_valid = io
+        state = Cat(pose_regs.of("status", ins.ip), pose_regs.of("tag", ins.ip)) if pose_regs else \
+            Cat(regs["status"], regs["tag"])
+        m.d.comb += [self.in_index.eq(Mux(stall, ins.iw, pre.iw)), self.in_take.eq(in_take),
+                     self.in_ready.eq(in_ready),
+                     self.out_valid.eq(out_valid), self.out_index.eq(Mux(status, 5, ins.iw)),
+                     self.out_data.eq(Mux(status, state, acc[:w.word]))]
+        if pose_regs:
+            pose_regs.flags(m, ins, run, self.in_data, w.tag)
+            return
         with m.If(run & (ins.io == X.IO_FLAGS)):
             m.d.sync += [regs["roll"].eq(self.in_data[0]), regs["back"].eq(self.in_data[1]),
                          regs["down"].eq(self.in_data[2])]
@@ -226,6 +247,11 @@ def _check_wide(wide_product):
         raise ValueError(f"wide_product must be True or False, got {wide_product!r}")
 
 
+def _check_poses(poses):
+    if isinstance(poses, bool) or poses not in POSES:
+        raise ValueError(f"poses must be one of {POSES}, got {poses!r}")
+
+
 def _check_tag(tag_width, limit):
     if isinstance(tag_width, bool) or not isinstance(tag_width, int) or not 0 <= tag_width <= limit:
         raise ValueError(f"tag_width must be an integer in [0, {limit}], got {tag_width!r}")
@@ -235,24 +261,33 @@ class SequencedIKCore(wiring.Component):
     """The IK core (payloads of :class:`~ik5r.hdl.pipelined.core.IKCore`) on the sequenced engine.
 
     Function: ``model.ik_solve`` bit for bit (q1..q5, status, tag), formats as ``IKCore``.
-    Latency: ``latency`` = the program's length + 2 clocks from an input transfer into an idle
-    core to its result on ``o``. Throughput: one pose per ``cycles_per_result`` (the program's
-    length) clocks: the next pose is taken into the input register while one is computed, and a
-    result waits in the output register (the engine waits at its first output word while a
-    result is held). Nothing is lost, duplicated or reordered under back-pressure.
+    Latency: ``latency`` clocks from an input transfer into an idle core to its result on ``o``
+    (the program's length + 2 for one pose a program). Throughput: ``poses`` poses per program
+    length, ``cycles_per_result`` clocks a pose: the next pose is taken into the input register
+    while one is computed, and a result waits in the output register (the engine waits at an
+    output word while a result is held). ``poses`` 2: a program computes two poses on the shared
+    units (:func:`.program.interleave`); the second is skipped when no pose is there for it, so
+    a pose never waits for another. Nothing is lost, duplicated or reordered under back-pressure.
     """
 
-    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False):
+    def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False,
+                 poses: int = 1):
         _check_tag(tag_width, 26)
         _check_wide(wide_product)
-        self._engine = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
+        _check_poses(poses)
+        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product,
+                                     poses=poses)
         self.constants, self.arch, self.tag_width = constants, CoreArch.COMPACT, tag_width
         in_fields, out_fields = tagged_fields(constants, tag_width)
         self.in_fields, self.out_fields = in_fields, out_fields
-        self.cycles_per_result = self._engine.cycles
-        self.latency = self._engine.cycles + 2
+        self.cycles_per_result = e.cycles if poses == 1 else e.cycles / poses
+        # The first pose's status word (the program's last instruction for one pose), a clock
+        # to the output register, two from an input transfer to the engine's first word.
+        self.latency = e.first_status + 3
+        # Input register, engine, output register: the engine stops at the first output word
+        # after the output register fills (in a two-pose program, the second pose's).
         self.capacity = 3
-        self.options = {"wide_product": True} if wide_product else {}
+        self.options = ({"wide_product": True} if wide_product else {}) | ({"poses": poses} if poses > 1 else {})
         super().__init__({
             "i": In(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in in_fields.items()}))),
             "o": Out(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in out_fields.items()}))),

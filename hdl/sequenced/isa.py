@@ -21,7 +21,7 @@ instruction becomes a word. The clock-exact reference interpreter is :mod:`.mach
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 from amaranth.hdl import unsigned
 from amaranth.lib import data, enum
@@ -155,6 +155,9 @@ class Ins:
     sq: SqrtOp | None = None
     io: IoOp | None = None
     iw: int | None = None
+    ip: int | None = None
+    sp: int | None = None
+    cp: int | None = None
 
     def present(self) -> frozenset:
         """The names of the fields this instruction sets."""
@@ -171,6 +174,26 @@ class Ins:
 
 #: The instruction fields in word order (the first at bit 0).
 FIELDS = tuple(f.name for f in fields(Ins))
+#: The pose (of a program of several, :func:`.program.interleave`) whose registers a field group
+#: acts on: ``ip`` the word port's (``io``: the pose's inputs, flags, outputs and status), ``sp``
+#: the status event's (``stat``), ``cp`` the flag conditions' (``ca``, ``cb`` on BACK, DOWN,
+#: ROLL). Absent (pose 0) in a one-pose program: no bits in its word.
+POSE_FIELDS = ("ip", "sp", "cp")
+FLAG_CONDITIONS = (CondSource.BACK, CondSource.DOWN, CondSource.ROLL)
+
+
+def pose_of(ins: Ins, pose: int) -> Ins:
+    """``ins`` as an instruction of pose ``pose`` (pose 0: itself): its variables the pose's
+    own words, its pose fields set where it acts on a pose's registers."""
+    if pose == 0:
+        return ins
+
+    def own(ref):
+        return Var(f"p{pose}.{ref.name}") if isinstance(ref, Var) else ref
+
+    flagged = ins.ca in FLAG_CONDITIONS or ins.cb in FLAG_CONDITIONS
+    return replace(ins, rd=own(ins.rd), wa=own(ins.wa), ip=pose if ins.io is not None else None,
+                   sp=pose if ins.stat is not None else None, cp=pose if flagged else None)
 #: The enum type of each operation field; the others are unsigned numbers.
 ENUM_FIELDS = {"bsel": BusSource, "alu": AluOp, "ca": CondSource, "cb": CondSource,
                "cop": CordicOp, "mld": MulLoad, "sq": SqrtOp, "io": IoOp}
@@ -217,6 +240,7 @@ class Program:
     shifts: list             # MACC / MLD shift amounts by ``sh``
     widths: Widths
     names: dict = field(default_factory=dict)   # variable name -> address
+    poses: int = 1           # poses per run of the code (:func:`.program.interleave`)
 
 
 def _number(ins: Ins, name: str) -> int:
@@ -233,7 +257,7 @@ def word_layout(code: list[Ins]) -> data.StructLayout:
     as many bits as its largest value in ``code`` needs (at least 1)."""
     return data.StructLayout({
         name: ENUM_FIELDS.get(name) or unsigned(max(1, max(_number(i, name) for i in code).bit_length()))
-        for name in FIELDS})
+        for name in FIELDS if name not in POSE_FIELDS or any(getattr(i, name) for i in code)})
 
 
 def encode(layout: data.StructLayout, ins: Ins) -> data.Const:

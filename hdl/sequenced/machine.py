@@ -11,10 +11,10 @@ from __future__ import annotations
 from ik5r.core.fxconfig import CHECK_BITS
 
 from ..graph.inputs import INPUT_WORDS
-from .isa import (ADDER_SOURCES, ADDING, LIMB, READ_AHEAD, AluOp, BusSource, CondSource, CordicOp,
-                  NORMS, SHIFTS, Ins, IoOp, MulLoad, Program, SqrtOp)
+from .isa import (ADDER_SOURCES, ADDING, FLAG_CONDITIONS, LIMB, READ_AHEAD, AluOp, BusSource,
+                  CondSource, CordicOp, NORMS, SHIFTS, Ins, IoOp, MulLoad, Program, SqrtOp)
 
-__all__ = ["Machine", "run", "limb", "check_word", "wrap_signed", "fits"]
+__all__ = ["Machine", "run", "run_poses", "limb", "check_word", "wrap_signed", "fits"]
 
 
 def limb(value: int, index: int, top: bool, size: int = 1) -> int:
@@ -58,9 +58,13 @@ class Machine:
         self.p, self.w = prog, prog.widths
         self.mem = list(prog.mem_init)
         self.acc = self.cx = self.cy = self.cz = 0
-        self.f = self.zero = self.back = self.down = self.roll = 0
-        self.status = self.tag = 0
+        self.f = self.zero = 0
+        # A pose's registers, one per pose of the program (indexed by the pose fields).
+        poses = prog.poses
+        self.back, self.down, self.roll = [0] * poses, [0] * poses, [0] * poses
+        self.status, self.tag = [0] * poses, [0] * poses
         self.pending = 0        # status bits of the previous instruction, ORed in one clock later
+        self.pending_pose = 0
         self.ma = self.mb = self.la = self.lb = self.prod = 0
         self.rad = self.root = self.rem = 0
 
@@ -71,22 +75,26 @@ class Machine:
     _BUS_REGISTER = {BusSource.CX: "cx", BusSource.CY: "cy", BusSource.CZ: "cz", BusSource.ROOT: "root",
                      BusSource.REM: "rem", BusSource.ACC: "acc"}
 
-    def _source(self, src) -> int:
-        return 1 if src is None or src is CondSource.ONE else getattr(self, self._COND_REGISTER[src])
+    def _source(self, src, pose: int) -> int:
+        if src is None or src is CondSource.ONE:
+            return 1
+        value = getattr(self, self._COND_REGISTER[src])
+        return value[pose] if src in FLAG_CONDITIONS else value
 
     def cond(self, ins: Ins) -> int:
-        a = self._source(ins.ca) ^ (ins.cai or 0)
-        b = self._source(ins.cb) ^ (ins.cbi or 0)
+        a = self._source(ins.ca, ins.cp or 0) ^ (ins.cai or 0)
+        b = self._source(ins.cb, ins.cp or 0) ^ (ins.cbi or 0)
         return a & b
 
     def bus(self, ins: Ins, mem_word, inputs) -> int:
         sel = _bsel(ins)
         if sel is BusSource.IN:
-            return inputs[ins.iw] << self.w.guard
+            return inputs[ins.ip or 0][ins.iw] << self.w.guard
         return mem_word if sel is BusSource.MEM else getattr(self, self._BUS_REGISTER[sel])
 
     def step(self, ins: Ins, mem_word, inputs, outputs):
-        """One clock of ``ins`` (``mem_word``: the memory word read for it)."""
+        """One clock of ``ins`` (``mem_word``: the memory word read for it; ``inputs``,
+        ``outputs``: per pose of the program)."""
         w = self.w
         b = self.bus(ins, mem_word, inputs)
         cond = self.cond(ins)
@@ -98,25 +106,32 @@ class Machine:
             raise OverflowError(f"accumulator overflow {acc} at {ins}")
         # Status bits reach the register one clock after their event (a register off the
         # compare's carry chain).
-        status, self.pending = self.status | self.pending, (ins.stat or 0) if event else 0
+        status = list(self.status)
+        status[self.pending_pose] |= self.pending
+        self.pending, self.pending_pose = (ins.stat or 0) if event else 0, ins.sp or 0
         # Memory write and word output take the accumulator before this instruction.
         if ins.wr:
             if not fits(self.acc, w.mem):
                 raise OverflowError(f"memory word overflow {self.acc} at {ins}")
             self.mem[ins.wa] = self.acc
-        if ins.io == IoOp.OUT:
-            outputs[ins.iw] = wrap_signed(self.acc, w.word)
-        elif ins.io == IoOp.STATUS:
-            outputs["status"], outputs["tag"] = self.status, self.tag
-        elif ins.io == IoOp.FLAGS:
-            flags = inputs[len(INPUT_WORDS)]
-            self.roll, self.back, self.down = flags & 1, (flags >> 1) & 1, (flags >> 2) & 1
-            self.tag = flags >> 3
-            status = 0
+        self._io(ins, inputs, outputs, status)
         self._cordic(ins, b, cond)
         self._multiply(ins, b)
         self._sqrt(ins)
         self.acc, self.f, self.status = acc, f, status
+
+    def _io(self, ins: Ins, inputs, outputs, status: list):
+        """The word ports: an output word, the status word, the flags word (a pose's registers)."""
+        pose = ins.ip or 0
+        if ins.io == IoOp.OUT:
+            outputs[pose][ins.iw] = wrap_signed(self.acc, self.w.word)
+        elif ins.io == IoOp.STATUS:
+            outputs[pose]["status"], outputs[pose]["tag"] = self.status[pose], self.tag[pose]
+        elif ins.io == IoOp.FLAGS:
+            flags = inputs[pose][len(INPUT_WORDS)]
+            self.roll[pose], self.back[pose], self.down[pose] = flags & 1, (flags >> 1) & 1, (flags >> 2) & 1
+            self.tag[pose] = flags >> 3
+            status[pose] = 0
 
     def _alu(self, ins: Ins, b: int, cond: int) -> tuple:
         """(the accumulator, F, the status event) after the ALU operation of ``ins``."""
@@ -229,9 +244,17 @@ class Machine:
 def run(prog: Program, inputs: list[int]) -> dict:
     """One pose through ``prog``: ``inputs`` are the 13 words of :data:`INPUT_WORDS` and the flags
     word (has_roll | shoulder_back << 1 | elbow_down << 2 | tag << 3). Returns the output words
-    (0..4: q1..q5) and ``status``, ``tag``."""
+    (0..4: q1..q5) and ``status``, ``tag`` (a program of several poses: the first, every pose
+    given ``inputs``)."""
+    return run_poses(prog, [inputs] * prog.poses)[0]
+
+
+def run_poses(prog: Program, poses: list[list[int]]) -> list[dict]:
+    """One run of ``prog``: ``poses`` its poses' input words (as :func:`run`'s), their outputs."""
+    if len(poses) != prog.poses:
+        raise ValueError(f"the program takes {prog.poses} poses a run, got {len(poses)}")
     m = Machine(prog)
-    outputs = {}
+    inputs, outputs = poses, [{} for _ in poses]
     code = prog.code
     # The memory read of instruction n happens two clocks ahead, in the clock of instruction
     # n - 2, before that instruction's write (see READ_AHEAD).

@@ -17,7 +17,7 @@ from functools import lru_cache
 from ik5r.core.fxconfig import Constants
 
 from .asm import Asm, limbs_of, widths_of
-from .isa import Program
+from .isa import IO_FLAGS, Program, pose_of
 from .lower import Lower
 from .schedule import schedule
 from ..graph.trace import trace
@@ -25,28 +25,62 @@ from ..graph.trace import trace
 __all__ = ["ik_program"]
 
 
-def ik_program(k: Constants, *, wide_product: bool = False) -> Program:
+def ik_program(k: Constants, *, wide_product: bool = False, poses: int = 1) -> Program:
     """``ik.solve`` for format ``k`` as a program of the sequenced engine (bit-exact to
     ``model.ik_solve``; see the module docstring); ``wide_product``: for the engine whose product
-    step multiplies a 16-bit limb by two limbs of MB (31 bits, two DSPs). Compiled once per
-    format (the schedule is a search: :func:`.seq_schedule.schedule`); each call returns its
-    own copy."""
+    step multiplies a 16-bit limb by two limbs of MB (31 bits, two DSPs); ``poses``: poses per
+    run of the program (:func:`interleave`). Compiled once per format (the schedule is a
+    search: :func:`.seq_schedule.schedule`); each call returns its own copy."""
     if not isinstance(wide_product, bool):
         raise TypeError(f"wide_product must be a bool, got {wide_product!r}")
-    return copy.deepcopy(_compile(k, wide_product))
+    if poses not in POSES:
+        raise ValueError(f"poses must be one of {POSES}, got {poses!r}")
+    return copy.deepcopy(_compile(k, wide_product, poses))
+
+
+#: Poses per program: one, or two whose blocks share the units (more found no shorter program
+#: per pose).
+POSES = (1, 2)
+#: Clocks between a pose's last input word (the flags) and the next pose's first: the core's
+#: input register is refilled and its word register reads the new pose (SequencedIKCore).
+INPUT_GAP = 2
+
+
+def interleave(blocks: list, poses: int) -> tuple[list, tuple]:
+    """The blocks of ``poses`` poses in one program, and their order (:func:`.schedule.schedule`'s
+    ``after``): each pose's variables its own words, its instructions' pose fields set
+    (:data:`.isa.POSE_FIELDS`: word ports, flag conditions, status events); the poses' inputs
+    and outputs in pose order. The units are shared: a pose's products and glue run while
+    another's CORDIC does (one pose alone leaves the ALU idle for most of the CORDIC's clocks)."""
+    copies = [[[pose_of(ins, p) for ins in code] for code in blocks] for p in range(poses)]
+    inputs, outputs = [c[0] for c in copies], [c[-1] for c in copies]
+    middle = [code for c in copies for code in c[1:-1]]
+    codes = inputs + middle + outputs
+    first_out, per_pose = len(codes) - poses, len(blocks) - 2
+    # A pose's outputs (its status word last) after all its blocks, as the last block is.
+    after = [(p, p + 1, INPUT_GAP) for p in range(poses - 1)]
+    after += [(first_out + p, first_out + p + 1, 0) for p in range(poses - 1)]
+    after += [(poses + p * per_pose + i, first_out + p, 0) for p in range(poses - 1) for i in range(per_pose)]
+    return codes, tuple(after)
 
 
 @lru_cache(maxsize=None)
-def _compile(k: Constants, wide_product: bool = False) -> Program:
+def _compile(k: Constants, wide_product: bool = False, poses: int = 1) -> Program:
     ki = k.internal
     if ki.check_shift != k.check_shift + k.cfg.internal_guard_bits:
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
     a = Asm(k, wide_product=wide_product)
     joints, events, _ = trace(k)
-    code = schedule(Lower(a, joints, events).blocks)
+    code = schedule(*interleave(Lower(a, joints, events).blocks, poses))
     widths = widths_of(k)
     widths.limbs = limbs_of(a.operand_bits)
     widths.b_limbs = a.b_size
     widths.acc = max(widths.acc, a.product_bits + 3)
-    return a.finish(code, widths)
+    prog = a.finish(code, widths)
+    prog.poses = poses
+    last_flags = max(t for t, ins in enumerate(prog.code) if ins.io == IO_FLAGS)
+    if len(prog.code) - 1 - last_flags < INPUT_GAP:
+        raise ValueError(f"the last pose's flags word at clock {last_flags} of {len(prog.code)}: "
+                         f"fewer than {INPUT_GAP} clocks before the next run's first word")
+    return prog

@@ -23,7 +23,7 @@ from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A
                   C_F, C_ZERO, IO_OUT, K_LDX, K_LDXG, K_LDY, K_LDYG, K_LDZA, Q_LOAD, READ_AHEAD,
                   SHIFTS, Ins, Var, nonzero)
 
-COND_FIELDS = ("ca", "cai", "cb", "cbi")
+COND_FIELDS = ("ca", "cai", "cb", "cbi", "cp")
 ACC_WRITE = {A_LD, A_ADD, A_SUB, A_NEG, *SHIFTS, A_SATI, A_SATW, A_MLD, A_MACC}
 ACC_READ = {A_ADD, A_SUB, A_NEG, *SHIFTS, A_SATI, A_SATW, A_MACC, A_CMPGT, A_CMPLT}
 BUS_ALU = {A_LD, A_ADD, A_SUB, A_CMPGT, A_CMPLT}
@@ -224,9 +224,11 @@ def _priorities(blocks: list, producer: dict) -> list:
     return prio
 
 
-def schedule(codes: list) -> list:
+def schedule(codes: list, after: tuple = ()) -> list:
     """Place the blocks (``codes[0]`` the inputs, ``codes[-1]`` the outputs) and share the
-    memory words of the shortest program found (:func:`share_words`).
+    memory words of the shortest program found (:func:`share_words`). ``after``: (i, j, gap)
+    triples, block j starts ``gap`` clocks or more after block i ends (the word ports' order
+    between poses of one program, :func:`.program.ik_program`).
 
     The longest-path priorities are a start: a block off the critical path placed late may find
     its unit taken where it had room (the roll's atan2 behind the elbow's). So each block's
@@ -235,7 +237,8 @@ def schedule(codes: list) -> list:
     pass keeps none (a hill climb); then the priorities of every two blocks are swapped in turn
     (a climb's steps move one block past its neighbours; a swap trades two places at once), the
     climb resumed after a shorter program, until no swap shortens it. Deterministic."""
-    blocks = [Block(c) for c in codes]
+    blocks = _Blocks(Block(c) for c in codes)
+    blocks.after = {j: [(i, gap) for i, jj, gap in after if jj == j] for _, j, _ in after}
     prio = _priorities(blocks, _Placer(blocks).producer)
     best, prio = _climb(blocks, prio, _Placer(blocks, prio).run())
     while True:
@@ -244,6 +247,11 @@ def schedule(codes: list) -> list:
             break
         best, prio = _climb(blocks, swapped, shorter)
     return share_words(best.code())
+
+
+class _Blocks(list):
+    """The blocks to place, with ``after``: per block, the (block, gap) it must follow."""
+    after: dict = {}
 
 
 #: Hill-climbing passes over the priorities (each schedules the program once per block and step).
@@ -299,6 +307,10 @@ class _Placer:
                 return None
             if name in self.written:
                 t = max(t, self.written[name] + READ_AHEAD + 1 - t_read)
+        for before, gap in getattr(self.blocks, "after", {}).get(i, ()):
+            if before not in self.start:
+                return None
+            t = max(t, self.start[before] + len(self.blocks[before].code) + gap)
         return t
 
     def place(self, i: int, t: int):

@@ -34,8 +34,9 @@ def registers(w):
         "rem": Signal(w.radicand // 2 + 2, name="rem"),
     }
 
-def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
-    """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits."""
+def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs=None):
+    """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits (of
+    the event's pose, ``pose_regs``, in a program of several)."""
     # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
     # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
     right = Signal(signed(w.acc), name="alu_right")
@@ -83,8 +84,11 @@ def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w):
             m.d.sync += regs["flag"].eq(cond)
         # Status bits reach the register a clock after their event.
         pending = Signal(w.status, name="status_pending")
-        m.d.sync += [pending.eq(Mux(result, on_compare, 0) | on_other),
-                     regs["status"].eq(Mux(ins.io == X.IO_FLAGS, 0, regs["status"] | pending))]
+        m.d.sync += pending.eq(Mux(result, on_compare, 0) | on_other)
+        if pose_regs:
+            pose_regs.status(m, ins, pending)
+        else:
+            m.d.sync += regs["status"].eq(Mux(ins.io == X.IO_FLAGS, 0, regs["status"] | pending))
 
 def cordic(m, ins, dec, shift, bus, cond, step, regs, run, w):
     """The CORDIC unit: loads, quarter turns, normalising shifts, one micro-rotation a clock."""
