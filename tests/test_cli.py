@@ -319,3 +319,21 @@ def test_verilog_rotations_per_stage(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("--rotations-per-stage:") and "pipelined" in err[0]
     assert not (tmp_path / "w").exists()
+
+
+def test_verilog_poses(tmp_path, capsys):
+    """--poses 2: the compact IK core's module named with it, two poses a program length (the
+    program's poses per result); asked of the pipelined core: one line, exit 2, nothing written."""
+    assert main(["verilog", "-q", "--block", "ik", "--arch", "compact", "--config", "q18", "--poses", "2",
+                 "-o", str(tmp_path / "v")]) == 0
+    maps = {p.stem: json.loads(p.read_text()) for p in (tmp_path / "v").glob("*.json")}
+    assert list(maps) == ["ik5r_ik_poses2_compact"]
+    from ik5r.core.fxconfig import constants, load_config
+    from ik5r.hdl.sequenced.program import ik_program
+    k = constants(load_config("q18"))
+    assert maps["ik5r_ik_poses2_compact"]["cycles_per_result"] == len(ik_program(k, poses=2).code) / 2
+    capsys.readouterr()
+    assert main(["verilog", "--block", "ik", "--arch", "pipelined", "--poses", "2", "-o", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("--poses:") and "compact" in err[0]
+    assert not (tmp_path / "w").exists()

@@ -182,6 +182,27 @@ def wide_option(args, block: str, arch: str) -> dict:
     return {"wide_product": True}
 
 
+def add_poses(parser) -> None:
+    """``--poses`` (verilog, sim, synth)."""
+    parser.add_argument("--poses", type=int, choices=(1, 2), default=1,
+                        help="compact IK core: poses a program; 2 computes two poses on the shared units "
+                             "(more poses a second, a longer latency; the same bits; module name "
+                             "..._poses2_...)")
+
+
+def poses_option(args, block: str, arch: str) -> dict:
+    """The generator option of ``--poses`` (none at 1); exit 2 when it is asked of anything but
+    the compact IK core."""
+    from ik5r.core.errors import InputError
+
+    poses = getattr(args, "poses", 1)
+    if poses == 1:
+        return {}
+    if block != Block.IK or arch != CoreArch.COMPACT:
+        raise InputError("--poses", f"applies to the compact IK core, not to {block} {arch}")
+    return {"poses": poses}
+
+
 def rotations_option(args, arch: str) -> dict:
     """The generator option of ``--rotations-per-stage`` for ``arch`` (none at 1); exit 2 when it
     is asked of an architecture that has no pipeline stages to fill."""

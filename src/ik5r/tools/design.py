@@ -35,6 +35,7 @@ class DesignOptions:
     max_dsp: int | None = None      # pipelined arch, dsp="ecp5": cap on MULT18X18D (the rest in LUTs)
     wide_product: bool = False      # compact IK core: a 16 x 31 product step (two DSPs), fewer clocks
     dsp_output_regs: int = 0        # pipelined IK core, dsp="ecp5": fabric registers after each DSP
+    poses: int = 1                  # compact IK core: poses a program (2: two share the units)
 
     def generate_kwargs(self) -> dict:
         """The options of ``ik5r.hdl.generate.generate`` (module name, constructor)."""
@@ -43,7 +44,8 @@ class DesignOptions:
                ({} if self.rotations_per_stage == 1 else {"rotations_per_stage": self.rotations_per_stage}) | \
                ({} if self.max_dsp is None else {"max_dsp": self.max_dsp}) | \
                ({"wide_product": True} if self.wide_product else {}) | \
-               ({"dsp_output_regs": self.dsp_output_regs} if self.dsp_output_regs else {})
+               ({"dsp_output_regs": self.dsp_output_regs} if self.dsp_output_regs else {}) | \
+               ({"poses": self.poses} if self.poses != 1 else {})
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,7 @@ class Design:
                 arm: Arm | str | Path | None = None, tag_width: int = 0, dsp: str = Dsp.GENERIC,
                 serial: int | None = None, rotations_per_stage: int = 1,
                 max_dsp: int | None = None, wide_product: bool = False,
-                dsp_output_regs: int = 0) -> "Design":
+                dsp_output_regs: int = 0, poses: int = 1) -> "Design":
         """Load the config (name or file) and the arm (name or file) once, resolve the arch
         (``iterative``/``compact``: the small one) and check the arm fits the config."""
         from ik5r.hdl.generate import resolve_arch
@@ -71,7 +73,7 @@ class Design:
         if block not in ("cpu",):
             arch = resolve_arch(block, arch)
         design = cls(block, arch, cfg, arm_, DesignOptions(tag_width, dsp, serial, rotations_per_stage,
-                                                          max_dsp, wide_product, dsp_output_regs))
+                                                          max_dsp, wide_product, dsp_output_regs, poses))
         design.constants        # noqa: B018 -- builds and checks (armfit) now, not at generation
         return design
 

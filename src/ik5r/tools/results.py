@@ -70,16 +70,16 @@ class VerilogOfCheckout:
         per_stage = r.get("rotations_per_stage", 1)
         # The compact core's wide product step (records made before the key: in the module name).
         wide = bool(r.get("wide_product")) or "_wide_product1_" in r.get("module", "")
-        cap, regs = r.get("max_dsp"), r.get("dsp_output_regs", 0)
+        cap, regs, poses = r.get("max_dsp"), r.get("dsp_output_regs", 0), r.get("poses", 1)
         key = (r["block"], r["arch"], dsp, r["config"], r.get("tag_width", 0), serial, arm, per_stage, wide,
-               cap, regs)
+               cap, regs, poses)
         if key in self._texts:
             return self._texts[key]
         try:
             design = Design.resolve(r["block"], r["arch"], config=r["config"], arm=arm,
                                     tag_width=r.get("tag_width", 0), dsp=dsp, serial=serial,
                                     rotations_per_stage=per_stage, wide_product=wide, max_dsp=cap,
-                                    dsp_output_regs=regs)
+                                    dsp_output_regs=regs, poses=poses)
         except InputError:
             self._texts[key] = ""
             return ""
@@ -219,6 +219,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
     for r in rows:
         arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
         arch += ", 16 x 31-bit product step" if r.get("wide_product") else ""
+        arch += f", {r['poses']} poses a program" if r.get("poses", 1) != 1 else ""
         per_stage = r.get("rotations_per_stage", 1)
         arch += f", {per_stage} micro-rotations per stage" if per_stage != 1 else ""
         regs = r.get("dsp_output_regs", 0)

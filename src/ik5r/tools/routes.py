@@ -22,6 +22,7 @@ ROUTES = (
     ("soft CPU: VexRiscv, rv32im, on the 85k", "ik5r_soc_vexriscv_{c}_ecp5-85k", "vexriscv_rv32im_{c}"),
     ("compact IK core", "ik5r_ik_compact_{c}_ecp5-25k", None),
     ("compact IK core, 16 x 31-bit product step (2 DSPs)", "ik5r_ik_wide_product1_compact_{c}_ecp5-25k", None),
+    ("compact IK core, two poses a program", "ik5r_ik_poses2_compact_{c}_ecp5-25k", None),
     ("pipelined IK core (ECP5 DSP + carry primitives)", "ik5r_ik_dspecp5_pipelined_{c}_ecp5-85k", None),
     ("pipelined IK core, 2 micro-rotations per stage (ECP5 primitives)",
      "ik5r_ik_dspecp5_rotations_per_stage2_pipelined_{c}_ecp5-85k", None),

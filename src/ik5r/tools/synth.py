@@ -187,11 +187,15 @@ def _design(design, opts: SynthOptions):
         raise InputError("--dsp-output-regs", f"applies to the pipelined IK core, not to {design.block} {design.arch}")
     if opts.wide_product and (design.block, design.arch) != (Block.IK, CoreArch.COMPACT):
         raise InputError("--wide-product", f"applies to the compact IK core, not to {design.block} {design.arch}")
+    if opts.poses != 1 and ((design.block, design.arch) != (Block.IK, CoreArch.COMPACT) or serial is not None):
+        raise InputError("--poses", f"applies to the compact IK core's struct streams, not to {design.block} "
+                                    f"{design.arch}" + (" (word-serial on the iCE40)" if serial is not None else ""))
     design = Design.resolve(design.block, design.arch, config=design.config, arm=design.arm,
                             tag_width=opts.tag_width, dsp=dsp, serial=serial,
                             rotations_per_stage=opts.rotations_per_stage, wide_product=opts.wide_product,
                             max_dsp=opts.max_dsp if dsp == Dsp.ECP5 else None,
-                            dsp_output_regs=opts.dsp_output_regs if dsp == Dsp.ECP5 else 0)
+                            dsp_output_regs=opts.dsp_output_regs if dsp == Dsp.ECP5 else 0,
+                            poses=opts.poses)
     text, pmap = design.verilog()
     return design, design.options.generate_kwargs(), text, pmap
 
@@ -297,6 +301,7 @@ def _result(design, options: dict, pmap: dict, opts: SynthOptions, figures: dict
         "block": design.block, "arch": design.arch, "dsp": design.options.dsp, "tag_width": opts.tag_width,
         "module": pmap["module"], "serial": options.get("serial"), "config": cfg.name,
         **({"wide_product": True} if options.get("wide_product") else {}),
+        **({"poses": options["poses"]} if options.get("poses", 1) != 1 else {}),
         # The results tool rebuilds a record's Verilog from these keys (a default is left out).
         **({"rotations_per_stage": design.options.rotations_per_stage}
            if design.options.rotations_per_stage != 1 else {}),
@@ -329,8 +334,8 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items()
-             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp", "wide_product", "dsp_output_regs")}
-    # --rotations-per-stage, --max-dsp, --wide-product and --dsp-output-regs are in the Verilog and the module name
+             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp", "wide_product", "dsp_output_regs", "poses")}
+    # --rotations-per-stage, --max-dsp, --wide-product, --dsp-output-regs and --poses are in the Verilog and the module name
     # already (old keys stay valid).
     if opts.router == "router1":
         del flags["router"]  # the default: keys of runs made before the option stay valid

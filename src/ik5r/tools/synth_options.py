@@ -62,6 +62,7 @@ class SynthOptions:
     max_dsp: int | None = None      # pipelined, ECP5 DSPs: at most this many MULT18X18D (the rest in LUTs)
     wide_product: bool = False      # compact IK core: the 16 x 31 product step
     dsp_output_regs: int = 0        # pipelined IK core, ECP5 DSPs: fabric registers after each DSP
+    poses: int = 1                  # compact IK core: poses a program
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:

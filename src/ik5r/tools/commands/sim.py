@@ -99,6 +99,7 @@ def register(subparsers) -> None:
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_dsp_output_regs(parser)
     cliopts.add_wide_product(parser)
+    cliopts.add_poses(parser)
     parser.add_argument("--harness", action="store_true",
                         help="the bulk run on the Verilator C++ harness fed from a file (much faster than "
                              "cocotb; the cocotb stream run, with its protocol checks, still runs first)")
@@ -116,6 +117,10 @@ def run(args) -> int:
         return 2
     sim = args.simulator or default_simulator()
     stream_vectors = min(args.vectors, 1000) if args.stream_vectors is None else args.stream_vectors
+    if args.serial is not None and args.poses != 1:
+        print("ik5r sim: --poses is the struct-stream compact core's option, not its word-serial wrapper's",
+              file=sys.stderr)
+        return 2
     if args.serial is not None and not stream_vectors:
         print("ik5r sim: --serial runs the stream run only: --stream-vectors must be > 0", file=sys.stderr)
         return 2
@@ -123,7 +128,7 @@ def run(args) -> int:
 
     per_stage = cliopts.rotations_option(args, resolve_arch(args.block, args.arch)).get("rotations_per_stage", 1)
     arch = resolve_arch(args.block, args.arch)
-    options = {**cliopts.wide_option(args, args.block, arch),
+    options = {**cliopts.wide_option(args, args.block, arch), **cliopts.poses_option(args, args.block, arch),
                **cliopts.dsp_output_regs_option(args, args.block, arch, args.dsp)}
     if args.harness and (args.serial is not None or sim != "verilator"):
         print("ik5r sim: --harness is a Verilator bulk run: use it with --simulator verilator, without --serial",

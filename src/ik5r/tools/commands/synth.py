@@ -64,6 +64,7 @@ def register(subparsers) -> None:
     cliopts.add_max_dsp(parser)
     cliopts.add_dsp_output_regs(parser)
     cliopts.add_wide_product(parser)
+    cliopts.add_poses(parser)
     parser.add_argument("--cache", default="build/synth", metavar="DIR",
                         help="cache folder (default: build/synth)")
     parser.add_argument("--force", action="store_true", help="ignore cached results")
@@ -127,7 +128,8 @@ def run(args) -> int:
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
                         seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp,
                         rotations_per_stage=args.rotations_per_stage, max_dsp=args.max_dsp,
-                        wide_product=args.wide_product, dsp_output_regs=args.dsp_output_regs).resolved()
+                        wide_product=args.wide_product, dsp_output_regs=args.dsp_output_regs,
+                        poses=args.poses).resolved()
 
     # Where nextpnr is (hours on the 85k), in one line rewritten in place: on a terminal only.
     status = StatusLine(sys.stderr) if cliopts.show_progress(args) else None

@@ -58,6 +58,7 @@ def register(subparsers) -> None:
     cliopts.add_max_dsp(parser)
     cliopts.add_dsp_output_regs(parser)
     cliopts.add_wide_product(parser)
+    cliopts.add_poses(parser)
     parser.set_defaults(run=run)
 
 
@@ -74,6 +75,7 @@ def run(args) -> int:
     cliopts.max_dsp_option(args, Arch.PIPELINED if args.arch == "all" else args.arch, args.dsp)
     if args.block != "all" and args.arch != "all":
         cliopts.wide_option(args, args.block, resolve_arch(args.block, args.arch))
+        cliopts.poses_option(args, args.block, resolve_arch(args.block, args.arch))
     if args.dsp_output_regs:
         # The pipelined IK core's option (of --block all / --arch all, that core).
         cliopts.dsp_output_regs_option(args, Block.IK if args.block == "all" else args.block,
@@ -93,6 +95,8 @@ def run(args) -> int:
             # --wide-product (the compact IK core's option) and --dsp-output-regs (the pipelined
             # one's, with ECP5 DSPs): of --block all / --arch all, that core.
             options = {"wide_product": True} if args.wide_product and (block, arch) == (Block.IK, CoreArch.COMPACT) else {}
+            if args.poses != 1 and (block, arch) == (Block.IK, CoreArch.COMPACT):
+                options["poses"] = args.poses
             if (block, arch, dsp) == (Block.IK, Arch.PIPELINED, Dsp.ECP5):
                 options.update(cliopts.dsp_output_regs_option(args, block, arch, dsp))
             design = Design.resolve(block, arch, config=base.config, arm=base.arm, tag_width=args.tag_width,

@@ -74,7 +74,8 @@ def build_dir_for(design: Design, sim: str) -> Path:
     o = design.options
     variant = (("" if o.dsp == Dsp.GENERIC else f"_dsp{o.dsp}") + ("" if o.serial is None else f"_serial{o.serial}")
                + ("" if o.rotations_per_stage == 1 else f"_rps{o.rotations_per_stage}")
-               + ("_wide" if o.wide_product else "") + (f"_regs{o.dsp_output_regs}" if o.dsp_output_regs else ""))
+               + ("_wide" if o.wide_product else "") + (f"_regs{o.dsp_output_regs}" if o.dsp_output_regs else "")
+               + (f"_poses{o.poses}" if o.poses != 1 else ""))
     return ROOT / "build" / "sim" / f"{design.block}{variant}_{design.arch}_{design.config_label}_{sim}"
 
 
