@@ -228,7 +228,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
                      f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
                      f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
-                     f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'))} | "
+                     f"{_num(r.get('latency_cycles'))} | {_num(r.get('cycles_per_result'), '{:,.1f}' if (r.get('cycles_per_result') or 0) % 1 else '{:,.0f}')} | "
                      f"{_num(r.get('results_per_second'), '{:.3g}')} |")
     for r in rows:
         if r.get("fmax_mhz_by_seed"):

@@ -133,7 +133,7 @@ def routes_part(records: Path, is_current, firmware_current=_firmware_current) -
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
         lines.append(f"| {r['label']}{_stale(r)} | {r['device']} | {_fmt(r['luts'])} | {_fmt(r['ffs'])} | "
-                     f"{_fmt(r['dsps'])} | {_fmt(r['brams'])} | {_fmt(r['fmax'], 1)} | {_fmt(r['cycles'])} | "
+                     f"{_fmt(r['dsps'])} | {_fmt(r['brams'])} | {_fmt(r['fmax'], 1)} | {_fmt(r['cycles'], 1 if not r['cpu'] and r['cycles'] % 1 else 0)} | "
                      f"{_fmt(r['latency_us'], 2)} | {_fmt(r['poses'])} | {_fmt(r['per_kilo_lut'])} |")
     checked = []  # one entry per firmware record (the 85k row reuses the 25k's)
     for r in rows:
