@@ -75,7 +75,8 @@ def build(block: str, arch: str, constants: Constants, tag_width: int = 0, **opt
         return Acos(constants=constants, arch=arch, tag_width=tag_width, **options)
     if block == Block.IK:
         if arch == CoreArch.COMPACT:
-            from .sequenced.engine import SequencedIKCore, SerialIK
+            from .sequenced.engine import SequencedIKCore
+            from .sequenced.serial import SerialIK
             serial = options.pop("serial", None)
             if serial:
                 return SerialIK(constants=constants, tag_width=tag_width, beat_bits=serial, **options)

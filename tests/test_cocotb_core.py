@@ -128,3 +128,23 @@ def test_ecp5_core_with_dsp_output_regs_matches_model():
     assert r["stream"] is not None and r["bulk"] is not None and r["vectors"] >= 32
     assert r["latency_cycles"] == r["latency_cycles_portmap"] == design.verilog()[1]["latency_cycles"]
     assert r["cycles_per_result"] == 1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("config", ["q18", "q32w"])
+def test_two_pose_compact_core_matches_model(config):
+    """The compact core of two poses a program (``--poses 2``) on Verilator: every bit against the
+    model through the stream run (idles, back-pressure, a reset mid-traffic: programs whose second
+    pose is skipped) and the bulk run; its latency and cycles per result those of its port map."""
+    from ik5r.tools.testbench.runner import run_block, sim_design
+
+    design = sim_design("ik", "compact", config, poses=2)
+    r = run_block(design, "verilator", stream_vectors=8, bulk_vectors=40, seed=2025, cflags="-O0",
+                  edge_stride=8, bulk_edge_rest=True)
+    assert r["mismatches"] == 0, f"first mismatch: {r['first_mismatch']} (log: {r['log']})"
+    assert r["tag_errors"] == 0 and r["stale_outputs"] == 0
+    assert r["stream"] is not None and r["bulk"] is not None and r["stream"]["resets"] == 1
+    assert r["vectors"] >= 48 + len(directed_poses(constants(load_config(config))))
+    assert r["latency_cycles"] == r["latency_cycles_portmap"]
+    assert r["cycles_per_result"] == r["cycles_per_result_portmap"]
+    assert r["lint_warnings"] == [], "\n".join(r["lint_warnings"][:20])

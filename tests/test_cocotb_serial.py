@@ -1,4 +1,4 @@
-"""cocotb runs of the compact IK core's word-serial wrapper (``SerialIK``, hdl/sequenced/engine.py) as
+"""cocotb runs of the compact IK core's word-serial wrapper (``SerialIK``, hdl/sequenced/serial.py) as
 synthesised for the iCE40 UP5K (16-bit beats, ``ik5r.tools.synth.ICE40_BEAT_BITS``), against the
 bit-accurate model (``ik5r sim --block ik --arch compact --serial 16``; src/ik5r/tools/testbench/serial.py).
 

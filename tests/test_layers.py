@@ -274,7 +274,7 @@ MODE_HOMONYMS = {
     "sqrt": {"ik5r.hdl.graph.ops", "ik5r.hdl.sequenced.schedule",
              "ik5r.hdl.sequenced.units", "ik5r.tools.testbench.blocks"},
     # the design option of the word-serial wrapper (its beat bits) and the result keys it leaves
-    "serial": {"ik5r.hdl.generate", "ik5r.hdl.sequenced.engine", "ik5r.tools.commands.sim",
+    "serial": {"ik5r.hdl.generate", "ik5r.hdl.sequenced.serial", "ik5r.tools.commands.sim",
                "ik5r.tools.design", "ik5r.tools.results", "ik5r.tools.synth", "ik5r.tools.testbench.job",
                "ik5r.tools.testbench.runner", "ik5r.tools.testbench.serial"},
 }

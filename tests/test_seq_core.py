@@ -31,7 +31,8 @@ from ik5r.hdl.sequenced import asm as seq_asm
 from ik5r.hdl.sequenced import isa as seq_isa
 from ik5r.hdl.sequenced import machine
 from ik5r.hdl.generate import generate
-from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore, SerialIK
+from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore
+from ik5r.hdl.sequenced.serial import SerialIK
 from ik5r.hdl.sequenced.program import ik_program
 from ik5r.tools.testbench.amaranth_stream import compare, run_stream
 from ik5r.tools.testbench.blocks import ik_outputs

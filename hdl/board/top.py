@@ -45,7 +45,7 @@ def _core(constants: Constants, core: str, dsp: str):
     """The IK core with 32-bit word streams (``SerialIK`` takes them as 32-bit beats); ``dsp``
     maps the pipelined core's multipliers and adders (the others multiply sequentially)."""
     if core == BoardCore.SERIAL:
-        from ..sequenced.engine import SerialIK
+        from ..sequenced.serial import SerialIK
         return SerialIK(constants=constants, tag_width=TAG_BITS, beat_bits=32)
     from .adapt import WordCore
     if core == BoardCore.COMPACT:

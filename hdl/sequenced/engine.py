@@ -2,8 +2,8 @@
 
 :class:`SeqEngine` has word ports (one input word or one output word per instruction);
 :class:`SequencedIKCore` puts the IK core's struct streams around it (the ``compact`` arch of
-``IKCore``'s payloads), :class:`SerialIK` a narrow word-serial stream on each side (for small
-FPGAs with few pins). The instruction set and its clock-exact reference are :mod:`.seq_isa`.
+``IKCore``'s payloads), :class:`.serial.SerialIK` a narrow word-serial stream on each side (for
+small FPGAs with few pins). The instruction set and its clock-exact reference are :mod:`.seq_isa`.
 
 Pipeline: the program counter addresses the instruction ROM (block RAM, registered), whose output
 addresses the data memory and the CORDIC step-angle ROM; their outputs are registered again, and
@@ -36,7 +36,7 @@ from .program import POSES, ik_program
 from .poses import PoseRegisters
 from .units import STATUS_BITS
 
-__all__ = ["SeqEngine", "SequencedIKCore", "SerialIK", "STATUS_BITS"]
+__all__ = ["SeqEngine", "SequencedIKCore", "STATUS_BITS"]
 
 
 class SeqEngine(wiring.Component):
@@ -57,7 +57,7 @@ class SeqEngine(wiring.Component):
                  poses: int = 1):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
-        _check_wide(wide_product)
+        check_wide(wide_product)
         _check_poses(poses)
         self.prog = ik_program(constants, wide_product=wide_product, poses=poses)
         clash = X.read_write_clash(self.prog.code)
@@ -146,9 +146,7 @@ class SeqEngine(wiring.Component):
         pc = Signal(range(len(words)))
         pc_next = Mux(stall | ~started, pc, Mux(pc == len(words) - 1, 0, pc + 1))
         m.d.sync += pc.eq(pc_next)
-        m.submodules.rom = rom = Memory(shape=layout, depth=len(words), init=words)
-        rom_rd = rom.read_port()
-        m.d.comb += [rom_rd.addr.eq(pc_next), rom_rd.en.eq(~stall)]
+        rom_data = _rom(m, layout, words, pc_next, ~stall)
         # Two instruction registers: ``fetched`` (the memory and step-angle ROM are read for
         # it), then ``exe`` (it executes, with the read data registered).
         fetched = Signal(layout)
@@ -157,8 +155,8 @@ class SeqEngine(wiring.Component):
         with m.If(~stall):
             m.d.sync += exe.eq(fetched)
         with m.If(~stall & started):
-            m.d.sync += fetched.eq(rom_rd.data)
-        return pc, rom_rd.data, fetched, exe
+            m.d.sync += fetched.eq(rom_data)
+        return pc, rom_data, fetched, exe
 
     def _memories(self, m, fetch, stall):
         """The data memory and the step-angle ROM, read for the fetched instruction and
@@ -242,7 +240,29 @@ class SeqEngine(wiring.Component):
             if w.tag:
                 m.d.sync += regs["tag"].eq(self.in_data[3:3 + w.tag])
 
-def _check_wide(wide_product):
+def _rom(m, layout, words, addr, en):
+    """The instruction ROM; deeper than 1,024 words (a program of two poses), in 9-bit slices,
+    each one ECP5 block RAM deep (2,048 x 9): Yosys mapped a 72-bit word 1,121 deep to 512 x 36
+    RAMs three deep with a 3:1 select per bit in LUTs (140 LUT4). Returns the word read."""
+    if len(words) <= 1024:
+        m.submodules.rom = rom = Memory(shape=layout, depth=len(words), init=words)
+        rom_rd = rom.read_port()
+        m.d.comb += [rom_rd.addr.eq(addr), rom_rd.en.eq(en)]
+        return rom_rd.data
+    bits = [Const.cast(word).value for word in words]
+    slice_bits = 9
+    parts = []
+    for index, lsb in enumerate(range(0, layout.size, slice_bits)):
+        width = min(slice_bits, layout.size - lsb)
+        rom = Memory(shape=unsigned(width), depth=len(words), init=[(b >> lsb) & ((1 << width) - 1) for b in bits])
+        m.submodules[f"rom{index}"] = rom
+        port = rom.read_port()
+        m.d.comb += [port.addr.eq(addr), port.en.eq(en)]
+        parts.append(port.data)
+    return layout(Cat(*parts))
+
+
+def check_wide(wide_product):
     if not isinstance(wide_product, bool):
         raise ValueError(f"wide_product must be True or False, got {wide_product!r}")
 
@@ -252,7 +272,7 @@ def _check_poses(poses):
         raise ValueError(f"poses must be one of {POSES}, got {poses!r}")
 
 
-def _check_tag(tag_width, limit):
+def check_tag(tag_width, limit):
     if isinstance(tag_width, bool) or not isinstance(tag_width, int) or not 0 <= tag_width <= limit:
         raise ValueError(f"tag_width must be an integer in [0, {limit}], got {tag_width!r}")
 
@@ -272,8 +292,8 @@ class SequencedIKCore(wiring.Component):
 
     def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False,
                  poses: int = 1):
-        _check_tag(tag_width, 26)
-        _check_wide(wide_product)
+        check_tag(tag_width, 26)
+        check_wide(wide_product)
         _check_poses(poses)
         self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product,
                                      poses=poses)
@@ -329,71 +349,4 @@ class SequencedIKCore(wiring.Component):
                     m.d.sync += out.tag.eq(e.out_data[e.status_bits:e.status_bits + self.tag_width])
         with m.If(valid & self.o.ready):
             m.d.sync += valid.eq(0)
-        return m
-
-
-class SerialIK(wiring.Component):
-    """The sequenced IK engine with a narrow word-serial stream on each side, for small FPGAs.
-
-    ``i``: per pose 14 words, each sent as ``ceil(max(W, 3 + tag_width) / beat_bits)`` beats of
-    ``beat_bits`` bits, least significant beat first: px, py, pz, ax, ay, az, nx, ny, nz, ox, oy,
-    oz, q5_default (signed words as in ``IKCore``), then the flags word has_roll |
-    shoulder_back << 1 | elbow_down << 2 | tag << 3. ``o``: per pose 6 words,
-    ``ceil(max(W, 6 + tag_width) / beat_bits)`` beats each: q1..q5, then status | tag << 6.
-    Function: ``model.ik_solve`` bit for bit. Throughput: one pose per
-    ``cycles_per_result`` clocks when beats come and go every clock; one pose in flight.
-    """
-
-    def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16,
-                 wide_product: bool = False):
-        _check_tag(tag_width, 26)
-        _check_wide(wide_product)
-        if isinstance(beat_bits, bool) or not isinstance(beat_bits, int) or not 1 <= beat_bits <= 32:
-            raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
-        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
-        self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
-        self.arch = CoreArch.COMPACT
-        self.in_beats = -(-e.in_bits // beat_bits)
-        self.out_beats = -(-e.out_bits // beat_bits)
-        # Each input word waits for its beats, except the first: its beats arrive while the
-        # previous pose is computed. Each output word holds the engine for its beats.
-        self.latency = e.cycles + (len(INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
-        self.cycles_per_result = self.latency - (self.in_beats - 1)
-        self.capacity = 1
-        self.options = {"serial": beat_bits} | ({"wide_product": True} if wide_product else {})
-        self.in_fields = {"beat": (unsigned(beat_bits), None, "input word beat, LSB first")}
-        self.out_fields = {"beat": (unsigned(beat_bits), None, "output word beat, LSB first")}
-        super().__init__({
-            "i": In(stream.Signature(unsigned(beat_bits))),
-            "o": Out(stream.Signature(unsigned(beat_bits))),
-        })
-
-    def elaborate(self, platform):
-        m = Module()
-        m.submodules.engine = e = self._engine
-        b = self.beat_bits
-        # Input: beats into a shift register; the word is offered to the engine once complete,
-        # and the next word's first beat may arrive in the clock the engine takes it.
-        word = Signal(self.in_beats * b)
-        count = Signal(range(self.in_beats))
-        have = Signal()
-        m.d.comb += [self.i.ready.eq(~have | e.in_take), e.in_valid.eq(have),
-                     e.in_data.eq(word[:e.in_bits])]
-        with m.If(e.in_take):
-            m.d.sync += have.eq(0)
-        with m.If(self.i.valid & self.i.ready):
-            m.d.sync += word.eq(Cat(word[b:], self.i.payload))
-            with m.If(count == self.in_beats - 1):
-                m.d.sync += [count.eq(0), have.eq(1)]
-            with m.Else():
-                m.d.sync += count.eq(count + 1)
-        # Output: the engine holds its word while the beats leave; it moves on after the last.
-        out_count = Signal(range(self.out_beats))
-        padded = Cat(e.out_data, Const(0, self.out_beats * b - e.out_bits))
-        last = out_count == self.out_beats - 1
-        m.d.comb += [self.o.valid.eq(e.out_valid), e.out_ready.eq(self.o.ready & last),
-                     self.o.payload.eq(select([padded[j * b:(j + 1) * b] for j in range(self.out_beats)],
-                                              out_count))]
-        with m.If(self.o.valid & self.o.ready):
-            m.d.sync += out_count.eq(Mux(last, 0, out_count + 1))
         return m

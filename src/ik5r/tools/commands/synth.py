@@ -128,8 +128,7 @@ def run(args) -> int:
                         speed=args.speed, freq_mhz=args.freq, placer=args.placer, router=args.router,
                         seed=args.seed, threads=args.threads, pnr=not args.no_pnr, dsp=args.dsp,
                         rotations_per_stage=args.rotations_per_stage, max_dsp=args.max_dsp,
-                        wide_product=args.wide_product, dsp_output_regs=args.dsp_output_regs,
-                        poses=args.poses).resolved()
+                        wide_product=args.wide_product, dsp_output_regs=args.dsp_output_regs, poses=args.poses).resolved()
 
     # Where nextpnr is (hours on the 85k), in one line rewritten in place: on a terminal only.
     status = StatusLine(sys.stderr) if cliopts.show_progress(args) else None

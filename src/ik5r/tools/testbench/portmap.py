@@ -133,7 +133,7 @@ class PortMap:
     clk: str
     rst: str
     latency_cycles: int | None
-    cycles_per_result: int | None
+    cycles_per_result: int | float | None   # a mean: a core of two poses a program, 560.5
     raw: dict
     path: Path | None = None
 
@@ -262,4 +262,10 @@ def load_portmap(path: str | Path | dict) -> PortMap:
             if f.lsb + f.width > s.width:
                 raise ValueError(f"port map: field {f.name} [{f.lsb}+:{f.width}] outside {s.payload} ({s.width} bits)")
     return PortMap(str(top), ports, i, o, clk, rst, None if lat is None else int(lat),
-                   None if cpr is None else int(cpr), doc, where)
+                   None if cpr is None else _cycles(cpr), doc, where)
+
+
+def _cycles(value) -> int | float:
+    """Cycles per result: a whole number of clocks, or their mean (a two-pose compact core)."""
+    value = float(value)
+    return int(value) if value.is_integer() else value

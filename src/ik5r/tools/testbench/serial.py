@@ -1,4 +1,4 @@
-"""The word-serial wrapper of the compact IK core (``SerialIK`` in hdl/sequenced/engine.py) in the stream
+"""The word-serial wrapper of the compact IK core (``SerialIK`` in hdl/sequenced/serial.py) in the stream
 testbench: a driver that serialises poses into beats and a monitor that reassembles words.
 
 The wire format, as ``SerialIK`` documents it, with ``W`` the word width, ``T`` the tag width and

@@ -92,6 +92,13 @@ async def test_stream(dut):
             results.write(job.work / "result_stream.json")
 
 
+def _mean_interval(outs: list) -> float | None:
+    """Cycles between results, over an even number of intervals: a compact core of two poses a
+    program gives its results in pairs (any other core, evenly: the same mean)."""
+    outs = outs[1:] if len(outs) % 2 == 0 else outs
+    return (outs[-1] - outs[0]) / (len(outs) - 1) if len(outs) > 1 else None
+
+
 async def _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order, lat, t0):
 
     # 1. latency: one item into an empty block, always ready.
@@ -103,11 +110,7 @@ async def _stream_phases(dut, job, tb, results, opts, inputs, expected, n, order
     burst = min((n - 1) // 2, max(32, 3 * lat + 16))
     tb.driver.queue.extend(order[1:1 + burst])
     await tb.run_until_idle(_limit(job, burst))
-    outs = [c for c, _, _ in tb.sb.out_cycles[-burst:]] if len(tb.sb.out_cycles) > burst else []
-    # An even number of intervals: a compact core of two poses a program gives its results in
-    # pairs (any other core, evenly: the same mean).
-    outs = outs[1:] if len(outs) % 2 == 0 else outs
-    cpr = (outs[-1] - outs[0]) / (len(outs) - 1) if len(outs) > 1 else None
+    cpr = _mean_interval([c for c, _, _ in tb.sb.out_cycles[-burst:]] if len(tb.sb.out_cycles) > burst else [])
     # 3. random idles and back-pressure with long stalls, reset in the middle of traffic.
     rest = order[1 + burst:]
     tb.driver.idle_prob, tb.driver.idle_max = float(opts.get("idle_prob", 0.3)), int(opts.get("idle_max", 8))
