@@ -42,6 +42,17 @@ PLOTS = ("error_vs_luts.png", "fmax_vs_width.png")
 LOCAL_KEYS = ("cache_dir", "cached", "key")
 
 
+def _arch_label(r: dict) -> str:
+    """A synthesis record's architecture and the options that make it a design point of its own."""
+    arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
+    arch += ", 16 x 31-bit product step" if r.get("wide_product") else ""
+    arch += f", {r['poses']} poses a program" if r.get("poses", 1) != 1 else ""
+    per_stage = r.get("rotations_per_stage", 1)
+    arch += f", {per_stage} micro-rotations per stage" if per_stage != 1 else ""
+    regs = r.get("dsp_output_regs", 0)
+    return arch + (f", {regs} fabric register{'s' * (regs > 1)} after each DSP" if regs else "")
+
+
 def _num(value, fmt="{:,.0f}") -> str:
     return "–" if value is None else fmt.format(value)
 
@@ -217,14 +228,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
     lines = ["| block | arch | primitives | config | device | LUTs | FFs | DSPs | BRAMs | Fmax (MHz) | latency | "
              "cycles/result | results/s |", "| --- | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for r in rows:
-        arch = r["arch"] + (f" (word-serial, {r['serial']}-bit beats)" if r.get("serial") else "")
-        arch += ", 16 x 31-bit product step" if r.get("wide_product") else ""
-        arch += f", {r['poses']} poses a program" if r.get("poses", 1) != 1 else ""
-        per_stage = r.get("rotations_per_stage", 1)
-        arch += f", {per_stage} micro-rotations per stage" if per_stage != 1 else ""
-        regs = r.get("dsp_output_regs", 0)
-        arch += f", {regs} fabric register{'s' * (regs > 1)} after each DSP" if regs else ""
-        lines.append(f"| {r['block']} | {arch} | {r.get('dsp', Dsp.GENERIC)} | {r['config']} | {r['target']}-{r['device']}"
+        lines.append(f"| {r['block']} | {_arch_label(r)} | {r.get('dsp', Dsp.GENERIC)} | {r['config']} | {r['target']}-{r['device']}"
                      f"{' speed ' + str(r['speed_grade']) if r.get('speed_grade') else ' (in context)'}"
                      f"{' (does not fit)' if r.get('fits_device') is False else ''} | {_num(r.get('luts'))} | {_num(r.get('ffs'))} | "
                      f"{_num(r.get('dsps'))} | {_num(r.get('brams'))} | {_num(r.get('fmax_mhz'), '{:.1f}')} | "
@@ -234,7 +238,7 @@ def synth_table(records: Path, verilog: VerilogOfCheckout) -> tuple[list[str], l
         if r.get("fmax_mhz_by_seed"):
             seeds, freq = r["fmax_mhz_by_seed"], r.get("freq_target_mhz")
             constraint = f" and {freq:g} MHz constraint" if freq else ""
-            lines += ["", f"{r['block']} {r['arch']} {r['config']} on the {r['target']}-{r['device']}: Fmax "
+            lines += ["", f"{r['block']} {_arch_label(r)} {r['config']} on the {r['target']}-{r['device']}: Fmax "
                       f"{', '.join(f'{v:.1f}' for v in seeds.values())} MHz at nextpnr seeds "
                       f"{', '.join(seeds)} (same Verilog{constraint}; the table gives seed 1)."]
     for r in rows:
