@@ -36,7 +36,7 @@ from ik5r.core.modes import ARCHS, BLOCKS, Arch, Block, CoreArch
 from ..generate import build
 from .contract import CHECKS, MUTATIONS, OUTSIDE, TAG_WIDTH, StreamContract, find_signal
 from .fifo import FifoLemma
-from .sequenced import DATA_REGISTERS
+from .sequenced import DATA_REGISTERS, POSE_DATA_REGISTERS
 from .stash import StashLemma, tag_links
 
 __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION", "Result", "harness", "prove",
@@ -44,14 +44,18 @@ __all__ = ["INDUCTION_ONLY", "JOBS", "ORDER_ASSUMES_CONTROL", "ORDER_INDUCTION",
 
 #: (block, arch) of every component the contract is proved for. The IK core's "compact" arch is
 #: the sequenced engine of hdl/sequenced/engine.py (:mod:`.sequenced`).
+#: The job of the compact core with two poses a program (``poses=2``): named as an arch.
+COMPACT_POSES2 = "compact-poses2"
 JOBS = tuple((block, arch) for block in BLOCKS if block != Block.IK for arch in ARCHS) + (
-    (Block.IK, Arch.PIPELINED), (Block.IK, CoreArch.COMPACT))
+    (Block.IK, Arch.PIPELINED), (Block.IK, CoreArch.COMPACT), (Block.IK, COMPACT_POSES2))
+#: The jobs of the sequenced engine (:mod:`.sequenced`), and the build options of each.
+SEQUENCED = {CoreArch.COMPACT: {}, COMPACT_POSES2: {"poses": 2}}
 
 #: Jobs whose ``order`` group is proved by k-induction too (a ghost queue of the tags inside, see
 #: :mod:`.sequenced`), and whose fault self-test is by k-induction: the sequenced core, where an item
 #: needs latency = 520 clocks to come out and a BMC step costs seconds (BMC to 2 x 520 is out of
 #: reach, so is a counterexample from reset).
-INDUCTION_ONLY = {(Block.IK, CoreArch.COMPACT)}
+INDUCTION_ONLY = {(Block.IK, arch) for arch in SEQUENCED}
 
 #: Jobs whose ``order`` group is proved by k-induction (all of them): the sequenced core's, the
 #: pipelined blocks' and IK core's (the marks tracked through the delay line, :mod:`.pipelined`,
@@ -93,7 +97,9 @@ def harness(block: str, arch: str, config: str = "q18", checks=CHECKS,
             control_assumed: bool = False) -> StreamContract:
     """The contract around the real component ``block``/``arch`` on ``config``."""
     k = constants(load_config(config))
-    return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH), checks=checks,
+    options = SEQUENCED.get(arch, {}) if block == Block.IK else {}
+    arch = CoreArch.COMPACT if block == Block.IK and arch in SEQUENCED else arch
+    return StreamContract(build(block, arch, k, tag_width=TAG_WIDTH, **options), checks=checks,
                           mutation=mutation, inductive_order=inductive_order,
                           control_assumed=control_assumed)
 
@@ -115,12 +121,15 @@ INDUCTION_DEPTH = 2
 _MEMORIES = {"control": "memory_nordff\ncutpoint t:$mem_v2\nopt_clean\n",
              "order": "memory_map\nopt -fast\n"}
 
-#: The sequenced core (both groups): its data memory, step-angle ROM and data registers cut to
-#: free values (sound: it only adds behaviours; the control never reads them), its instruction ROM
-#: kept and folded to constants (the control: which instruction executes when).
-_SEQUENCED_MEMORIES = ("memory_nordff\ncutpoint */c:mem */c:atan "
-                       + " ".join(f"top.dut.engine/w:{name}" for name in DATA_REGISTERS)
-                       + "\nmemory_map\nopt -fast\nopt_dff\nopt_clean\n")
+def _sequenced_memories(poses: int) -> str:
+    """The Yosys commands of the sequenced core (both groups): its data memory, step-angle ROM and
+    data registers (a program of two poses: the second's too) cut to free values (sound: it only
+    adds behaviours; the control never reads them), its instruction ROM kept and folded to
+    constants (the control: which instruction executes when)."""
+    return ("memory_nordff\ncutpoint */c:mem */c:atan "
+            + " ".join(f"top.dut.engine/w:{name}"
+                       for name in DATA_REGISTERS + (POSE_DATA_REGISTERS if poses > 1 else ()))
+            + "\nmemory_map\nopt -fast\nopt_dff\nopt_clean\n")
 
 
 def _sby_text(mode: str, depth: int, memories: str, traces: bool = True) -> str:
@@ -177,7 +186,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
     inductive = check == "control" or (block, arch) in ORDER_INDUCTION
     method = method or ("k-induction" if inductive else "bmc")
     mode = {"k-induction": "prove", "bmc": "bmc"}[method]
-    tracked = check == "order" and mode == "prove" and arch != CoreArch.COMPACT
+    tracked = check == "order" and mode == "prove" and arch not in SEQUENCED
     if control_assumed is None:
         control_assumed = (tracked and mutation in (None, *OUTSIDE)
                            and (block, arch) in ORDER_ASSUMES_CONTROL)
@@ -202,7 +211,7 @@ def prove(block: str, arch: str, check: str, config: str = "q18", mutation: str 
                                 "assumed here): proved by its control job, not run here",
                        "status": "ASSUMED"})
     # The tracked order group takes the FIFO by its lemma, its RAM cut (:mod:`.pipelined`).
-    memories = _SEQUENCED_MEMORIES if top.sequenced else _MEMORIES["control" if tracked else check]
+    memories = _sequenced_memories(top.dut._engine.poses) if top.sequenced else _MEMORIES["control" if tracked else check]
     status, detail, failed, cpu = _run_sby(text, top.assert_names, mode, depth, memories, workdir,
                                            f"{block}-{arch}", traces=mutation is None)
     if any(lemma["status"] not in ("PASS", "ASSUMED") for lemma in lemmas) and status == "PASS":

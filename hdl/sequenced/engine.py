@@ -304,9 +304,9 @@ class SequencedIKCore(wiring.Component):
         # The first pose's status word (the program's last instruction for one pose), a clock
         # to the output register, two from an input transfer to the engine's first word.
         self.latency = e.first_status + 3
-        # Input register, engine, output register: the engine stops at the first output word
-        # after the output register fills (in a two-pose program, the second pose's).
-        self.capacity = 3
+        # Input register, the program's poses, output register: a result waiting in the output
+        # register while a program holds both its poses and the next pose is taken in.
+        self.capacity = 2 + poses
         self.options = ({"wide_product": True} if wide_product else {}) | ({"poses": poses} if poses > 1 else {})
         super().__init__({
             "i": In(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in in_fields.items()}))),

@@ -49,7 +49,9 @@ class PoseRegisters:
         for p in range(1, self.poses):
             with m.If(run & start & (ins.ip == p)):
                 m.d.sync += self.live[p].eq(in_valid)
-        return stall, reading & (live | start) & run, reading & (live | start), writing & live
+        # Taken: a live pose's word (the engine waits for it), a later pose's first if there.
+        take = reading & run & Mux(start, in_valid, live)
+        return stall, take, reading & (live | start), writing & live
 
     def flags(self, m, ins, run, in_data, tag_bits: int):
         """The flags word into its pose's registers."""
