@@ -49,8 +49,10 @@ class PoseRegisters:
         for p in range(1, self.poses):
             with m.If(run & start & (ins.ip == p)):
                 m.d.sync += self.live[p].eq(in_valid)
-        # Taken: a live pose's word (the engine waits for it), a later pose's first if there.
-        take = reading & run & Mux(start, in_valid, live)
+        # Taken: a word that is there, of a live pose (the engine waits for it) or a later pose's
+        # first. (Mux(start, in_valid, live) is the same where it matters; Yosys maps this form
+        # to fewer LUTs: the commit that chose it has the figures.)
+        take = reading & run & in_valid & (live | start)
         return stall, take, reading & (live | start), writing & live
 
     def flags(self, m, ins, run, in_data, tag_bits: int):
