@@ -80,12 +80,17 @@ def test_program_on_interpreter(cfg, wide):
     assert not bad, f"{len(bad)} of {len(poses)} mismatch, first {bad[0]}"
 
 
-@pytest.mark.parametrize("cfg", ["q18", pytest.param("q32w", marks=pytest.mark.slow)])
-def test_two_pose_program_on_interpreter(cfg):
+@pytest.mark.slow
+def test_two_pose_program_on_interpreter():
+    """q32w's program of two poses on the interpreter (q18's: in the core's test, which
+    compiles it anyway)."""
+    _two_pose_program_on_interpreter(_k("q32w"))
+
+
+def _two_pose_program_on_interpreter(k):
     """A program of two poses (``poses=2``) runs each pose as the one-pose program does: pose
     i beside pose i + 1, so every run mixes branches, flags and tags (a pose reading the other's
     flags, status or words fails)."""
-    k = _k(cfg)
     prog = ik_program(k, poses=2)
     assert prog.poses == 2 and len(prog.code) < 2 * len(ik_program(k).code)
     poses = concat(directed_poses(k), random_poses(k, 10, seed=12))
@@ -354,8 +359,11 @@ def test_core_full_rate_and_stalls(cfg, wide):
 def test_two_pose_core_full_rate_and_stalls(cfg):
     """``poses=2``: two poses a program at full rate (the first into an idle core after
     ``latency``; two results every program length), and with random input gaps and output
-    back-pressure, where the second pose of a program is skipped whenever none is there."""
+    back-pressure, where the second pose of a program is skipped whenever none is there. At q18
+    its program on the interpreter first (one compile of the program for both)."""
     k = _k(cfg)
+    if cfg == "q18":
+        _two_pose_program_on_interpreter(k)
     poses = concat(directed_poses(k)[::24], random_poses(k, 1, seed=3)[:3])
     items = inputs_of(poses, TAG_WIDTH)
     expected = with_tags(items, expected_of(k, poses))
