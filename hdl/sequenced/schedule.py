@@ -254,6 +254,24 @@ class _Blocks(list):
     after: dict = {}
 
 
+def _dependencies(blocks: list) -> tuple[dict, list, list]:
+    """(producer: variable -> (block, clock of its store); per block, the other blocks it waits
+    for, producers and ``after``; per block, the blocks waiting for it). Once per block list: a
+    climb places the same blocks tens of thousands of times."""
+    cached = getattr(blocks, "_dependencies", None)
+    if cached is not None:
+        return cached
+    producer = {name: (i, t) for i, b in enumerate(blocks) for t, name in b.writes}
+    after = getattr(blocks, "after", {})
+    waits = [{producer[name][0] for _, name in b.reads} - {i} | {before for before, _ in after.get(i, ())}
+             for i, b in enumerate(blocks)]
+    waiting_for = [[j for j, w in enumerate(waits) if i in w] for i in range(len(blocks))]
+    result = (producer, waits, waiting_for)
+    if isinstance(blocks, _Blocks):
+        blocks._dependencies = result
+    return result
+
+
 #: Hill-climbing passes over the priorities (each schedules the program once per block and step).
 PASSES = 8
 #: The priority steps tried per block.
@@ -293,29 +311,30 @@ class _Placer:
 
     def __init__(self, blocks: list, prio: list | None = None):
         self.blocks = blocks
-        self.producer = {name: (i, t) for i, b in enumerate(blocks) for t, name in b.writes}
+        self.producer, waits, self.waiting_for = _dependencies(blocks)
+        # Per block, the blocks it waits for that are not placed yet.
+        self.unplaced = [len(w) for w in waits]
         self.prio = prio
         self.table, self.start, self.written = Table(), {}, {}
 
     def ready(self, i: int):
         """The first clock block ``i`` may start at (None while a producer is not placed)."""
+        if self.unplaced[i]:
+            return None
         b = self.blocks[i]
         t = len(self.blocks[0].code) if i else 0
         for t_read, name in b.reads:
-            p = self.producer[name][0]
-            if p != i and p not in self.start:
-                return None
             if name in self.written:
                 t = max(t, self.written[name] + READ_AHEAD + 1 - t_read)
         for before, gap in getattr(self.blocks, "after", {}).get(i, ()):
-            if before not in self.start:
-                return None
             t = max(t, self.start[before] + len(self.blocks[before].code) + gap)
         return t
 
     def place(self, i: int, t: int):
         self.table.place(self.blocks[i], t)
         self.start[i] = t
+        for j in self.waiting_for[i]:
+            self.unplaced[j] -= 1
         for t_write, name in self.blocks[i].writes:
             self.written[name] = t + t_write
 
@@ -327,7 +346,7 @@ class _Placer:
         self.place(0, 0)
         todo = sorted(range(1, last), key=lambda i: -self.prio[i])
         while todo:
-            i = next(i for i in todo if self.ready(i) is not None)
+            i = next(i for i in todo if not self.unplaced[i])
             todo.remove(i)
             self.place(i, self.first_fit(i, self.ready(i)))
         self.place(last, self.first_fit(last, max(self.ready(last), len(self.table))))
