@@ -47,10 +47,13 @@ class SeqEngine(wiring.Component):
     elbow_down << 2 | tag << 3) and takes it in a clock with ``in_valid`` high (``in_take``).
     Output: ``out_valid`` with word ``out_index`` (0..4: q1..q5, 5: status | tag << 6, status
     the :data:`STATUS_BITS` bits of :mod:`ik5r.core.status`) in ``out_data``, held until
-    ``out_ready``. One pose takes
-    ``cycles`` clocks when neither port waits. ``booted`` rises two clocks after reset, when the
-    first instruction is about to execute. ``wide_product``: each product step multiplies a
-    16-bit limb of MA by 31 bits of MB (two DSPs): fewer clocks per pose, a longer product path.
+    ``out_ready``. One run of the program takes ``cycles`` clocks when neither port waits.
+    ``booted`` rises two clocks after reset, when the first instruction is about to execute.
+    ``wide_product``: each product step multiplies a 16-bit limb of MA by 31 bits of MB (two
+    DSPs): fewer clocks per pose, a longer product path. ``poses`` 2: a run computes two poses
+    (:mod:`.poses`), the first's words, then the second's; at the second's first word the engine
+    does not wait: without ``in_valid`` that pose is skipped (its words not taken, its output
+    words not offered, ``out_valid`` low) until the next run.
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False,
