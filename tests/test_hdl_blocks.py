@@ -356,7 +356,8 @@ def test_primitive_models_lint(tmp_path):
 #: tests/test_cocotb_core.py (-Wall with these waivers: the same check, Verilator's front end run
 #: once, on the text with each run of one repeated bit as a replication: the same lines and
 #: expressions, ik5r.tools.testbench.simtext); here their word-serial wrapper, and at q18 the compact core, its wrapper and the
-#: pipelined core's ECP5 variant (the generic one's generator is the q32w core's).
+#: pipelined core's ECP5 variant (the generic one's generator is the q32w core's); in the slow
+#: set, q32's cores, the compact one also with two poses a program.
 LINT_CASES = [("q18", "blocks"), ("q18", "ik"), ("q32", "blocks"), ("q32w", "ik-generic"),
               pytest.param("q32", "ik-all", marks=pytest.mark.slow), pytest.param("q32w", "ik-ecp5", marks=pytest.mark.slow)]
 
@@ -373,7 +374,7 @@ def _lint_variants(k, part: str) -> list[tuple[str, tuple[str, ...], dict]]:
     ecp5 = [("ik", ("pipelined",), {"dsp": "ecp5"})]
     serial = [("ik", ("compact",), {"serial": 16})]
     return {"ik": [("ik", ("compact",), {})] + serial + ecp5, "ik-generic": serial, "ik-ecp5": ecp5,
-            "ik-all": [("ik", archs_of("ik"), {})] + serial + ecp5}[part]
+            "ik-all": [("ik", archs_of("ik"), {}), ("ik", ("compact",), {"poses": 2})] + serial + ecp5}[part]
 
 
 @pytest.mark.parametrize("cfg,part", LINT_CASES)
