@@ -27,6 +27,7 @@ import subprocess
 import tempfile
 import time
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -121,28 +122,52 @@ def callgrind_instructions(k: Constants, poses: list[str]) -> dict | None:
             "build": "host x86-64 gcc -O2 (test_driver.c)"}
 
 
-#: (block, arch, simulator, vectors) of the simulation benchmarks: bulk runs, every output bit
-#: checked. ``verilator-harness``: the Verilator C++ harness fed from a file
-#: (:mod:`.testbench.harness`), full rate, one simulator process per CPU; the others: the cocotb
-#: bulk run (random idles and back-pressure). The pipelined core takes a pose per clock (its rate
-#: is the simulator's cycle rate), the compact core one per ``cycles_per_result`` clocks. The
-#: ``dsp="ecp5"`` row runs the netlist that is placed (MULT18X18D, CCU2C chains: ``--dsp ecp5``).
-SIM_RUNS = ((Block.ATAN2, Arch.PIPELINED, "verilator-harness", 2_000_000, Dsp.GENERIC),
-            (Block.ATAN2, Arch.PIPELINED, "verilator", 200_000, Dsp.GENERIC),
-            (Block.ATAN2, Arch.PIPELINED, "icarus", 5_000, Dsp.GENERIC),
-            (Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000, Dsp.GENERIC),
-            (Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000, Dsp.ECP5),
-            (Block.IK, CoreArch.COMPACT, "verilator-harness", 20_000, Dsp.GENERIC),
-            (Block.IK, CoreArch.PIPELINED, "verilator", 20_000, Dsp.GENERIC),
-            (Block.IK, CoreArch.PIPELINED, "icarus", 300, Dsp.GENERIC))
+class SimRun(NamedTuple):
+    """One simulation benchmark: a design point (block, arch, primitives, poses a program of the
+    compact core), its simulator and how many vectors."""
+    block: str
+    arch: str
+    simulator: str
+    vectors: int
+    dsp: str = Dsp.GENERIC
+    poses: int = 1
+
+    @property
+    def key(self) -> tuple:
+        return self.block, self.arch, self.simulator, self.dsp, self.poses
 
 
-def _simulate(block: str, arch: str, config: str, sim: str, vectors: int, dsp: str = Dsp.GENERIC) -> dict:
+def _row_key(r: dict) -> tuple:
+    """A bench row's :attr:`SimRun.key` (rows made before a field existed have its default)."""
+    return (r["block"], r.get("arch", Arch.PIPELINED), r["simulator"], r.get("dsp", Dsp.GENERIC),
+            r.get("poses", 1))
+
+
+#: The simulation benchmarks: bulk runs, every output bit checked. ``verilator-harness``: the
+#: Verilator C++ harness fed from a file (:mod:`.testbench.harness`), full rate, one simulator
+#: process per CPU; the others: the cocotb bulk run (random idles and back-pressure). The
+#: pipelined core takes a pose per clock (its rate is the simulator's cycle rate), the compact
+#: core one per ``cycles_per_result`` clocks. The ``dsp="ecp5"`` row runs the netlist that is
+#: placed (MULT18X18D, CCU2C chains: ``--dsp ecp5``); ``poses=2`` the compact core computing two
+#: poses a program (``--poses 2``).
+SIM_RUNS = (SimRun(Block.ATAN2, Arch.PIPELINED, "verilator-harness", 2_000_000),
+            SimRun(Block.ATAN2, Arch.PIPELINED, "verilator", 200_000),
+            SimRun(Block.ATAN2, Arch.PIPELINED, "icarus", 5_000),
+            SimRun(Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000),
+            SimRun(Block.IK, CoreArch.PIPELINED, "verilator-harness", 1_000_000, Dsp.ECP5),
+            SimRun(Block.IK, CoreArch.COMPACT, "verilator-harness", 20_000),
+            SimRun(Block.IK, CoreArch.COMPACT, "verilator-harness", 20_000, poses=2),
+            SimRun(Block.IK, CoreArch.PIPELINED, "verilator", 20_000),
+            SimRun(Block.IK, CoreArch.PIPELINED, "icarus", 300))
+
+
+def _simulate(run: SimRun, config: str) -> dict:
     from .testbench.harness import run_harness
     from .testbench.runner import run_block, sim_design
 
-    if sim == "verilator-harness":
-        r = run_harness(sim_design(block, arch, config, dsp=dsp), vectors=vectors, seed=3, pattern="full")
+    design = sim_design(run.block, run.arch, config, dsp=run.dsp, poses=run.poses)
+    if run.simulator == "verilator-harness":
+        r = run_harness(design, vectors=run.vectors, seed=3, pattern="full")
         h = r["harness"]
         # Per CPU second of the simulator processes: the machine's other load left out.
         cpu = h["sim_cpu_seconds"]
@@ -152,7 +177,7 @@ def _simulate(block: str, arch: str, config: str, sim: str, vectors: int, dsp: s
                     cpu_vectors_per_second=h.get("vectors_per_cpu_second"),
                     sim_cpu_vectors_per_second=r["vectors"] / cpu if cpu else None,
                     sim_cpu_cycles_per_second=h["cycles"] / cpu if cpu else None, jobs=h["jobs"])
-    r = run_block(sim_design(block, arch, config), sim, stream_vectors=0, bulk_vectors=vectors, seed=3)
+    r = run_block(design, run.simulator, stream_vectors=0, bulk_vectors=run.vectors, seed=3)
     return dict(r, cycles=(r["bulk"] or {}).get("cycles"))
 
 
@@ -161,15 +186,15 @@ def simulation_speeds(config: str, simulators=None, previous=()) -> list[dict]:
     and cocotb on both simulators. ``simulators``: only these run, the rows of the others taken
     from ``previous``."""
     rows = []
-    kept = {(r["block"], r.get("arch", Arch.PIPELINED), r["simulator"], r.get("dsp", Dsp.GENERIC)): r
-            for r in previous}
-    for block, arch, sim, vectors, dsp in SIM_RUNS:
-        if simulators is not None and sim not in simulators and (block, arch, sim, dsp) in kept:
-            rows.append(kept[block, arch, sim, dsp])
+    kept = {_row_key(r): r for r in previous}
+    for run in SIM_RUNS:
+        if simulators is not None and run.simulator not in simulators and run.key in kept:
+            rows.append(kept[run.key])
             continue
         load = os.getloadavg()[0]
-        r = _simulate(block, arch, config, sim, vectors, dsp)
-        rows.append({"block": block, "arch": arch, "dsp": dsp, "simulator": sim, "vectors": r["vectors"],
+        r = _simulate(run, config)
+        rows.append({"block": run.block, "arch": run.arch, "dsp": run.dsp, "poses": run.poses,
+                     "simulator": run.simulator, "vectors": r["vectors"],
                      "mismatches": r["mismatches"], "vectors_per_second": r["bulk_vectors_per_second"],
                      "build_seconds": r["build_seconds"], "latency_cycles": r["latency_cycles_portmap"],
                      "sim_cycles": r["cycles"], "cpu_vectors_per_second": r.get("cpu_vectors_per_second"),
@@ -293,6 +318,7 @@ def table(result: dict) -> str:
         load = f"{r['load_average']:.1f}" if r.get("load_average") is not None else "–"
         jobs = f", {r['jobs']} processes" if r.get("jobs") else ""
         netlist = " (ECP5 primitives netlist)" if r.get("dsp", Dsp.GENERIC) != Dsp.GENERIC else ""
+        netlist += f", {r['poses']} poses a program" if r.get("poses", 1) != 1 else ""
         lines.append(f"| {r['block']} {r.get('arch', Arch.PIPELINED)}{netlist} | {sim}{jobs} | {r['vectors']:,} | "
                      f"{r['mismatches']} | {r['vectors_per_second']:,.0f} | {total} | {cpu} | {cycles} | {load} | "
                      f"{r['build_seconds']:.0f} |")
