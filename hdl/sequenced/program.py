@@ -19,7 +19,8 @@ from ik5r.core.fxconfig import Constants
 from .asm import Asm, limbs_of, widths_of
 from .isa import IO_FLAGS, Program, pose_of
 from .lower import Lower
-from .schedule import schedule
+from .hints import hint
+from .schedule import blocks_of, schedule
 from ..graph.trace import trace
 
 __all__ = ["ik_program"]
@@ -64,15 +65,23 @@ def interleave(blocks: list, poses: int) -> tuple[list, tuple]:
     return codes, tuple(after)
 
 
+def program_blocks(k: Constants, wide_product: bool = False, poses: int = 1) -> tuple:
+    """The assembler (its constants and widths) and the blocks of a program of ``poses`` poses
+    with their order constraints, to be scheduled: ``(asm, codes, after)``."""
+    a = Asm(k, wide_product=wide_product)
+    joints, events, _ = trace(k)
+    return (a, *interleave(Lower(a, joints, events).blocks, poses))
+
+
 @lru_cache(maxsize=None)
 def _compile(k: Constants, wide_product: bool = False, poses: int = 1) -> Program:
     ki = k.internal
     if ki.check_shift != k.check_shift + k.cfg.internal_guard_bits:
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
-    a = Asm(k, wide_product=wide_product)
-    joints, events, _ = trace(k)
-    code = schedule(*interleave(Lower(a, joints, events).blocks, poses))
+    a, codes, after = program_blocks(k, wide_product, poses)
+    # A kept order of these blocks (a longer search's, .search), else the scheduler's climb.
+    code = schedule(codes, after, priorities=hint(blocks_of(codes, after)))
     widths = widths_of(k)
     widths.limbs = limbs_of(a.operand_bits)
     widths.b_limbs = a.b_size

@@ -224,11 +224,28 @@ def _priorities(blocks: list, producer: dict) -> list:
     return prio
 
 
-def schedule(codes: list, after: tuple = ()) -> list:
+def schedule(codes: list, after: tuple = (), priorities: list | None = None) -> list:
     """Place the blocks (``codes[0]`` the inputs, ``codes[-1]`` the outputs) and share the
-    memory words of the shortest program found (:func:`share_words`). ``after``: (i, j, gap)
-    triples, block j starts ``gap`` clocks or more after block i ends (the word ports' order
-    between poses of one program, :func:`.program.ik_program`).
+    memory words of the program (:func:`share_words`). ``after``: (i, j, gap) triples, block j
+    starts ``gap`` clocks or more after block i ends (the word ports' order between poses of one
+    program, :func:`.program.ik_program`). ``priorities``: the blocks' placing order (a search's
+    result kept, :mod:`.search`), else found by :func:`climbed`; any order gives a valid
+    program (every block at the first clock its claims are free), it only decides how short."""
+    blocks = blocks_of(codes, after)
+    table = climbed(blocks)[0] if priorities is None else placed(blocks, priorities)
+    return share_words(table.code())
+
+
+def blocks_of(codes: list, after: tuple = ()) -> "_Blocks":
+    """The blocks of ``codes`` with their order constraints ``after`` (see :func:`schedule`)."""
+    blocks = _Blocks(Block(c) for c in codes)
+    blocks.after = {j: [(i, gap) for i, jj, gap in after if jj == j] for _, j, _ in after}
+    return blocks
+
+
+def climbed(blocks: "_Blocks", prio: list | None = None) -> tuple:
+    """The shortest program the hill climb finds from ``prio`` (default: the longest paths), and
+    its priorities.
 
     The longest-path priorities are a start: a block off the critical path placed late may find
     its unit taken where it had room (the roll's atan2 behind the elbow's). So each block's
@@ -237,16 +254,18 @@ def schedule(codes: list, after: tuple = ()) -> list:
     pass keeps none (a hill climb); then the priorities of every two blocks are swapped in turn
     (a climb's steps move one block past its neighbours; a swap trades two places at once), the
     climb resumed after a shorter program, until no swap shortens it. Deterministic."""
-    blocks = _Blocks(Block(c) for c in codes)
-    blocks.after = {j: [(i, gap) for i, jj, gap in after if jj == j] for _, j, _ in after}
-    prio = _priorities(blocks, _Placer(blocks).producer)
+    prio = _priorities(blocks, _Placer(blocks).producer) if prio is None else prio
     best, prio = _climb(blocks, prio, _Placer(blocks, prio).run())
     while True:
         shorter, swapped = _swap(blocks, prio, best)
         if shorter is best:
-            break
+            return best, prio
         best, prio = _climb(blocks, swapped, shorter)
-    return share_words(best.code())
+
+
+def placed(blocks: "_Blocks", priorities: list):
+    """The blocks list-scheduled in order of ``priorities`` (the program's :class:`Table`)."""
+    return _Placer(blocks, priorities).run()
 
 
 class _Blocks(list):

@@ -26,6 +26,8 @@ ROUTES = (
     ("pipelined IK core (ECP5 DSP + carry primitives)", "ik5r_ik_dspecp5_pipelined_{c}_ecp5-85k", None),
     ("pipelined IK core, 2 micro-rotations per stage (ECP5 primitives)",
      "ik5r_ik_dspecp5_rotations_per_stage2_pipelined_{c}_ecp5-85k", None),
+    ("pipelined IK core, 4 micro-rotations per stage (ECP5 primitives)",
+     "ik5r_ik_dspecp5_rotations_per_stage4_pipelined_{c}_ecp5-85k", None),
     ("pipelined IK core, a fabric register after each DSP (ECP5 primitives)",
      "ik5r_ik_dspecp5_dsp_output_regs1_pipelined_{c}_ecp5-85k", None),
 )

@@ -122,10 +122,12 @@ def error_sources_hash() -> str:
 def hdl_sources_hash() -> str:
     """Hash of every source the Verilog and its synthesis come from: the import closure of
     ``ik5r.hdl.generate`` and ``ik5r.tools.synth`` (the firmware model, status bits, fixed point, config,
-    arm, ... as the modules import them) and the arm data."""
+    arm, ... as the modules import them), the arm data and the compact core's kept block orders."""
+    from ik5r.hdl.sequenced.hints import schedule_files
+
     from .sources import closure_hash
     return closure_hash(["ik5r.hdl.generate", "ik5r.tools.synth"],
-                        sorted((_package_dir("ik5r") / "data").glob("*.toml")))
+                        sorted((_package_dir("ik5r") / "data").glob("*.toml")) + schedule_files())
 
 
 def _key(*parts) -> str:

@@ -27,9 +27,11 @@ VERILOG_CACHE = ROOT / "build" / "verilog-cache"
 
 @functools.cache
 def _generator_sources_hash() -> str:
-    """Hash of every source file the Verilog comes from (the import closure of the generator)."""
+    """Hash of every source file the Verilog comes from (the import closure of the generator, and
+    the compact core's kept block orders: data its programs are scheduled by)."""
+    from ik5r.hdl.sequenced.hints import schedule_files
     from ik5r.tools.sources import closure_hash
-    return closure_hash(["ik5r.hdl.generate"])
+    return closure_hash(["ik5r.hdl.generate"], schedule_files())
 
 
 def generate_cached(block: str, arch: str, k, tag_width: int = 0, **options) -> tuple[str, dict]:

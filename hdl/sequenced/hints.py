@@ -1,0 +1,47 @@
+"""Block orders kept from a longer search (:mod:`.search`): ``schedules/<fingerprint>.json``.
+
+A compile whose blocks have the fingerprint of a kept order places them in that order (one list
+scheduling, :func:`.schedule.placed`) instead of climbing from the longest-path priorities. Any
+order gives a valid program (each block at the first clock its claims are free and its words are
+stored); a kept order only decides how short the program is. A change of the lowering, of the
+instruction set or of the claims changes the fingerprint: the compile then climbs as before, and
+``tests/test_seq_search.py`` names the kept orders no design point uses.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+__all__ = ["SCHEDULES", "fingerprint", "hint", "schedule_files"]
+
+#: The kept orders, one JSON file per fingerprint.
+SCHEDULES = Path(__file__).resolve().parent / "schedules"
+
+
+def fingerprint(blocks) -> str:
+    """16 hex digits of SHA-256 over what the placer sees of ``blocks``
+    (:func:`.schedule.blocks_of`): each block's code (folded, hazards padded), its claims and
+    conditions per clock, and the order constraints."""
+    h = hashlib.sha256()
+    for b in blocks:
+        h.update(repr((b.code, [sorted(keys) for keys in b.claims], b.conds)).encode())
+    h.update(repr(sorted(getattr(blocks, "after", {}).items())).encode())
+    return h.hexdigest()[:16]
+
+
+def hint(blocks) -> list | None:
+    """The kept order (one priority per block) for ``blocks``, or None."""
+    path = SCHEDULES / f"{fingerprint(blocks)}.json"
+    if not path.is_file():
+        return None
+    priorities = json.loads(path.read_text())["priorities"]
+    if len(priorities) != len(blocks):
+        raise ValueError(f"{path}: {len(priorities)} priorities for {len(blocks)} blocks")
+    return priorities
+
+
+def schedule_files() -> list[Path]:
+    """The kept orders' files (data the programs, hence the Verilog, depend on: cache keys)."""
+    return sorted(SCHEDULES.glob("*.json"))

@@ -1,0 +1,108 @@
+"""Kept block orders of the compact core's programs (``hdl/sequenced/hints.py``, found by the
+offline search of ``hdl/sequenced/search.py``): every kept order is of a design point this
+checkout compiles, gives the program length it was kept for, and that program is bit-exact; a
+compile uses a kept order, and without one climbs as before; the search is deterministic."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from test_seq_core import _engine_words
+
+from ik5r.core.arm import load_arm
+from ik5r.core.fxconfig import constants, load_config
+from ik5r.firmware_model import model
+from ik5r.firmware_model.poses import concat
+from ik5r.firmware_model.vectors import directed_poses, random_poses
+from ik5r.hdl.sequenced import hints, machine, program, search
+from ik5r.hdl.sequenced.schedule import blocks_of, climbed, placed
+from ik5r.tools.testbench.blocks import ik_outputs
+
+
+def _kept():
+    return [(path, json.loads(path.read_text())) for path in hints.schedule_files()]
+
+
+def _design_point(data):
+    k = constants(load_config(data["config"]), load_arm(data["arm"]))
+    return k, program.program_blocks(k, data["wide_product"], data["poses"])
+
+
+def test_a_kept_order_is_of_the_q32w_two_pose_program():
+    assert any(d["config"] == "q32w" and d["poses"] == 2 and not d["wide_product"] for _, d in _kept())
+
+
+@pytest.mark.parametrize("path, data", _kept(), ids=lambda v: getattr(v, "stem", ""))
+def test_kept_order_is_current_and_shorter(path, data):
+    """A kept order whose fingerprint no design point has any more is dead weight (the lowering
+    changed): re-run ``python -m ik5r.hdl.sequenced.search`` for it and delete the old file."""
+    k, (_, codes, after) = _design_point(data)
+    blocks = blocks_of(codes, after)
+    assert hints.fingerprint(blocks) == path.stem, f"{path.name}: no design point has these blocks"
+    assert hints.hint(blocks) == data["priorities"] and search.kept_text(data) == path.read_text()
+    assert len(placed(blocks, data["priorities"])) == data["clocks"] < data["climb_clocks"]
+    prog = program.ik_program(k, wide_product=data["wide_product"], poses=data["poses"])
+    assert len(prog.code) == data["clocks"]
+
+
+@pytest.mark.parametrize("path, data", _kept(), ids=lambda v: getattr(v, "stem", ""))
+def test_kept_order_program_on_interpreter(path, data):
+    """The kept order's program on the interpreter, a few runs of directed and random poses
+    (the whole directed set: tests/test_seq_core.py, slow set)."""
+    k = constants(load_config(data["config"]), load_arm(data["arm"]))
+    prog = program.ik_program(k, wide_product=data["wide_product"], poses=data["poses"])
+    directed = directed_poses(k)
+    spread = np.linspace(0, len(directed) - 1, 6 * prog.poses).astype(int)    # every kind of pose
+    poses = concat(directed[spread], random_poses(k, 2 * prog.poses, seed=5))
+    expected = ik_outputs(k, poses, model.solve_batch)
+    fields = poses.fields()
+    for first in range(0, len(poses) - prog.poses + 1, prog.poses):
+        run = range(first, first + prog.poses)
+        outs = machine.run_poses(prog, [_engine_words(fields, j, j % 64) for j in run])
+        for j, out in zip(run, outs):
+            assert [out[n] for n in range(5)] + [out["status"]] == \
+                [int(expected[f"q{n + 1}"][j]) for n in range(5)] + [int(expected["status"][j])], j
+
+
+def _q18_blocks():
+    k = constants(load_config("q18"))
+    _, codes, after = program.program_blocks(k)
+    return k, codes, after, blocks_of(codes, after)
+
+
+def test_the_compile_takes_a_kept_order(tmp_path, monkeypatch):
+    """A kept order decides the program (here a poor one: every block at the same priority, so
+    in list order), and no kept order means the climb."""
+    k, codes, after, blocks = _q18_blocks()
+    monkeypatch.setattr(hints, "SCHEDULES", tmp_path)
+    assert hints.hint(blocks) is None
+    climbed_length = len(program._compile.__wrapped__(k).code)
+    flat = [0] * len(blocks)
+    (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": flat}))
+    assert hints.hint(blocks) == flat
+    kept_length = len(program._compile.__wrapped__(k).code)
+    assert kept_length == len(placed(blocks, flat)) > climbed_length
+    (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": flat[1:]}))
+    with pytest.raises(ValueError, match="priorities for"):
+        hints.hint(blocks)
+
+
+def test_the_fingerprint_is_of_the_blocks():
+    _, codes, after, blocks = _q18_blocks()
+    assert hints.fingerprint(blocks_of(codes, after)) == hints.fingerprint(blocks)
+    assert hints.fingerprint(blocks_of(codes[:1] + codes[2:], after)) != hints.fingerprint(blocks)
+
+
+def test_search_is_deterministic_and_never_longer():
+    _, _, _, blocks = _q18_blocks()
+    table, prio = climbed(blocks)
+    seen = []
+    runs = [search.evolve(blocks, prio, evaluations=400, seed=3, progress=lambda d, n: seen.append(n))
+            for _ in range(2)]
+    assert runs[0] == runs[1]
+    length, order = runs[0]
+    assert length == len(placed(blocks, order)) <= len(table)
+    assert seen and seen[-1] == length
