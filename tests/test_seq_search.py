@@ -38,10 +38,11 @@ def test_a_kept_order_is_of_the_q32w_two_pose_program():
 @pytest.mark.parametrize("path, data", _kept(), ids=lambda v: getattr(v, "stem", ""))
 def test_kept_order_is_current_and_shorter(path, data):
     """A kept order whose fingerprint no design point has any more is dead weight (the lowering
-    changed): re-run ``python -m ik5r.hdl.sequenced.search`` for it and delete the old file."""
+    changed): ``python -m ik5r.hdl.sequenced.search --renew`` searches its design point again."""
     k, (_, codes, after) = _design_point(data)
     blocks = blocks_of(codes, after)
-    assert hints.fingerprint(blocks) == path.stem, f"{path.name}: no design point has these blocks"
+    assert hints.fingerprint(blocks) == path.stem, (
+        f"{path.name}: no design point has these blocks (python -m ik5r.hdl.sequenced.search --renew)")
     assert hints.hint(blocks) == data["priorities"] and search.kept_text(data) == path.read_text()
     assert len(placed(blocks, data["priorities"])) == data["clocks"] < data["climb_clocks"]
     prog = program.ik_program(k, wide_product=data["wide_product"], poses=data["poses"])
@@ -106,3 +107,19 @@ def test_search_is_deterministic_and_never_longer():
     length, order = runs[0]
     assert length == len(placed(blocks, order)) <= len(table)
     assert seen and seen[-1] == length
+
+
+def test_renew_searches_a_stale_order_again(tmp_path, monkeypatch):
+    """A kept order of blocks no design point has (here a made-up fingerprint) is searched again
+    for its design point and replaced; a current one is left alone."""
+    monkeypatch.setattr(hints, "SCHEDULES", tmp_path)
+    point = {"config": "q18", "arm": None, "poses": 1, "wide_product": False, "evaluations": 50, "seed": 2}
+    current = search.search_point(point)
+    stale = tmp_path / "0123456789abcdef.json"
+    stale.write_text(current.read_text().replace('"evaluations": 50', '"evaluations": 60'))
+    before = current.read_text()
+    [(old, new)] = search.renew()
+    assert old == stale and not stale.exists() and new == current
+    renewed = json.loads(new.read_text())
+    assert renewed["evaluations"] == 60 and renewed["clocks"] <= renewed["climb_clocks"]
+    assert new.read_text() != before and search.renew() == []

@@ -1,7 +1,8 @@
 """A longer search for the order in which the scheduler places a program's blocks, run offline
 and kept (:mod:`.hints`)::
 
-    python -m ik5r.hdl.sequenced.search --config q32w --poses 2 --evaluations 300000
+    python -m ik5r.hdl.sequenced.search --config q32w --poses 2 --evaluations 200000
+    python -m ik5r.hdl.sequenced.search --renew     # after a change of the lowering
 
 The scheduler's climb (:func:`.schedule.climbed`) stops where no single priority step and no swap
 of two priorities shortens the program. From there a (1 + 1) evolutionary search moves one to
@@ -11,6 +12,8 @@ again from the order found. It takes tens of
 thousands of list schedulings, minutes, too long for every compile: its order is written to
 ``schedules/<fingerprint>.json`` with the design point and the lengths, and every compile of the
 same blocks uses it. Deterministic: the same seed and count of evaluations give the same order.
+``--renew`` searches again, with the same evaluations and seed, for each kept order whose blocks
+no design point has any more, and removes the old file.
 """
 
 from __future__ import annotations
@@ -19,16 +22,17 @@ import argparse
 import json
 import random
 import sys
-import time
+from pathlib import Path
 
 from ik5r.core.arm import load_arm
 from ik5r.core.fxconfig import constants, load_config
 
-from .hints import SCHEDULES, fingerprint
+from . import hints
+from .hints import fingerprint
 from .program import POSES, program_blocks
 from .schedule import blocks_of, climbed, placed
 
-__all__ = ["evolve", "main"]
+__all__ = ["evolve", "search_point", "renew", "main"]
 
 #: Priority moves of the search (the climb's steps, and smaller ones).
 MOVES = (-400, -200, -100, -50, -20, -5, 5, 20, 50, 100, 200, 400)
@@ -73,6 +77,45 @@ def kept_text(kept: dict) -> str:
     return f'{head[:-2]},\n "priorities": {json.dumps(kept["priorities"])}\n}}\n'
 
 
+#: What a kept order records of its design point, and searches again with (:func:`renew`).
+POINT_KEYS = ("config", "arm", "poses", "wide_product", "evaluations", "seed")
+
+
+def _blocks(point: dict):
+    k = constants(load_config(point["config"]), load_arm(point["arm"]))
+    _, codes, after = program_blocks(k, point["wide_product"], point["poses"])
+    return k, blocks_of(codes, after)
+
+
+def search_point(point: dict, progress=None) -> Path:
+    """The order of design point ``point`` (:data:`POINT_KEYS`; ``arm`` None: the arm of record)
+    searched and kept; returns its file."""
+    k, blocks = _blocks(point)
+    table, prio = climbed(blocks)
+    _, prio = evolve(blocks, prio, evaluations=point["evaluations"], seed=point["seed"], progress=progress)
+    # The climb again from the search's order: a last step or swap the mutations did not try.
+    polished, prio = climbed(blocks, prio)
+    hints.SCHEDULES.mkdir(exist_ok=True)
+    path = hints.SCHEDULES / f"{fingerprint(blocks)}.json"
+    path.write_text(kept_text({**point, "config": k.cfg.name, "arm": k.arm.name,
+                               "climb_clocks": len(table), "clocks": len(polished), "priorities": prio}))
+    return path
+
+
+def renew(progress=None) -> list[tuple[Path, Path]]:
+    """Each kept order whose blocks no design point has any more (the lowering changed) searched
+    again for its design point, with its count of evaluations and seed; the old file removed.
+    Returns (old, new) per order renewed."""
+    renewed = []
+    for path in hints.schedule_files():
+        point = {key: json.loads(path.read_text())[key] for key in POINT_KEYS}
+        if fingerprint(_blocks(point)[1]) != path.stem:
+            new = search_point(point, progress)
+            path.unlink()
+            renewed.append((path, new))
+    return renewed
+
+
 def _args(argv):
     parser = argparse.ArgumentParser(prog="python -m ik5r.hdl.sequenced.search", description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", default="q32w", help="fixed-point config (a shipped name or a TOML)")
@@ -81,36 +124,27 @@ def _args(argv):
     parser.add_argument("--wide-product", action="store_true")
     parser.add_argument("--evaluations", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--renew", action="store_true",
+                        help="search again every kept order no design point uses any more (ignores the options above)")
     return parser.parse_args(argv)
+
+
+def _progress(done, length):
+    print(f"\r{done:,} evaluations: {length} clocks", end="", file=sys.stderr)
 
 
 def main(argv=None) -> int:
     args = _args(argv)
-    k = constants(load_config(args.config), load_arm(args.arm))
-    _, codes, after = program_blocks(k, args.wide_product, args.poses)
-    blocks = blocks_of(codes, after)
-    start = time.monotonic()
-    table, prio = climbed(blocks)
-    print(f"climb: {len(table)} clocks ({time.monotonic() - start:.0f} s)", file=sys.stderr)
-
-    def progress(done, length):
-        print(f"\r{done:,} of {args.evaluations:,} evaluations: {length} clocks", end="", file=sys.stderr)
-
-    terminal = sys.stderr.isatty()
-    length, prio = evolve(blocks, prio, evaluations=args.evaluations, seed=args.seed,
-                          progress=progress if terminal else None)
-    if terminal:
-        print(file=sys.stderr)
-    # The climb again from the search's order: a last step or swap the mutations did not try.
-    polished, prio = climbed(blocks, prio)
-    length = len(polished)
-    SCHEDULES.mkdir(exist_ok=True)
-    path = SCHEDULES / f"{fingerprint(blocks)}.json"
-    path.write_text(kept_text({
-        "config": k.cfg.name, "arm": k.arm.name, "poses": args.poses, "wide_product": args.wide_product,
-        "climb_clocks": len(table), "clocks": length, "evaluations": args.evaluations, "seed": args.seed,
-        "priorities": prio}))
-    print(f"{path}: {length} clocks (climb {len(table)})")
+    progress = _progress if sys.stderr.isatty() else None
+    if args.renew:
+        for old, new in renew(progress):
+            print(f"{old.name} -> {new}: {json.loads(new.read_text())['clocks']} clocks")
+        return 0
+    path = search_point({"config": args.config, "arm": args.arm, "poses": args.poses,
+                         "wide_product": args.wide_product, "evaluations": args.evaluations,
+                         "seed": args.seed}, progress)
+    kept = json.loads(path.read_text())
+    print(f"{path}: {kept['clocks']} clocks (climb {kept['climb_clocks']})")
     return 0
 
 
