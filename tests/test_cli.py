@@ -305,6 +305,46 @@ def test_verilog_dsp_applies_to_the_pipelined_arch(tmp_path, capsys):
     assert not (tmp_path / "w").exists()
 
 
+def test_verilog_dsp_of_the_compact_core(tmp_path, capsys):
+    """--dsp ecp5 with --block ik --arch compact: the core's limb multiplier on MULT18X18D whose
+    input registers (enabled by the pick) are its limb registers, output unregistered: one DSP,
+    two with --wide-product; the same latency as the generic core. With --arch all the compact
+    core stays generic (the mapping is asked of it by name)."""
+    def built(*extra):
+        out = tmp_path / "-".join(extra or ("plain",))
+        assert main(["verilog", "-q", "--block", "ik", "--config", "q18", *extra, "-o", str(out)]) == 0
+        return {p.stem: (p.read_text(), json.loads(p.with_suffix(".json").read_text())) for p in out.glob("*.v")}
+
+    plain, = built("--arch", "compact").values()
+    (name, (text, pmap)), = built("--arch", "compact", "--dsp", "ecp5").items()
+    assert name == "ik5r_ik_dspecp5_compact" and pmap["latency_cycles"] == plain[1]["latency_cycles"]
+    assert text.count("MULT18X18D #(") == 1 and "MULT18X18D" not in plain[0]
+    assert '.REG_INPUTA_CLK("CLK0")' in text and '.REG_OUTPUT_CLK("NONE")' in text
+    (name, (text, _)), = built("--arch", "compact", "--dsp", "ecp5", "--wide-product").items()
+    assert name == "ik5r_ik_dspecp5_wide_product1_compact" and text.count("MULT18X18D #(") == 2
+    both = built("--arch", "all", "--dsp", "ecp5")
+    assert sorted(both) == ["ik5r_ik_compact", "ik5r_ik_dspecp5_pipelined"]
+    capsys.readouterr()
+
+
+def test_synth_maps_the_compact_core_to_dsps_only_when_asked():
+    """``ik5r synth`` on ECP5: the pipelined arch takes the primitives by default, the compact
+    core only with --dsp given (the sweep's and the records' compact cores stay generic)."""
+    from ik5r.tools.synth import _design
+    from ik5r.tools.synth_options import SynthOptions
+    from ik5r.tools.design import Design
+
+    core = Design.resolve("ik", "compact", config="q18")
+    default = SynthOptions(pnr=False).resolved()
+    asked = SynthOptions(pnr=False, dsp="ecp5").resolved()
+    assert default.dsp == asked.dsp == "ecp5" and default.resolved().dsp_given is False
+    assert asked.resolved().dsp_given is True
+    assert _design(core, default)[3]["module"] == "ik5r_ik_compact"
+    assert _design(core, asked)[3]["module"] == "ik5r_ik_dspecp5_compact"
+    pipelined = Design.resolve("ik", "pipelined", config="q18")
+    assert _design(pipelined, default)[3]["module"].startswith("ik5r_ik_dspecp5_")
+
+
 def test_verilog_rotations_per_stage(tmp_path, capsys):
     """--rotations-per-stage 2: the pipelined module named with it, its latency shorter; with
     --arch iterative: one line naming the option, exit 2, nothing written."""

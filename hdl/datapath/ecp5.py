@@ -90,13 +90,17 @@ endmodule
 """
 
 
-def mult18x18d(m, name: str, a18, b18):
-    """A ``MULT18X18D`` in ``m`` with its input and output registers (always enabled, as the
-    pipeline) multiplying the signed 18-bit ``a18`` and ``b18``; returns its 36-bit product."""
+def mult18x18d(m, name: str, a18, b18, *, enable=None, output_register: bool = True):
+    """A ``MULT18X18D`` in ``m`` multiplying the signed 18-bit ``a18`` and ``b18`` into its
+    input registers; returns its 36-bit product. ``enable``: the input and output registers'
+    clock enable (default: always, as the pipeline); ``output_register`` False: the product
+    straight from the multiplier (a clock after the operands are taken)."""
     product = Signal(signed(2 * MULT_BITS), name=f"{name}_p")
+    regs = ("INPUTA", "INPUTB") + (("OUTPUT",) if output_register else ())
     registers = {f"p_REG_{reg}_{what}": value
-                 for reg in ("INPUTA", "INPUTB", "OUTPUT")
-                 for what, value in (("CLK", "CLK0"), ("CE", "CE0"), ("RST", "RST0"))}
+                 for reg in regs for what, value in (("CLK", "CLK0"), ("CE", "CE0"), ("RST", "RST0"))}
+    if not output_register:
+        registers["p_REG_OUTPUT_CLK"] = "NONE"
     m.submodules[f"{name}_dsp"] = Instance(
         "MULT18X18D", **registers,
         p_REG_INPUTC_CLK="NONE", p_REG_PIPELINE_CLK="NONE", p_GSR="DISABLED",
@@ -104,7 +108,7 @@ def mult18x18d(m, name: str, a18, b18):
         **{f"i_A{bit}": a18[bit] for bit in range(MULT_BITS)},
         **{f"i_B{bit}": b18[bit] for bit in range(MULT_BITS)},
         i_SIGNEDA=Const(1, 1), i_SIGNEDB=Const(1, 1), i_SOURCEA=Const(0, 1), i_SOURCEB=Const(0, 1),
-        i_CLK0=ClockSignal(), i_CE0=Const(1, 1), i_RST0=Const(0, 1),
+        i_CLK0=ClockSignal(), i_CE0=Const(1, 1) if enable is None else enable, i_RST0=Const(0, 1),
         **{f"o_P{bit}": product[bit] for bit in range(2 * MULT_BITS)})
     return product
 

@@ -26,7 +26,7 @@ from amaranth.lib.memory import Memory
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
-from ik5r.core.modes import CoreArch
+from ik5r.core.modes import CoreArch, Dsp
 
 from . import isa as X
 from ..graph.inputs import FLAG_FIELDS, INPUT_WORDS, WORD_FIELDS, tagged_fields
@@ -53,15 +53,18 @@ class SeqEngine(wiring.Component):
     DSPs): fewer clocks per pose, a longer product path. ``poses`` 2: a run computes two poses
     (:mod:`.poses`), the first's words, then the second's; at the second's first word the engine
     does not wait: without ``in_valid`` that pose is skipped (its words not taken, its output
-    words not offered, ``out_valid`` low) until the next run.
+    words not offered, ``out_valid`` low) until the next run. ``dsp`` ecp5: the limb multiplier
+    on ``MULT18X18D`` primitives whose input registers are the limb registers (the same clocks
+    and bits; for ECP5 builds only, as the Amaranth simulator cannot run a primitive).
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False,
-                 poses: int = 1):
+                 poses: int = 1, dsp: str = Dsp.GENERIC):
         if not isinstance(constants, Constants):
             raise TypeError(f"constants must be an ik5r.core.fxconfig.Constants, got {constants!r}")
         check_wide(wide_product)
         _check_poses(poses)
+        self.dsp = check_dsp(dsp)
         self.prog = ik_program(constants, wide_product=wide_product, poses=poses)
         clash = X.read_write_clash(self.prog.code)
         if clash is not None:
@@ -104,7 +107,7 @@ class SeqEngine(wiring.Component):
         run = ~stall
 
         acc = Signal(signed(w.acc))
-        regs = U.registers(w)
+        regs = U.registers(w, self.dsp)
         # The word ports: ``(in_take, in_ready, out_valid)``.
         if prog.poses == 1:
             m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
@@ -130,7 +133,7 @@ class SeqEngine(wiring.Component):
         self.trace = dict(regs, acc=acc, pc=pc, exe=ins, bus=bus)
         U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs)
         U.cordic(m, ins, dec, shift, bus, cond, step, regs, run, w)
-        U.multiplier(m, ins, pre.sh, bus, regs, run, w, prog.shifts)
+        U.multiplier(m, ins, pre.sh, bus, regs, run, w, prog.shifts, self.dsp)
         U.sqrt(m, ins, acc, regs, run, w)
         m.d.comb += [mem_wr.addr.eq(ins.wa), mem_wr.data.eq(acc), mem_wr.en.eq(ins.wr & run)]
 
@@ -270,6 +273,13 @@ def check_wide(wide_product):
         raise ValueError(f"wide_product must be True or False, got {wide_product!r}")
 
 
+def check_dsp(dsp) -> Dsp:
+    """The compact core's multiplier mapping: generic, or ECP5 ``MULT18X18D`` primitives."""
+    if dsp not in (Dsp.GENERIC, Dsp.ECP5):
+        raise ValueError(f"dsp must be one of {Dsp.GENERIC}, {Dsp.ECP5}, got {dsp!r}")
+    return Dsp(dsp)
+
+
 def _check_poses(poses):
     if isinstance(poses, bool) or poses not in POSES:
         raise ValueError(f"poses must be one of {POSES}, got {poses!r}")
@@ -291,15 +301,16 @@ class SequencedIKCore(wiring.Component):
     output word while a result is held). ``poses`` 2: a program computes two poses on the shared
     units (:func:`.program.interleave`); the second is skipped when no pose is there for it, so
     a pose never waits for another. Nothing is lost, duplicated or reordered under back-pressure.
+    ``dsp`` ecp5: the engine's limb multiplier on ``MULT18X18D`` primitives (:class:`SeqEngine`).
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0, wide_product: bool = False,
-                 poses: int = 1):
+                 poses: int = 1, dsp: str = Dsp.GENERIC):
         check_tag(tag_width, 26)
         check_wide(wide_product)
         _check_poses(poses)
         self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product,
-                                     poses=poses)
+                                     poses=poses, dsp=dsp)
         self.constants, self.arch, self.tag_width = constants, CoreArch.COMPACT, tag_width
         in_fields, out_fields = tagged_fields(constants, tag_width)
         self.in_fields, self.out_fields = in_fields, out_fields
@@ -310,7 +321,8 @@ class SequencedIKCore(wiring.Component):
         # Input register, the program's poses, output register: a result waiting in the output
         # register while a program holds both its poses and the next pose is taken in.
         self.capacity = 2 + poses
-        self.options = ({"wide_product": True} if wide_product else {}) | ({"poses": poses} if poses > 1 else {})
+        self.options = ({"wide_product": True} if wide_product else {}) | ({"poses": poses} if poses > 1 else {}) \
+            | ({"dsp": e.dsp} if e.dsp != Dsp.GENERIC else {})
         super().__init__({
             "i": In(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in in_fields.items()}))),
             "o": Out(stream.Signature(data.StructLayout({n: s for n, (s, _, _) in out_fields.items()}))),

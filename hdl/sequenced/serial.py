@@ -8,7 +8,7 @@ from amaranth.lib import stream, wiring
 from amaranth.lib.wiring import In, Out
 
 from ik5r.core.fxconfig import Constants
-from ik5r.core.modes import CoreArch
+from ik5r.core.modes import CoreArch, Dsp
 
 from ..datapath.expr import select
 from ..graph.inputs import INPUT_WORDS
@@ -30,12 +30,12 @@ class SerialIK(wiring.Component):
     """
 
     def __init__(self, *, constants: Constants, tag_width: int = 0, beat_bits: int = 16,
-                 wide_product: bool = False):
+                 wide_product: bool = False, dsp: str = Dsp.GENERIC):
         check_tag(tag_width, 26)
         check_wide(wide_product)
         if isinstance(beat_bits, bool) or not isinstance(beat_bits, int) or not 1 <= beat_bits <= 32:
             raise ValueError(f"beat_bits must be an integer in [1, 32], got {beat_bits!r}")
-        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product)
+        self._engine = e = SeqEngine(constants=constants, tag_width=tag_width, wide_product=wide_product, dsp=dsp)
         self.constants, self.tag_width, self.beat_bits = constants, tag_width, beat_bits
         self.arch = CoreArch.COMPACT
         self.in_beats = -(-e.in_bits // beat_bits)
@@ -45,7 +45,8 @@ class SerialIK(wiring.Component):
         self.latency = e.cycles + (len(INPUT_WORDS) + 1) * (self.in_beats - 1) + 6 * (self.out_beats - 1)
         self.cycles_per_result = self.latency - (self.in_beats - 1)
         self.capacity = 1
-        self.options = {"serial": beat_bits} | ({"wide_product": True} if wide_product else {})
+        self.options = {"serial": beat_bits} | ({"wide_product": True} if wide_product else {}) \
+            | ({"dsp": e.dsp} if e.dsp != Dsp.GENERIC else {})
         self.in_fields = {"beat": (unsigned(beat_bits), None, "input word beat, LSB first")}
         self.out_fields = {"beat": (unsigned(beat_bits), None, "output word beat, LSB first")}
         super().__init__({

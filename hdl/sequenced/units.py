@@ -10,8 +10,10 @@ from amaranth.hdl import Cat, Const, Mux, Signal, signed
 
 from ik5r.core import status as S
 from ik5r.core.fxconfig import CHECK_BITS
+from ik5r.core.modes import Dsp
 
 from . import isa as X
+from ..datapath.ecp5 import MULT_BITS, mult18x18d
 from ..datapath.expr import add_sub, asr_radix4, saturate, select
 
 STATUS_BITS = S.FIXED_WIDTH
@@ -19,9 +21,9 @@ STATUS_BITS = S.FIXED_WIDTH
 _FACTOR_BITS = max(16, CHECK_BITS)
 
 
-def registers(w):
-    """The engine's unit registers by name."""
-    return {
+def registers(w, dsp: str = Dsp.GENERIC):
+    """The engine's unit registers by name (the limb registers in the DSPs with ``dsp`` ecp5)."""
+    regs = {
         "flag": Signal(name="flag"), "zero": Signal(name="zero"), "back": Signal(name="back"),
         "down": Signal(name="down"), "roll": Signal(name="roll"),
         "status": Signal(w.status, name="status"), "tag": Signal(max(1, w.tag), name="tag"),
@@ -33,6 +35,9 @@ def registers(w):
         "rad": Signal(w.radicand, name="rad"), "root": Signal(w.radicand // 2 + 1, name="root"),
         "rem": Signal(w.radicand // 2 + 2, name="rem"),
     }
+    if dsp == Dsp.ECP5:
+        del regs["la"], regs["lb"]
+    return regs
 
 def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs=None):
     """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits (of
@@ -142,25 +147,32 @@ def _piece(reg, lsb: int, n: int, top):
     return Cat(rest, rest[-1].replicate(n + 1 - len(rest))).as_signed()
 
 
-def multiplier(m, ins, next_shift, bus, regs, run, w, shifts):
+def multiplier(m, ins, next_shift, bus, regs, run, w, shifts, dsp: str = Dsp.GENERIC):
     """The operand registers, the limb pick and the one limb multiplier (16 x 16 bits, or 16 x
-    31 with the wide product step)."""
+    31 with the wide product step); ``dsp`` ecp5: the limb registers are the input registers of
+    ``MULT18X18D`` primitives (:func:`_dsp_product`), the same clocks and bits."""
     def limb(reg, index, top, check, size=1):
         n = X.LIMB * size
         options = [_piece(reg, n * i, n, top) for i in range(-(-w.limbs // size))]
         return Mux(check, reg[w.check_lsb:w.check_lsb + CHECK_BITS].as_signed(),
                    select(options, index).as_signed())
 
+    def picked():
+        return limb(regs["ma"], ins.pa, ins.psa, ins.pwa), limb(regs["mb"], ins.pb, ins.psb, ins.pwb, w.b_limbs)
+
     product = Signal(signed(_FACTOR_BITS + b_factor_bits(w)), name="limb_product")   # the one multiplier
-    m.d.comb += product.eq(regs["la"] * regs["lb"])
+    if dsp == Dsp.ECP5:
+        m.d.comb += product.eq(_dsp_product(m, *picked(), run & ins.pick))
+    else:
+        m.d.comb += product.eq(regs["la"] * regs["lb"])
     with m.If(run):
         # The product register holds the limb product already shifted to its weight, by
         # the shift of the instruction that adds it (the next one to execute).
         m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
                                     if len(shifts) > 1 else product.shift_left(shifts[0]))
-        with m.If(ins.pick):
-            m.d.sync += [regs["la"].eq(limb(regs["ma"], ins.pa, ins.psa, ins.pwa)),
-                         regs["lb"].eq(limb(regs["mb"], ins.pb, ins.psb, ins.pwb, w.b_limbs))]
+        if dsp != Dsp.ECP5:
+            with m.If(ins.pick):
+                m.d.sync += [regs[name].eq(value) for name, value in zip(("la", "lb"), picked())]
         with m.Switch(ins.mld):
             with m.Case(X.MulLoad.A):
                 m.d.sync += regs["ma"].eq(bus)
@@ -168,6 +180,29 @@ def multiplier(m, ins, next_shift, bus, regs, run, w, shifts):
                 m.d.sync += regs["mb"].eq(bus)
             with m.Default():
                 m.d.sync += [regs["ma"].eq(regs["ma"]), regs["mb"].eq(regs["mb"])]
+
+
+def _signed18(value):
+    """``value`` (signed, at most 18 bits) sign-extended to a ``MULT18X18D`` operand."""
+    return Cat(value, value[-1].replicate(MULT_BITS - len(value)))
+
+
+def _dsp_product(m, a, b, enable):
+    """``a * b`` (signed, ``a`` at most 18 bits, ``b`` at most 35) from ``MULT18X18D``s whose
+    input registers take ``a`` and ``b`` where ``enable`` (the limb registers' load): one DSP,
+    or two for a wide ``b`` (its low 17 bits unsigned, the rest signed; their products summed
+    in the fabric). The product follows the operands by a clock, as the limb registers'."""
+    if len(a) > MULT_BITS or len(b) > 2 * MULT_BITS - 1:
+        raise ValueError(f"a {len(a)} x {len(b)}-bit product does not fit two MULT18X18D")
+    if len(b) <= MULT_BITS:
+        return mult18x18d(m, "limb", _signed18(a), _signed18(b), enable=enable, output_register=False)
+    low_bits = MULT_BITS - 1
+    low = mult18x18d(m, "limb_low", _signed18(a), Cat(b[:low_bits], Const(0, 1)), enable=enable,
+                     output_register=False)
+    high = mult18x18d(m, "limb_high", _signed18(a), _signed18(b[low_bits:].as_signed()), enable=enable,
+                      output_register=False)
+    return high.shift_left(low_bits) + low
+
 
 def _digit(m, rad, root, rem, w, name):
     """One digit step of the square root from (rad, root, rem): the next values, each cut to

@@ -174,8 +174,10 @@ def _design(design, opts: SynthOptions):
         from .softcpu import soc_design
         text, pmap = soc_design(design.constants, design.arch)
         return design, {}, text, pmap
-    # The DSP mapping is a pipelined-architecture option (the small ones multiply sequentially).
-    dsp = opts.dsp if design.arch == Arch.PIPELINED else Dsp.GENERIC
+    # The DSP mapping: the pipelined architecture's default; the compact IK core's when --dsp is
+    # given (its one multiplier's limb registers in the DSPs); the small blocks multiply in LUTs.
+    compact_core = (design.block, design.arch) == (Block.IK, CoreArch.COMPACT)
+    dsp = opts.dsp if design.arch == Arch.PIPELINED or (compact_core and opts.dsp_given) else Dsp.GENERIC
     serial = None
     if design.block == Block.IK and design.arch == CoreArch.COMPACT and opts.target == Target.ICE40:
         # iCE40 nextpnr places real IOs: the compact core goes through its word-serial wrapper
@@ -334,7 +336,8 @@ def _key_and_folder(design, opts: SynthOptions, body: str, module: str, tools: d
     # --threads is left out: the WebAssembly nextpnr runs one thread whatever it is told; --dsp
     # is in the Verilog text already.
     flags = {name: value for name, value in asdict(opts).items()
-             if name not in ("threads", "dsp", "rotations_per_stage", "max_dsp", "wide_product", "dsp_output_regs", "poses")}
+             if name not in ("threads", "dsp", "dsp_given", "rotations_per_stage", "max_dsp", "wide_product",
+                             "dsp_output_regs", "poses")}
     # --rotations-per-stage, --max-dsp, --wide-product, --dsp-output-regs and --poses are in the Verilog and the module name
     # already (old keys stay valid).
     if opts.router == "router1":

@@ -63,6 +63,9 @@ class SynthOptions:
     wide_product: bool = False      # compact IK core: the 16 x 31 product step
     dsp_output_regs: int = 0        # pipelined IK core, ECP5 DSPs: fabric registers after each DSP
     poses: int = 1                  # compact IK core: poses a program
+    # Whether --dsp was given: the pipelined arch maps to the target's primitives by default, the
+    # compact IK core only when asked (None until resolved()).
+    dsp_given: bool | None = None
 
     def resolved(self) -> "SynthOptions":
         if self.target not in TARGETS:
@@ -89,4 +92,6 @@ class SynthOptions:
             raise InputError("--max-dsp", f"a cap >= 0 on ECP5 DSPs (--dsp ecp5), got {self.max_dsp} with {dsp}")
         if self.dsp_output_regs and dsp != Dsp.ECP5:
             raise InputError("--dsp-output-regs", f"applies to ECP5 DSPs (--dsp ecp5), not to {dsp}")
-        return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp)
+        dsp_given = self.dsp is not None if self.dsp_given is None else self.dsp_given
+        return replace(self, device=device, package=package, speed=speed, placer=placer, dsp=dsp,
+                       dsp_given=dsp_given)

@@ -59,7 +59,8 @@ def register(subparsers) -> None:
     parser.add_argument("--dsp", choices=DSPS, default=None,
                         help="primitives: ECP5 MULT18X18D instances with their input and output "
                              "registers and CCU2C add/sub chains, or generic operators mapped by "
-                             "Yosys (default: ecp5 on ECP5, generic on iCE40)")
+                             "Yosys (default: ecp5 on ECP5 for the pipelined arch, generic on iCE40; the "
+                             "compact IK core's multiplier takes MULT18X18D only when --dsp ecp5 is given)")
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_max_dsp(parser)
     cliopts.add_dsp_output_regs(parser)

@@ -51,8 +51,9 @@ def register(subparsers) -> None:
                         help="primitives of the pipelined arch (with --arch all, the others stay generic): "
                              "generic operators (any FPGA), or ECP5 "
                              "MULT18X18D instances using their input and output registers and CCU2C "
-                             "add/sub chains (module "
-                             "name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
+                             "add/sub chains; with --block ik --arch compact: the compact core's "
+                             "multiplier on MULT18X18D whose input registers are its limb registers "
+                             "(module name ik5r_<block>_dspecp5_<arch>; same latency, same bits) "
                              "(default: generic)")
     cliopts.add_rotations_per_stage(parser)
     cliopts.add_max_dsp(parser)
@@ -67,9 +68,11 @@ def run(args) -> int:
     from ik5r.hdl.generate import BLOCKS, archs_of, resolve_arch
     from ik5r.tools.design import Design
 
-    if args.dsp != Dsp.GENERIC and args.arch not in (Arch.PIPELINED, "all"):
-        raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture, "
-                                  f"not to --arch {args.arch}")
+    # The compact IK core maps its multiplier to primitives when asked by name (not by --arch all).
+    compact_core = args.block == Block.IK and args.arch in (CoreArch.COMPACT, Arch.ITERATIVE)
+    if args.dsp != Dsp.GENERIC and args.arch not in (Arch.PIPELINED, "all") and not compact_core:
+        raise InputError("--dsp", f"{args.dsp} primitives apply to the pipelined architecture and the "
+                                  f"compact IK core, not to --block {args.block} --arch {args.arch}")
     if args.arch not in (Arch.PIPELINED, "all"):
         cliopts.rotations_option(args, args.arch)       # exit 2 before anything is written
     cliopts.max_dsp_option(args, Arch.PIPELINED if args.arch == "all" else args.arch, args.dsp)
@@ -88,7 +91,7 @@ def run(args) -> int:
     for block in blocks:
         for arch in archs_of(block) if args.arch == "all" else (resolve_arch(block, args.arch),):
             # With --arch all, the small architectures are generic (they have no primitive mapping).
-            dsp = args.dsp if arch == Arch.PIPELINED else Dsp.GENERIC
+            dsp = args.dsp if arch == Arch.PIPELINED or compact_core else Dsp.GENERIC
             per_stage = 1
             if args.arch != "all" or arch == Arch.PIPELINED:
                 per_stage = cliopts.rotations_option(args, arch).get("rotations_per_stage", 1)

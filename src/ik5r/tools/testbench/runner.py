@@ -64,11 +64,11 @@ def default_simulator() -> str:
 
 def sim_design(block: str, arch: str, config=None, arm=None, *, tag_width: int = DEFAULT_TAG_WIDTH,
                dsp: str = Dsp.GENERIC, serial: int | None = None, rotations_per_stage: int = 1,
-               dsp_output_regs: int = 0, poses: int = 1) -> Design:
+               dsp_output_regs: int = 0, poses: int = 1, wide_product: bool = False) -> Design:
     """:meth:`Design.resolve` with the testbench's default tag field (8 bits: order and loss)."""
     return Design.resolve(block, arch, config=config, arm=arm, tag_width=tag_width, dsp=dsp, serial=serial,
                           rotations_per_stage=rotations_per_stage, dsp_output_regs=dsp_output_regs,
-                          poses=poses)
+                          poses=poses, wide_product=wide_product)
 
 
 def build_dir_for(design: Design, sim: str) -> Path:
