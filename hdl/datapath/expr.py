@@ -23,10 +23,12 @@ def asr(value, amount):
 
 def asr_radix4(value, amount):
     """``value >> amount`` (arithmetic for a signed value) by an unsigned Value, as a barrel
-    shifter of 4-way stages (two amount bits each: one LUT5 level on an ECP5), least significant
-    first."""
+    shifter of 4-way stages (two amount bits each: one LUT5 level on an ECP5), most significant
+    first: the long shifts fill the top with copies of the sign bit, which the later stages'
+    muxes select among and Yosys folds (fewer LUTs than least significant first for the
+    compact core's CORDIC shifters, at the same Fmax: the commit that made the choice)."""
     value = Value.cast(value)
-    for lsb in range(0, len(amount), 2):
+    for lsb in reversed(range(0, len(amount), 2)):
         bits = amount[lsb:lsb + 2]
         value = select([value.shift_right(j << lsb) for j in range(1 << len(bits))], bits)
     return value
