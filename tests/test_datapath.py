@@ -132,3 +132,30 @@ def test_the_chains_declare_what_they_read_and_leave():
     wrong.outputs = ("angle", "cosine")
     with pytest.raises(ValueError, match="the outputs read 'cosine'"):
         wrong.check_chain(word)
+
+
+def test_onehot_select_is_select():
+    """``onehot_select`` (the compact core's product register) gives ``select``'s value for
+    every index: each option, sign-extended, and 0 past the end of the options."""
+    from amaranth.hdl import Const, Module, Signal, signed
+    from amaranth.sim import Simulator
+
+    from ik5r.hdl.datapath.expr import onehot_select, select
+
+    index = Signal(3)
+    product = Const(-5, signed(5))
+    options = [product.shift_left(s) for s in (0, 3, 6, 9, 12)]
+    m = Module()
+    got, want = Signal(signed(20)), Signal(signed(20))
+    m.d.comb += [got.eq(onehot_select(options, index)), want.eq(select(options, index))]
+    seen = []
+
+    async def bench(ctx):
+        for i in range(8):
+            ctx.set(index, i)
+            seen.append((ctx.get(got), ctx.get(want)))
+
+    sim = Simulator(m)
+    sim.add_testbench(bench)
+    sim.run()
+    assert seen == [(-5 << s, -5 << s) for s in (0, 3, 6, 9, 12)] + [(0, 0)] * 3

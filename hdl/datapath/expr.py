@@ -9,7 +9,7 @@ from amaranth.hdl import Cat, Const, Mux, Value, signed, unsigned
 
 from .ecp5 import ccu2c_add_sub
 
-__all__ = ["asr", "extend", "add_sub", "rshift_round", "saturate", "leading_zeros", "select",
+__all__ = ["asr", "extend", "add_sub", "rshift_round", "saturate", "leading_zeros", "select", "onehot_select",
            "table_entry", "drop"]
 
 
@@ -144,6 +144,18 @@ def select(options, index):
     for bit in range(len(index)):
         level = [Mux(index[bit], level[j + 1], level[j]) for j in range(0, len(level), 2)]
     return level[0]
+
+
+def onehot_select(options, index):
+    """``options[index]`` for an unsigned Value ``index`` as an AND-OR of ``index == i`` terms
+    (0 past the end of ``options``): where the index is a register and the options are shifted
+    copies of one value (sparse bits), Yosys packs it in fewer LUTs than :func:`select`'s tree
+    (the compact core's product register: the commit that made the choice)."""
+    index = Value.cast(index)
+    total = Const(0, 1)
+    for i, option in enumerate(list(options)[:1 << len(index)]):
+        total = total | Mux(index == i, option, 0)
+    return total
 
 
 def table_entry(table, index):

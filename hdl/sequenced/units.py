@@ -14,7 +14,7 @@ from ik5r.core.modes import Dsp
 
 from . import isa as X
 from ..datapath.ecp5 import MULT_BITS, mult18x18d
-from ..datapath.expr import add_sub, asr_radix4, saturate, select
+from ..datapath.expr import add_sub, asr_radix4, onehot_select, saturate, select
 
 STATUS_BITS = S.FIXED_WIDTH
 #: Multiplier operand bits: a 16-bit signed limb or a check word.
@@ -168,7 +168,7 @@ def multiplier(m, ins, next_shift, bus, regs, run, w, shifts, dsp: str = Dsp.GEN
     with m.If(run):
         # The product register holds the limb product already shifted to its weight, by
         # the shift of the instruction that adds it (the next one to execute).
-        m.d.sync += regs["prod"].eq(select([product.shift_left(s) for s in shifts], next_shift)
+        m.d.sync += regs["prod"].eq(onehot_select([product.shift_left(s) for s in shifts], next_shift)
                                     if len(shifts) > 1 else product.shift_left(shifts[0]))
         if dsp != Dsp.ECP5:
             with m.If(ins.pick):
