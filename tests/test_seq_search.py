@@ -17,7 +17,7 @@ from ik5r.core.fxconfig import constants, load_config
 from ik5r.firmware_model import model
 from ik5r.firmware_model.poses import concat
 from ik5r.firmware_model.vectors import directed_poses, random_poses
-from ik5r.hdl.sequenced import hints, machine, program, search
+from ik5r.hdl.sequenced import cpsat, hints, machine, program, search
 from ik5r.hdl.sequenced.schedule import blocks_of, climbed, placed
 from ik5r.tools.testbench.blocks import ik_outputs
 
@@ -43,8 +43,10 @@ def test_kept_order_is_current_and_shorter(path, data):
     blocks = blocks_of(codes, after)
     assert hints.fingerprint(blocks) == path.stem, (
         f"{path.name}: no design point has these blocks (python -m ik5r.hdl.sequenced.search --renew)")
-    assert hints.hint(blocks) == data["priorities"] and search.kept_text(data) == path.read_text()
-    assert len(placed(blocks, data["priorities"])) == data["clocks"] < data["climb_clocks"]
+    assert hints.hint(blocks) == (data["priorities"], data.get("starts"))
+    assert search.kept_text(data) == path.read_text()
+    assert len(placed(blocks, data["priorities"], data.get("starts"))) == data["clocks"] < data["climb_clocks"]
+    assert data.get("cp_sat_bound", 0) <= data["clocks"]
     prog = program.ik_program(k, wide_product=data["wide_product"], poses=data["poses"])
     assert len(prog.code) == data["clocks"]
 
@@ -54,7 +56,10 @@ def test_kept_order_program_on_interpreter(path, data):
     """The kept order's program on the interpreter, a few runs of directed and random poses
     (the whole directed set: tests/test_seq_core.py, slow set)."""
     k = constants(load_config(data["config"]), load_arm(data["arm"]))
-    prog = program.ik_program(k, wide_product=data["wide_product"], poses=data["poses"])
+    _bit_exact_on_interpreter(k, program.ik_program(k, wide_product=data["wide_product"], poses=data["poses"]))
+
+
+def _bit_exact_on_interpreter(k, prog):
     directed = directed_poses(k)
     spread = np.linspace(0, len(directed) - 1, 6 * prog.poses).astype(int)    # every kind of pose
     poses = concat(directed[spread], random_poses(k, 2 * prog.poses, seed=5))
@@ -83,12 +88,62 @@ def test_the_compile_takes_a_kept_order(tmp_path, monkeypatch):
     climbed_length = len(program._compile.__wrapped__(k).code)
     flat = [0] * len(blocks)
     (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": flat}))
-    assert hints.hint(blocks) == flat
+    assert hints.hint(blocks) == (flat, None)
     kept_length = len(program._compile.__wrapped__(k).code)
     assert kept_length == len(placed(blocks, flat)) > climbed_length
     (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": flat[1:]}))
     with pytest.raises(ValueError, match="priorities for"):
         hints.hint(blocks)
+    (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(
+        json.dumps({"priorities": flat, "starts": [0] * (len(blocks) - 1)}))
+    with pytest.raises(ValueError, match="starts for"):
+        hints.hint(blocks)
+
+
+def test_kept_starts_place_every_block_there(tmp_path, monkeypatch):
+    """Starts kept with an order (a constraint solver's placement) give back that placement
+    whatever the order, and the compile takes it: here the climb's own placement, kept with
+    the reversed order, whose list scheduling alone is longer."""
+    k, codes, after, blocks = _q18_blocks()
+    table, prio = climbed(blocks)
+    starts = search._starts(table, blocks)
+    reverse = [-p for p in prio]
+    assert len(placed(blocks, reverse)) > len(table)
+    again = placed(blocks, reverse, starts)
+    assert search._starts(again, blocks) == starts and len(again) == len(table)
+    monkeypatch.setattr(hints, "SCHEDULES", tmp_path)
+    (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": reverse, "starts": starts}))
+    assert len(program._compile.__wrapped__(k).code) == len(table)
+
+
+@pytest.fixture(scope="module")
+def q18_solved():
+    """CP-SAT's placement of the q18 program, a few seconds from the climb's."""
+    k, codes, after, blocks = _q18_blocks()
+    table, _ = climbed(blocks)
+    return k, blocks, table, cpsat.solve(blocks, hint=search._starts(table, blocks), seconds=5, workers=1)
+
+
+def test_the_constraint_solver_places_the_blocks_validly(q18_solved):
+    """Every block of CP-SAT's placement at the start the solver gave when list-scheduled no
+    earlier than it (so the model's rules are the placer's, or the placer would move a block),
+    no longer than the climb, its lower bound below."""
+    k, blocks, table, found = q18_solved
+    assert found.bound <= found.clocks <= len(table)
+    order = [found.clocks - s for s in found.starts]
+    again = placed(blocks, order, found.starts)
+    assert search._starts(again, blocks) == found.starts and len(again) == found.clocks
+
+
+def test_the_constraint_solvers_program_is_bit_exact(q18_solved, tmp_path, monkeypatch):
+    """The compile of a kept CP-SAT placement, on the interpreter."""
+    k, blocks, table, found = q18_solved
+    monkeypatch.setattr(hints, "SCHEDULES", tmp_path)
+    order = [found.clocks - s for s in found.starts]
+    (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": order, "starts": found.starts}))
+    prog = program._compile.__wrapped__(k)
+    assert len(prog.code) == found.clocks
+    _bit_exact_on_interpreter(k, prog)
 
 
 def test_the_fingerprint_is_of_the_blocks():

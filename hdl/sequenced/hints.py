@@ -1,7 +1,8 @@
 """Block orders kept from a longer search (:mod:`.search`): ``schedules/<fingerprint>.json``.
 
 A compile whose blocks have the fingerprint of a kept order places them in that order (one list
-scheduling, :func:`.schedule.placed`) instead of climbing from the longest-path priorities. Any
+scheduling, :func:`.schedule.placed`; each block no earlier than its kept start, if the order
+was placed by the constraint solver) instead of climbing from the longest-path priorities. Any
 order gives a valid program (each block at the first clock its claims are free and its words are
 stored); a kept order only decides how short the program is. A change of the lowering, of the
 instruction set or of the claims changes the fingerprint: the compile then climbs as before, and
@@ -31,15 +32,18 @@ def fingerprint(blocks) -> str:
     return h.hexdigest()[:16]
 
 
-def hint(blocks) -> list | None:
-    """The kept order (one priority per block) for ``blocks``, or None."""
+def hint(blocks) -> tuple[list, list | None] | None:
+    """The kept order of ``blocks`` (one priority per block) and its earliest starts (one clock
+    per block, kept by the constraint solver's search, :mod:`.cpsat`; else None), or None."""
     path = SCHEDULES / f"{fingerprint(blocks)}.json"
     if not path.is_file():
         return None
-    priorities = json.loads(path.read_text())["priorities"]
-    if len(priorities) != len(blocks):
-        raise ValueError(f"{path}: {len(priorities)} priorities for {len(blocks)} blocks")
-    return priorities
+    kept = json.loads(path.read_text())
+    priorities, starts = kept["priorities"], kept.get("starts")
+    for name, values in (("priorities", priorities), ("starts", starts or blocks)):
+        if len(values) != len(blocks):
+            raise ValueError(f"{path}: {len(values)} {name} for {len(blocks)} blocks")
+    return priorities, starts
 
 
 def schedule_files() -> list[Path]:

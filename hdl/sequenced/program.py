@@ -81,7 +81,7 @@ def _compile(k: Constants, wide_product: bool = False, poses: int = 1) -> Progra
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
     a, codes, after = program_blocks(k, wide_product, poses)
     # A kept order of these blocks (a longer search's, .search), else the scheduler's climb.
-    code = schedule(codes, after, priorities=hint(blocks_of(codes, after)))
+    code = schedule(codes, after, *(hint(blocks_of(codes, after)) or ()))
     widths = widths_of(k)
     widths.limbs = limbs_of(a.operand_bits)
     widths.b_limbs = a.b_size

@@ -1,4 +1,4 @@
-"""List scheduling of the lowered IK blocks (:mod:`.seq_lower`) onto the sequenced engine's units.
+"""List scheduling of the lowered IK blocks (:mod:`.lower`) onto the sequenced engine's units.
 
 Each block keeps its own clock-by-clock shape (a product's pick and its accumulate two clocks
 later, a CORDIC's load, micro-rotations and read-out); what moves is where it starts. A block
@@ -6,10 +6,10 @@ claims, clock by clock, the instruction fields it sets, the B bus and the memory
 unit state it must keep: the accumulator and the F flag while a value in them is still to be read
 (a liveness scan), the CORDIC, the multiplier's operand registers and the square root from their
 first to their last use. Blocks are placed in order of their longest path to the end of the
-program (the CORDIC chain first), each at the first clock where its claims are free and its memory
-words are stored (READ_AHEAD + 1 clocks before the read), so products, checks and glue fill the
-clocks the CORDIC and the square root run alone. The memory words are then shared among values
-whose lifetimes do not overlap.
+program (the CORDIC chain first; a search's order if kept), each at the first clock where its
+claims are free and its words are stored (READ_AHEAD + 1 clocks before the read): products, checks
+and glue fill the clocks the CORDIC and the square root run alone. Values whose lifetimes do not
+overlap then share a memory word. (The same claims as a constraint model: :mod:`.cpsat`.)
 """
 
 from __future__ import annotations
@@ -161,8 +161,7 @@ class Table:
         self.busy: dict[int, int] = {}        # claim bit -> clocks it is taken
         self.under: dict = {}                 # condition -> clocks placed under it
         self.conditional = 0                  # clocks placed under any condition
-        # The placements in order; the instructions are merged once, for the schedule kept
-        # (merging every trial's words was most of the hill climb's time).
+        # The placements; their words are merged once, for the schedule kept (not per trial).
         self.placed: list[tuple[Block, int]] = []
         self.end = 0
 
@@ -224,15 +223,16 @@ def _priorities(blocks: list, producer: dict) -> list:
     return prio
 
 
-def schedule(codes: list, after: tuple = (), priorities: list | None = None) -> list:
+def schedule(codes: list, after: tuple = (), priorities: list | None = None,
+             releases: list | None = None) -> list:
     """Place the blocks (``codes[0]`` the inputs, ``codes[-1]`` the outputs) and share the
     memory words of the program (:func:`share_words`). ``after``: (i, j, gap) triples, block j
     starts ``gap`` clocks or more after block i ends (the word ports' order between poses of one
-    program, :func:`.program.ik_program`). ``priorities``: the blocks' placing order (a search's
-    result kept, :mod:`.search`), else found by :func:`climbed`; any order gives a valid
-    program (every block at the first clock its claims are free), it only decides how short."""
+    program, :func:`.program.ik_program`). ``priorities``, ``releases``: a search's placing
+    order and earliest starts, kept (:mod:`.search`), else the order :func:`climbed` finds. Any
+    order is a valid program (each block at its first free clock); it decides how short."""
     blocks = blocks_of(codes, after)
-    table = climbed(blocks)[0] if priorities is None else placed(blocks, priorities)
+    table = climbed(blocks)[0] if priorities is None else placed(blocks, priorities, releases)
     return share_words(table.code())
 
 
@@ -263,9 +263,11 @@ def climbed(blocks: "_Blocks", prio: list | None = None) -> tuple:
         best, prio = _climb(blocks, swapped, shorter)
 
 
-def placed(blocks: "_Blocks", priorities: list):
-    """The blocks list-scheduled in order of ``priorities`` (the program's :class:`Table`)."""
-    return _Placer(blocks, priorities).run()
+def placed(blocks: "_Blocks", priorities: list, releases: list | None = None):
+    """The blocks list-scheduled in order of ``priorities``, none before its ``releases`` clock
+    (the program's :class:`Table`). Releases that are a valid placement (:func:`.cpsat.solve`)
+    give back that placement, whatever the order: each block's own clock is then its first fit."""
+    return _Placer(blocks, priorities, releases).run()
 
 
 class _Blocks(list):
@@ -328,8 +330,8 @@ class _Placer:
     """List scheduling in order of priority: each block, the most urgent ready one first, at its
     first clock where its claims are free (later blocks fill earlier gaps)."""
 
-    def __init__(self, blocks: list, prio: list | None = None):
-        self.blocks = blocks
+    def __init__(self, blocks: list, prio: list | None = None, releases: list | None = None):
+        self.blocks, self.releases = blocks, releases
         self.producer, waits, self.waiting_for = _dependencies(blocks)
         # Per block, the blocks it waits for that are not placed yet.
         self.unplaced = [len(w) for w in waits]
@@ -342,6 +344,7 @@ class _Placer:
             return None
         b = self.blocks[i]
         t = len(self.blocks[0].code) if i else 0
+        t = max(t, self.releases[i]) if self.releases else t
         for t_read, name in b.reads:
             if name in self.written:
                 t = max(t, self.written[name] + READ_AHEAD + 1 - t_read)

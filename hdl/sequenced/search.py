@@ -14,6 +14,13 @@ thousands of list schedulings, minutes, too long for every compile: its order is
 same blocks uses it. Deterministic: the same seed and count of evaluations give the same order.
 ``--renew`` searches again, with the same evaluations and seed, for each kept order whose blocks
 no design point has any more, and removes the old file.
+
+``--cp-sat SECONDS`` then hands the placement to a constraint solver (:mod:`.cpsat`, OR-Tools'
+CP-SAT): the blocks' starts as variables of one model, the list scheduler's placement its first
+solution. A shorter placement is kept with its starts (a compile places each block no earlier,
+which gives that placement back), and the solver's proven lower bound on the length with it: how
+much shorter any placement on these units could be. Not deterministic across machines (threads
+and a time limit): the kept file is the record.
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from pathlib import Path
 from ik5r.core.arm import load_arm
 from ik5r.core.fxconfig import constants, load_config
 
-from . import hints
+from . import cpsat, hints
 from .hints import fingerprint
 from .program import POSES, program_blocks
 from .schedule import blocks_of, climbed, placed
@@ -72,13 +79,16 @@ def evolve(blocks, prio: list, *, evaluations: int, seed: int = 1, progress=None
 
 
 def kept_text(kept: dict) -> str:
-    """A kept order's JSON: a key a line, the priorities on one."""
-    head = json.dumps({key: value for key, value in kept.items() if key != "priorities"}, indent=1)
-    return f'{head[:-2]},\n "priorities": {json.dumps(kept["priorities"])}\n}}\n'
+    """A kept order's JSON: a key a line, the priorities (and starts) on one each."""
+    lists = [key for key in ("priorities", "starts") if key in kept]
+    head = json.dumps({key: value for key, value in kept.items() if key not in lists}, indent=1)
+    tail = ",\n".join(f' "{key}": {json.dumps(kept[key])}' for key in lists)
+    return f'{head[:-2]},\n{tail}\n}}\n'
 
 
-#: What a kept order records of its design point, and searches again with (:func:`renew`).
-POINT_KEYS = ("config", "arm", "poses", "wide_product", "evaluations", "seed")
+#: What a kept order records of its design point, and searches again with (:func:`renew`);
+#: ``cp_sat_seconds`` 0 (or absent): no constraint solver.
+POINT_KEYS = ("config", "arm", "poses", "wide_product", "evaluations", "seed", "cp_sat_seconds")
 
 
 def _blocks(point: dict):
@@ -87,18 +97,44 @@ def _blocks(point: dict):
     return k, blocks_of(codes, after)
 
 
-def search_point(point: dict, progress=None) -> Path:
+def _starts(table, blocks) -> list:
+    start = {id(b): t for b, t in table.placed}
+    return [start[id(b)] for b in blocks]
+
+
+def _solved(blocks, table, prio, seconds: float, log=None) -> dict:
+    """The constraint solver's placement from the list scheduler's ``table`` (its order
+    ``prio``), kept only where shorter: {priorities, starts, clocks, cp_sat_bound}."""
+    found = cpsat.solve(blocks, hint=_starts(table, blocks), seconds=seconds, workers=WORKERS, log=log)
+    kept = {"clocks": len(table), "cp_sat_bound": found.bound, "priorities": prio}
+    if found.clocks < len(table):
+        order = [found.clocks - s for s in found.starts]    # earliest first
+        if len(placed(blocks, order, found.starts)) != found.clocks:
+            raise AssertionError("the list scheduler did not reproduce the solver's placement")
+        kept.update(clocks=found.clocks, priorities=order, starts=found.starts)
+    return kept
+
+
+#: Threads of the constraint solver.
+WORKERS = 2
+
+
+def search_point(point: dict, progress=None, log=None) -> Path:
     """The order of design point ``point`` (:data:`POINT_KEYS`; ``arm`` None: the arm of record)
-    searched and kept; returns its file."""
+    searched and kept, then placed by the constraint solver for ``cp_sat_seconds`` if given;
+    returns its file."""
     k, blocks = _blocks(point)
     table, prio = climbed(blocks)
     _, prio = evolve(blocks, prio, evaluations=point["evaluations"], seed=point["seed"], progress=progress)
     # The climb again from the search's order: a last step or swap the mutations did not try.
     polished, prio = climbed(blocks, prio)
+    kept = {"clocks": len(polished), "priorities": prio}
+    if point.get("cp_sat_seconds"):
+        kept = _solved(blocks, polished, prio, point["cp_sat_seconds"], log)
     hints.SCHEDULES.mkdir(exist_ok=True)
     path = hints.SCHEDULES / f"{fingerprint(blocks)}.json"
     path.write_text(kept_text({**point, "config": k.cfg.name, "arm": k.arm.name,
-                               "climb_clocks": len(table), "clocks": len(polished), "priorities": prio}))
+                               "climb_clocks": len(table), **kept}))
     return path
 
 
@@ -108,7 +144,8 @@ def renew(progress=None) -> list[tuple[Path, Path]]:
     Returns (old, new) per order renewed."""
     renewed = []
     for path in hints.schedule_files():
-        point = {key: json.loads(path.read_text())[key] for key in POINT_KEYS}
+        kept = json.loads(path.read_text())
+        point = {key: kept[key] for key in POINT_KEYS if key in kept}
         if fingerprint(_blocks(point)[1]) != path.stem:
             new = search_point(point, progress)
             path.unlink()
@@ -124,6 +161,9 @@ def _args(argv):
     parser.add_argument("--wide-product", action="store_true")
     parser.add_argument("--evaluations", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--cp-sat", type=float, default=0, metavar="SECONDS",
+                        help="then place the blocks with OR-Tools' CP-SAT for SECONDS (a proven "
+                             "lower bound on the length too)")
     parser.add_argument("--renew", action="store_true",
                         help="search again every kept order no design point uses any more (ignores the options above)")
     return parser.parse_args(argv)
@@ -131,6 +171,12 @@ def _args(argv):
 
 def _progress(done, length):
     print(f"\r{done:,} evaluations: {length} clocks", end="", file=sys.stderr)
+
+
+def _solver_progress(line: str):
+    """CP-SAT's log lines of a new best placement or bound (``#3  12.5s best:1015 next:[941,1014]``)."""
+    if line.startswith("#") and "best:" in line:
+        print("\rCP-SAT " + " ".join(line.split()[1:4]) + "        ", end="", file=sys.stderr)
 
 
 def main(argv=None) -> int:
@@ -142,9 +188,11 @@ def main(argv=None) -> int:
         return 0
     path = search_point({"config": args.config, "arm": args.arm, "poses": args.poses,
                          "wide_product": args.wide_product, "evaluations": args.evaluations,
-                         "seed": args.seed}, progress)
+                         "seed": args.seed, "cp_sat_seconds": args.cp_sat}, progress,
+                        _solver_progress if progress else None)
     kept = json.loads(path.read_text())
-    print(f"{path}: {kept['clocks']} clocks (climb {kept['climb_clocks']})")
+    bound = f", at least {kept['cp_sat_bound']} by CP-SAT" if "cp_sat_bound" in kept else ""
+    print(f"{path}: {kept['clocks']} clocks (climb {kept['climb_clocks']}{bound})")
     return 0
 
 
