@@ -178,3 +178,18 @@ def test_renew_searches_a_stale_order_again(tmp_path, monkeypatch):
     renewed = json.loads(new.read_text())
     assert renewed["evaluations"] == 60 and renewed["clocks"] <= renewed["climb_clocks"]
     assert new.read_text() != before and search.renew() == []
+
+
+def test_a_solver_run_again_starts_from_the_kept_placement(q18_solved, tmp_path, monkeypatch):
+    """With a placement kept (here the solver's, shorter than the climb), a search with no
+    evaluations and a second of CP-SAT keeps a program no longer than it, with its bound."""
+    k, blocks, table, found = q18_solved
+    assert found.clocks < len(table)
+    monkeypatch.setattr(hints, "SCHEDULES", tmp_path)
+    order = [found.clocks - s for s in found.starts]
+    (tmp_path / f"{hints.fingerprint(blocks)}.json").write_text(json.dumps({"priorities": order, "starts": found.starts}))
+    point = {"config": "q18", "arm": None, "poses": 1, "wide_product": False, "evaluations": 0, "seed": 1,
+             "cp_sat_seconds": 1}
+    again = json.loads(search.search_point(point).read_text())
+    assert again["cp_sat_bound"] <= again["clocks"] <= found.clocks < again["climb_clocks"]
+    assert len(placed(blocks, again["priorities"], again.get("starts"))) == again["clocks"]

@@ -19,8 +19,8 @@ no design point has any more, and removes the old file.
 CP-SAT): the blocks' starts as variables of one model, the list scheduler's placement its first
 solution. A shorter placement is kept with its starts (a compile places each block no earlier,
 which gives that placement back), and the solver's proven lower bound on the length with it: how
-much shorter any placement on these units could be. Not deterministic across machines (threads
-and a time limit): the kept file is the record.
+much shorter any placement on these units could be. Not deterministic (threads and a time
+limit): the kept file is the record, and a run again starts from it where it is shorter.
 """
 
 from __future__ import annotations
@@ -102,11 +102,13 @@ def _starts(table, blocks) -> list:
     return [start[id(b)] for b in blocks]
 
 
-def _solved(blocks, table, prio, seconds: float, log=None) -> dict:
-    """The constraint solver's placement from the list scheduler's ``table`` (its order
-    ``prio``), kept only where shorter: {priorities, starts, clocks, cp_sat_bound}."""
-    found = cpsat.solve(blocks, hint=_starts(table, blocks), seconds=seconds, workers=WORKERS, log=log)
-    kept = {"clocks": len(table), "cp_sat_bound": found.bound, "priorities": prio}
+def _solved(blocks, table, order: tuple, seconds: float, seed: int, log=None) -> dict:
+    """The constraint solver's placement from the list scheduler's ``table`` (of ``order``:
+    priorities, and starts or None), kept only where shorter: {priorities, starts, clocks,
+    cp_sat_bound}."""
+    found = cpsat.solve(blocks, hint=_starts(table, blocks), seconds=seconds, workers=WORKERS, seed=seed, log=log)
+    kept = {"clocks": len(table), "cp_sat_bound": found.bound, "priorities": order[0]}
+    kept |= {"starts": order[1]} if order[1] else {}
     if found.clocks < len(table):
         order = [found.clocks - s for s in found.starts]    # earliest first
         if len(placed(blocks, order, found.starts)) != found.clocks:
@@ -130,7 +132,12 @@ def search_point(point: dict, progress=None, log=None) -> Path:
     polished, prio = climbed(blocks, prio)
     kept = {"clocks": len(polished), "priorities": prio}
     if point.get("cp_sat_seconds"):
-        kept = _solved(blocks, polished, prio, point["cp_sat_seconds"], log)
+        # From the shorter of this search's placement and the one kept: a run again goes on
+        # from where the last one stopped (the solver's runs differ, threads and time limits).
+        order, before = (prio, None), hints.hint(blocks)
+        if before is not None and len(earlier := placed(blocks, *before)) < len(polished):
+            polished, order = earlier, before
+        kept = _solved(blocks, polished, order, point["cp_sat_seconds"], point["seed"], log)
     hints.SCHEDULES.mkdir(exist_ok=True)
     path = hints.SCHEDULES / f"{fingerprint(blocks)}.json"
     path.write_text(kept_text({**point, "config": k.cfg.name, "arm": k.arm.name,
