@@ -283,9 +283,11 @@ class Asm:
         return {"none": (gain(x.value), gain(y.value)), "up_x": turned(y.value), "down_y": turned(x.value)}
 
     # -- assembly --
-    def finish(self, code: list, widths: Widths) -> Program:
-        """The program of a scheduled instruction list (no store/read hazard left: checked)."""
-        if len(hazards(code)) != len(code):
+    def finish(self, code: list, widths: Widths, cyclic: bool = False) -> Program:
+        """The program of a scheduled instruction list (no store/read hazard left: checked, across
+        its end too if ``cyclic``: its poses run on into the next run, :mod:`.modulo`)."""
+        runs = code + code if cyclic else code
+        if len(hazards(runs)) != len(runs):
             raise ValueError("a scheduled program reads a word within READ_AHEAD clocks of its store")
         consts, names = {}, {}
         for ins in code:
@@ -312,7 +314,7 @@ class Asm:
         widths.acc = max(widths.acc, widths.mem + 2)
         atan = list(self.ki.atan_table) + [self.ki.half_pi_z]
         return Program(code=code, mem_init=mem_init, atan=atan, shifts=list(self.shifts),
-                       widths=widths, names=names)
+                       widths=widths, names=names, cyclic=cyclic)
 
 
 def reads_mem(ins: Ins) -> bool:

@@ -15,6 +15,12 @@ Here every block's start is a variable of one model, with exactly the placer's r
   other block ends;
 - the program's length, the output block's end, minimised.
 
+With ``modulo``, the blocks are one pose's, placed as the template of a modulo schedule
+(:mod:`.modulo`): a pose every ``period`` clocks, the claims taken modulo the period (each
+interval also as its copies one and two periods earlier: a pose lies within two periods, the
+span of the two-pose engine's two register sets, and an interval is shorter than a period);
+the period minimised.
+
 The solver returns the best placement found in its time and a proven lower bound on the length:
 how far any placement of these blocks on these units can go. A placement is kept as the
 starts of :func:`.schedule.placed` (each block no earlier than its start; a valid placement is
@@ -27,6 +33,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from .isa import READ_AHEAD
+from .program import INPUT_GAP
 from .schedule import LOADS, _dependencies
 
 __all__ = ["Placement", "solve"]
@@ -34,8 +41,8 @@ __all__ = ["Placement", "solve"]
 
 @dataclass(frozen=True)
 class Placement:
-    """The solver's result: per block its start, the program's length, the proven lower bound
-    on any placement's length, and whether the length is that bound (optimal)."""
+    """The solver's result: per block its start, the program's length (a modulo template's:
+    its period), the proven lower bound on it, and whether the length is that bound (optimal)."""
     starts: list
     clocks: int
     bound: int
@@ -54,9 +61,10 @@ def _runs(offsets) -> list[tuple[int, int]]:
 
 
 class _Model:
-    """The CP-SAT model of placing ``blocks`` in at most ``horizon`` clocks."""
+    """The CP-SAT model of placing ``blocks`` in at most ``horizon`` clocks (``modulo``: as a
+    modulo schedule's template, see the module docstring)."""
 
-    def __init__(self, blocks, horizon: int):
+    def __init__(self, blocks, horizon: int, modulo: bool = False):
         try:
             from ortools.sat.python import cp_model
         except ImportError as e:
@@ -65,10 +73,27 @@ class _Model:
         self.m = m = cp_model.CpModel()
         self.start = [m.new_int_var(0, horizon, f"s{i}") for i in range(len(blocks))]
         self.end = m.new_int_var(0, horizon, "end")
+        self.period, self.early = None, [[] for _ in blocks]
         self._order()
+        if modulo:
+            self._modulo(horizon)
         self._claims()
         self._conditions()
-        m.minimize(self.end)
+        m.minimize(self.period if modulo else self.end)
+
+    def _modulo(self, horizon: int):
+        """The period, each block's starts one and two periods earlier, a pose within two
+        periods, the next pose's inputs after this one's."""
+        m, s, blocks = self.m, self.start, self.blocks
+        self.period = period = m.new_int_var(1, horizon // 2, "period")
+        for i, start in enumerate(s):
+            for k in (1, 2):
+                early = m.new_int_var(-horizon, horizon, f"e{i}_{k}")
+                m.add(early == start - k * period)
+                self.early[i].append(early)
+        m.add(s[-1] + len(blocks[-1].code) <= s[0] + 2 * period)
+        m.add(len(blocks[0].code) + INPUT_GAP <= period)
+        m.add(len(blocks[-1].code) <= period)
 
     def _order(self):
         m, s, blocks = self.m, self.start, self.blocks
@@ -89,8 +114,8 @@ class _Model:
         m.add(self.end == s[last] + len(blocks[last].code))
 
     def _intervals(self, i: int, offsets) -> list:
-        return [self.m.new_fixed_size_interval_var(self.start[i] + t, n, f"b{i}@{t}")
-                for t, n in _runs(offsets)]
+        return [self.m.new_fixed_size_interval_var(start + t, n, f"b{i}@{t}")
+                for start in (self.start[i], *self.early[i]) for t, n in _runs(offsets)]
 
     def _claims(self):
         per_claim: dict[int, list] = {}
@@ -116,10 +141,22 @@ class _Model:
                 if under and other:
                     self.m.add_no_overlap(under + other)
 
-    def solve(self, hint, seconds: float, workers: int, seed: int, log=None) -> Placement:
+    def _hint(self, hint: list, period: int | None):
+        """Each start; a modulo template's period (default: the placement's length, a straight
+        placement is a template of its length) and copies too: CP-SAT completes a partial hint
+        poorly."""
+        for var, value in zip(self.start, hint):
+            self.m.add_hint(var, value)
+        if self.period is not None:
+            period = period or max(s + len(b.code) for s, b in zip(hint, self.blocks))
+            self.m.add_hint(self.period, period)
+            for copies, value in zip(self.early, hint):
+                for k, var in enumerate(copies, 1):
+                    self.m.add_hint(var, value - k * period)
+
+    def solve(self, hint, seconds: float, workers: int, seed: int, log=None, period=None) -> Placement:
         if hint is not None:
-            for var, value in zip(self.start, hint):
-                self.m.add_hint(var, value)
+            self._hint(hint, period)
         solver = self.cp.CpSolver()
         solver.parameters.max_time_in_seconds = seconds
         solver.parameters.num_workers = workers
@@ -135,13 +172,18 @@ class _Model:
 
 
 def solve(blocks, *, hint: list | None = None, horizon: int | None = None, seconds: float = 60,
-          workers: int = 2, seed: int = 1, log=None) -> Placement:
+          workers: int = 2, seed: int = 1, log=None, modulo: bool = False,
+          period: int | None = None) -> Placement:
     """The shortest placement of ``blocks`` (:func:`.schedule.blocks_of`) CP-SAT finds in
     ``seconds`` with ``workers`` threads, starting from ``hint`` (a placement's starts, e.g. of
     the list scheduler), no longer than ``horizon`` clocks (default: the hint's length, or the
-    blocks end to end). ``log``: called with each line of the solver's log."""
+    blocks end to end). ``modulo``: one pose's blocks as a modulo schedule's template, the
+    shortest period (``hint`` a template of ``period``, or a straight placement). ``log``: called
+    with each line of the solver's log."""
     if horizon is None:
         horizon = sum(len(b.code) for b in blocks) + 1
         if hint is not None:
             horizon = max(s + len(b.code) for s, b in zip(hint, blocks))
-    return _Model(blocks, horizon).solve(hint, seconds, workers, seed, log)
+    if modulo:
+        horizon = 2 * (period or horizon)      # the starts of a pose within two periods
+    return _Model(blocks, horizon, modulo).solve(hint, seconds, workers, seed, log, period)

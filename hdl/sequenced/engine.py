@@ -39,6 +39,11 @@ from .units import STATUS_BITS
 __all__ = ["SeqEngine", "SequencedIKCore", "STATUS_BITS"]
 
 
+def _first(code: list, io) -> int:
+    """The clock of the first pose's word port operation ``io``."""
+    return next(t for t, ins in enumerate(code) if ins.io == io and not ins.ip)
+
+
 class SeqEngine(wiring.Component):
     """The sequenced IK engine (see the module docstring), with word ports.
 
@@ -53,7 +58,9 @@ class SeqEngine(wiring.Component):
     DSPs): fewer clocks per pose, a longer product path. ``poses`` 2: a run computes two poses
     (:mod:`.poses`), the first's words, then the second's; at the second's first word the engine
     does not wait: without ``in_valid`` that pose is skipped (its words not taken, its output
-    words not offered, ``out_valid`` low) until the next run. ``dsp`` ecp5: the limb multiplier
+    words not offered, ``out_valid`` low) until the next run. A cyclic program (a modulo
+    schedule, :mod:`.modulo`: each pose runs on into the next run) skips the first pose too
+    while another is in flight, and waits at its first word only when none is. ``dsp`` ecp5: the limb multiplier
     on ``MULT18X18D`` primitives whose input registers are the limb registers (the same clocks
     and bits; for ECP5 builds only, as the Amaranth simulator cannot run a primitive).
     """
@@ -76,9 +83,11 @@ class SeqEngine(wiring.Component):
         w.tag = tag_width
         self.cycles = len(self.prog.code)
         self.poses = poses
-        #: The first pose's status word: its last output.
-        self.first_status = next(t for t, ins in enumerate(self.prog.code)
-                                 if ins.io == X.IO_STATUS and not ins.ip)
+        #: The first pose's status word: its last output (in a cyclic program, in the next run
+        #: if it comes before the pose's flags word).
+        self.first_status = _first(self.prog.code, X.IO_STATUS)
+        if self.prog.cyclic and self.first_status < _first(self.prog.code, X.IO_FLAGS):
+            self.first_status += self.cycles
         self.in_bits = max(w.word, 3 + tag_width)
         #: STATUS_BITS, or 7 for an arm with limits (OUT_OF_LIMITS): the tag sits above them.
         self.status_bits = w.status = constants.status_width
@@ -113,7 +122,7 @@ class SeqEngine(wiring.Component):
             m.d.comb += stall.eq((reading & ~self.in_valid) | (writing & ~self.out_ready))
             pose_regs, io = None, (reading & run, reading, writing)
         else:
-            pose_regs = PoseRegisters(regs, prog.poses, w)
+            pose_regs = PoseRegisters(regs, prog.poses, w, prog.cyclic)
             pose_stall, *io = pose_regs.ports(m, ins, self.in_valid, self.out_ready, run)
             m.d.comb += stall.eq(pose_stall)
         in_word = self.in_data[:w.word].as_signed().shift_left(w.guard)
@@ -300,7 +309,8 @@ class SequencedIKCore(wiring.Component):
     while one is computed, and a result waits in the output register (the engine waits at an
     output word while a result is held). ``poses`` 2: a program computes two poses on the shared
     units (:func:`.program.interleave`); the second is skipped when no pose is there for it, so
-    a pose never waits for another. Nothing is lost, duplicated or reordered under back-pressure.
+    a pose never waits for another; on a cyclic program (:mod:`.modulo`) the first too, while
+    the other is in flight. Nothing is lost, duplicated or reordered under back-pressure.
     ``dsp`` ecp5: the engine's limb multiplier on ``MULT18X18D`` primitives (:class:`SeqEngine`).
     """
 

@@ -15,7 +15,7 @@ import hashlib
 import json
 from pathlib import Path
 
-__all__ = ["SCHEDULES", "fingerprint", "hint", "schedule_files"]
+__all__ = ["SCHEDULES", "fingerprint", "hint", "modulo_hint", "order_files", "schedule_files"]
 
 #: The kept orders, one JSON file per fingerprint.
 SCHEDULES = Path(__file__).resolve().parent / "schedules"
@@ -46,6 +46,22 @@ def hint(blocks) -> tuple[list, list | None] | None:
     return priorities, starts
 
 
-def schedule_files() -> list[Path]:
-    """The kept orders' files (data the programs, hence the Verilog, depend on: cache keys)."""
+def modulo_hint(blocks) -> tuple[int, list] | None:
+    """The kept modulo schedule of a two-pose program's ``blocks`` (:mod:`.modulo`): (the
+    template's period, its blocks' starts), or None."""
+    path = SCHEDULES / "modulo" / f"{fingerprint(blocks)}.json"
+    if not path.is_file():
+        return None
+    kept = json.loads(path.read_text())
+    return kept["period"], kept["starts"]
+
+
+def order_files() -> list[Path]:
+    """The kept orders' files."""
     return sorted(SCHEDULES.glob("*.json"))
+
+
+def schedule_files() -> list[Path]:
+    """The kept orders' and modulo schedules' files (data the programs, hence the Verilog,
+    depend on: cache keys)."""
+    return order_files() + sorted(SCHEDULES.glob("modulo/*.json"))

@@ -10,7 +10,8 @@ check words, the top :data:`~ik5r.core.fxconfig.CHECK_BITS` bits of an internal 
 ``pwb``; two clocks later accumulated by ``MACC`` / ``MLD``), the digit-serial square root
 (``sq``) and the word ports (``io``). The program is straight-line (no branches: selections are
 conditional ALU and CORDIC operations), so a pose takes exactly the program's length in clocks,
-plus any wait on the word ports.
+plus any wait on the word ports (a cyclic program's, :mod:`.modulo`, up to two lengths: its
+poses run on into the next run).
 
 A field that is present claims its unit even at its zero value (an ``ALU.NOP`` with a status
 event, a pick of limb 0): the scheduler (:mod:`.schedule`) merges instructions whose present
@@ -241,6 +242,7 @@ class Program:
     widths: Widths
     names: dict = field(default_factory=dict)   # variable name -> address
     poses: int = 1           # poses per run of the code (:func:`.program.interleave`)
+    cyclic: bool = False     # poses run on into the next run (a modulo schedule, :mod:`.modulo`)
 
 
 def _number(ins: Ins, name: str) -> int:

@@ -8,13 +8,15 @@ simulation.
 
 from __future__ import annotations
 
+import itertools
+
 from ik5r.core.fxconfig import CHECK_BITS
 
 from ..graph.inputs import INPUT_WORDS
 from .isa import (ADDER_SOURCES, ADDING, FLAG_CONDITIONS, LIMB, READ_AHEAD, AluOp, BusSource,
                   CondSource, CordicOp, NORMS, SHIFTS, Ins, IoOp, MulLoad, Program, SqrtOp)
 
-__all__ = ["Machine", "run", "run_poses", "limb", "check_word", "wrap_signed", "fits"]
+__all__ = ["Machine", "run", "run_poses", "run_stream", "limb", "check_word", "wrap_signed", "fits"]
 
 
 def limb(value: int, index: int, top: bool, size: int = 1) -> int:
@@ -253,6 +255,8 @@ def run_poses(prog: Program, poses: list[list[int]]) -> list[dict]:
     """One run of ``prog``: ``poses`` its poses' input words (as :func:`run`'s), their outputs."""
     if len(poses) != prog.poses:
         raise ValueError(f"the program takes {prog.poses} poses a run, got {len(poses)}")
+    if prog.cyclic:
+        return run_stream(prog, poses)
     m = Machine(prog)
     inputs, outputs = poses, [{} for _ in poses]
     code = prog.code
@@ -265,3 +269,31 @@ def run_poses(prog: Program, poses: list[list[int]]) -> list[dict]:
             reads.append(m.mem[code[n + READ_AHEAD].rd or 0])
         m.step(ins, word, inputs, outputs)
     return outputs
+
+
+def run_stream(prog: Program, poses: list[list[int]]) -> list[dict]:
+    """``poses`` (input words as :func:`run`'s) through a cyclic program (:mod:`.modulo`), run
+    after run as the engine runs it: a pose's first word takes the next pose if there is one,
+    else the pose is skipped (its registers and words run on, nothing is offered), and the run
+    stops at the first pose's first word when no pose is left and none is in flight. Returns
+    the outputs in order."""
+    m, code = Machine(prog), prog.code
+    queue, results = list(poses), []
+    inputs = [[0] * (len(INPUT_WORDS) + 1) for _ in range(prog.poses)]
+    outputs = [{} for _ in range(prog.poses)]
+    live = [False] * prog.poses
+    reads = [m.mem[code[n % len(code)].rd or 0] for n in range(READ_AHEAD)]
+    for n in itertools.count():
+        ins = code[n % len(code)]
+        pose = ins.ip or 0
+        if ins.io == IoOp.IN and not ins.iw:
+            if not queue and not any(live) and not pose:
+                return results
+            live[pose] = bool(queue)
+            inputs[pose] = queue.pop(0) if queue else inputs[pose]
+        word = reads.pop(0)
+        reads.append(m.mem[code[(n + READ_AHEAD) % len(code)].rd or 0])
+        m.step(ins, word, inputs, outputs)
+        if ins.io == IoOp.STATUS and live[pose]:
+            results.append(outputs[pose])
+            outputs[pose], live[pose] = {}, False

@@ -10,7 +10,7 @@ instruction's pose fields (:data:`.isa.POSE_FIELDS`) say whose registers it acts
 
 from __future__ import annotations
 
-from amaranth.hdl import Const, Mux, Signal
+from amaranth.hdl import Cat, Const, Mux, Signal
 
 from . import isa as X
 from ..datapath.expr import select
@@ -22,15 +22,16 @@ class PoseRegisters:
     """The registers of each pose (pose 0: the engine's own ``regs``), and the selects of the
     executing instruction's poses."""
 
-    def __init__(self, regs: dict, poses: int, w):
-        self.poses = poses
+    def __init__(self, regs: dict, poses: int, w, cyclic: bool = False):
+        self.poses, self.cyclic = poses, cyclic
         self.each = [{name: regs[name] for name in ("back", "down", "roll", "status", "tag")}]
         for p in range(1, poses):
             self.each.append({
                 "back": Signal(name=f"back_p{p}"), "down": Signal(name=f"down_p{p}"),
                 "roll": Signal(name=f"roll_p{p}"), "status": Signal(w.status, name=f"status_p{p}"),
                 "tag": Signal(max(1, w.tag), name=f"tag_p{p}")})
-        self.live = [Const(1, 1)] + [Signal(name=f"live_p{p}") for p in range(1, poses)]
+        self.live = ([Signal(name="live_p0")] if cyclic else [Const(1, 1)]) + [
+            Signal(name=f"live_p{p}") for p in range(1, poses)]
 
     def of(self, name: str, pose) -> "Value":
         """Register ``name`` of the pose ``pose`` (an instruction's pose field)."""
@@ -38,15 +39,25 @@ class PoseRegisters:
 
     def ports(self, m, ins, in_valid, out_ready, run):
         """(stall, in_take, in_ready, out_valid) of the word ports; a later pose's first word
-        decides whether the pose is live."""
+        decides whether the pose is live. In a cyclic program (:mod:`.modulo`) the first pose's
+        too, where another pose is in flight (live until its status word): the engine waits
+        there only when none is."""
         reading = (ins.io == X.IO_IN) | (ins.io == X.IO_FLAGS)
         writing = (ins.io == X.IO_OUT) | (ins.io == X.IO_STATUS)
         live = Signal(name="io_live")
         start = Signal(name="io_pose_start")
+        first = (ins.io == X.IO_IN) & (ins.iw == 0)
         m.d.comb += [live.eq(select(self.live, ins.ip)),
-                     start.eq((ins.io == X.IO_IN) & (ins.iw == 0) & (ins.ip != 0))]
+                     start.eq(first if self.cyclic else first & (ins.ip != 0))]
         stall = (reading & ~in_valid & live & ~start) | (writing & ~out_ready & live)
-        for p in range(1, self.poses):
+        if self.cyclic:
+            in_flight = Signal(name="io_in_flight")
+            m.d.comb += in_flight.eq(Cat(*self.live).any())
+            stall |= start & ~in_valid & ~in_flight
+            for p in range(self.poses):
+                with m.If(run & (ins.io == X.IO_STATUS) & (ins.ip == p)):
+                    m.d.sync += self.live[p].eq(0)
+        for p in range(0 if self.cyclic else 1, self.poses):
             with m.If(run & start & (ins.ip == p)):
                 m.d.sync += self.live[p].eq(in_valid)
         # Taken: a word that is there, of a live pose (the engine waits for it) or a later pose's

@@ -17,9 +17,10 @@ from functools import lru_cache
 from ik5r.core.fxconfig import Constants
 
 from .asm import Asm, limbs_of, widths_of
-from .isa import IO_FLAGS, Program, pose_of
+from .isa import IO_FLAGS, IO_IN, Program, pose_of
 from .lower import Lower
-from .hints import hint
+from .hints import hint, modulo_hint
+from .modulo import fold, two_pose_starts
 from .schedule import blocks_of, schedule
 from ..graph.trace import trace
 
@@ -80,16 +81,32 @@ def _compile(k: Constants, wide_product: bool = False, poses: int = 1) -> Progra
         raise ValueError("the frame's check words (of the word format) must be the top bits of the "
                          f"internal words: check_shift {k.check_shift} + guard != {ki.check_shift}")
     a, codes, after = program_blocks(k, wide_product, poses)
-    # A kept order of these blocks (a longer search's, .search), else the scheduler's climb.
-    code = schedule(codes, after, *(hint(blocks_of(codes, after)) or ()))
+    blocks = blocks_of(codes, after)
+    # A kept modulo schedule of these blocks (.modulo), else a kept order (a longer search's,
+    # .search), else the scheduler's climb.
+    cyclic = modulo_hint(blocks) if poses == 2 else None
+    if cyclic:
+        period, starts = cyclic
+        code = fold(codes, after, two_pose_starts(starts, period), 2 * period, poses)
+    else:
+        code = schedule(codes, after, *(hint(blocks) or ()))
     widths = widths_of(k)
     widths.limbs = limbs_of(a.operand_bits)
     widths.b_limbs = a.b_size
     widths.acc = max(widths.acc, a.product_bits + 3)
-    prog = a.finish(code, widths)
+    prog = a.finish(code, widths, cyclic=bool(cyclic))
     prog.poses = poses
-    last_flags = max(t for t, ins in enumerate(prog.code) if ins.io == IO_FLAGS)
-    if len(prog.code) - 1 - last_flags < INPUT_GAP:
-        raise ValueError(f"the last pose's flags word at clock {last_flags} of {len(prog.code)}: "
-                         f"fewer than {INPUT_GAP} clocks before the next run's first word")
+    _check_input_gaps(prog.code, poses)
     return prog
+
+
+def _check_input_gaps(code: list, poses: int):
+    """Each pose's flags word INPUT_GAP clocks or more before the next pose's first word (the
+    last pose's: the next run's first pose's)."""
+    flags = {ins.ip or 0: t for t, ins in enumerate(code) if ins.io == IO_FLAGS}
+    first = {ins.ip or 0: t for t, ins in enumerate(code) if ins.io == IO_IN and not ins.iw}
+    for p in range(poses):
+        gap = (first[(p + 1) % poses] - flags[p] - 1) % len(code)
+        if gap < INPUT_GAP:
+            raise ValueError(f"pose {p}'s flags word at clock {flags[p]} of {len(code)}: "
+                             f"{gap} clocks before the next pose's first word, fewer than {INPUT_GAP}")

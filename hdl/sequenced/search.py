@@ -21,6 +21,14 @@ solution. A shorter placement is kept with its starts (a compile places each blo
 which gives that placement back), and the solver's proven lower bound on the length with it: how
 much shorter any placement on these units could be. Not deterministic (threads and a time
 limit): the kept file is the record, and a run again starts from it where it is shorter.
+
+``--modulo SECONDS`` instead places one pose's blocks as the template of a modulo schedule of the
+two-pose program (:mod:`.modulo`: a pose every period, running on into the next run), by the
+constraint solver from the one-pose program's placement or the kept template, and keeps it in
+``schedules/modulo/<fingerprint of the two-pose blocks>.json`` where its two periods are shorter
+than the kept template's and the straight two-pose program's::
+
+    python -m ik5r.hdl.sequenced.search --config q32w --wide-product --modulo 600
 """
 
 from __future__ import annotations
@@ -36,10 +44,11 @@ from ik5r.core.fxconfig import constants, load_config
 
 from . import cpsat, hints
 from .hints import fingerprint
+from .modulo import fold, two_pose_starts
 from .program import POSES, program_blocks
 from .schedule import blocks_of, climbed, placed
 
-__all__ = ["evolve", "search_point", "renew", "main"]
+__all__ = ["evolve", "search_point", "modulo_point", "renew", "main"]
 
 #: Priority moves of the search (the climb's steps, and smaller ones).
 MOVES = (-400, -200, -100, -50, -20, -5, 5, 20, 50, 100, 200, 400)
@@ -150,7 +159,7 @@ def renew(progress=None) -> list[tuple[Path, Path]]:
     again for its design point, with its count of evaluations and seed; the old file removed.
     Returns (old, new) per order renewed."""
     renewed = []
-    for path in hints.schedule_files():
+    for path in hints.order_files():
         kept = json.loads(path.read_text())
         point = {key: kept[key] for key in POINT_KEYS if key in kept}
         if fingerprint(_blocks(point)[1]) != path.stem:
@@ -158,6 +167,39 @@ def renew(progress=None) -> list[tuple[Path, Path]]:
             path.unlink()
             renewed.append((path, new))
     return renewed
+
+
+def modulo_point(point: dict, seconds: float, log=None) -> Path | None:
+    """A modulo schedule (:mod:`.modulo`) of the two-pose program of design point ``point``: its
+    template, one pose's blocks, placed by the constraint solver for ``seconds`` from the kept
+    template (else from the one-pose program's placement), kept where its two periods are
+    shorter than the kept template's and the straight two-pose program. Returns its file, or
+    None if none was kept."""
+    k = constants(load_config(point["config"]), load_arm(point["arm"]))
+    _, codes, after = program_blocks(k, point["wide_product"], 2)
+    _, one, _ = program_blocks(k, point["wide_product"], 1)
+    blocks, template = blocks_of(codes, after), blocks_of(one)
+    kept = hints.modulo_hint(blocks)
+    if kept is None:
+        order = hints.hint(template)
+        table = placed(template, *order) if order else climbed(template)[0]
+        hint, period = _starts(table, template), None
+    else:
+        period, hint = kept
+    found = cpsat.solve(template, hint=hint, seconds=seconds, workers=WORKERS, seed=point["seed"],
+                        log=log, modulo=True, period=period)
+    straight = len(placed(blocks, *hints.hint(blocks))) if hints.hint(blocks) else len(climbed(blocks)[0])
+    if 2 * found.clocks >= min(straight, 2 * (period or straight)):
+        return None
+    fold(codes, after, two_pose_starts(found.starts, found.clocks), 2 * found.clocks, 2)   # checks it
+    path = hints.SCHEDULES / "modulo" / f"{fingerprint(blocks)}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({"config": k.cfg.name, "arm": k.arm.name, "poses": 2,
+                                "wide_product": point["wide_product"], "seed": point["seed"],
+                                "cp_sat_seconds": seconds, "period": found.clocks,
+                                "cp_sat_bound": found.bound, "straight_clocks": straight,
+                                "starts": found.starts}, indent=1) + "\n")
+    return path
 
 
 def _args(argv):
@@ -171,6 +213,8 @@ def _args(argv):
     parser.add_argument("--cp-sat", type=float, default=0, metavar="SECONDS",
                         help="then place the blocks with OR-Tools' CP-SAT for SECONDS (a proven "
                              "lower bound on the length too)")
+    parser.add_argument("--modulo", type=float, default=0, metavar="SECONDS",
+                        help="instead, a modulo schedule of the two-pose program by CP-SAT for SECONDS")
     parser.add_argument("--renew", action="store_true",
                         help="search again every kept order no design point uses any more (ignores the options above)")
     return parser.parse_args(argv)
@@ -192,6 +236,12 @@ def main(argv=None) -> int:
     if args.renew:
         for old, new in renew(progress):
             print(f"{old.name} -> {new}: {json.loads(new.read_text())['clocks']} clocks")
+        return 0
+    if args.modulo:
+        point = {"config": args.config, "arm": args.arm, "wide_product": args.wide_product, "seed": args.seed}
+        path = modulo_point(point, args.modulo, _solver_progress if progress else None)
+        print(f"{path}: a pose every {json.loads(path.read_text())['period']} clocks" if path
+              else "no modulo schedule shorter than the kept one and the two-pose program")
         return 0
     path = search_point({"config": args.config, "arm": args.arm, "poses": args.poses,
                          "wide_product": args.wide_product, "evaluations": args.evaluations,
