@@ -22,7 +22,7 @@ from ik5r.firmware_model.vectors import directed_poses, random_poses
 from ik5r.hdl.sequenced import cpsat, hints, machine, modulo, program, search
 from ik5r.hdl.sequenced.isa import Ins, MulLoad, Var
 from ik5r.hdl.sequenced.engine import SequencedIKCore
-from ik5r.hdl.sequenced.schedule import blocks_of, climbed
+from ik5r.hdl.sequenced.schedule import blocks_of, climbed, placed
 from ik5r.tools.testbench.amaranth_stream import compare, run_stream
 from ik5r.tools.testbench.blocks import ik_outputs
 
@@ -171,3 +171,21 @@ def test_cyclic_core_full_rate_and_stalls(cyclic_q18):
     # in the input register), which a straight program reaches only with a result still held
     # when the next run starts.
     assert sum(a < 5 * dut.latency for a in accepted) == dut.capacity
+
+
+def test_the_search_keeps_a_template_only_if_shorter(tmp_path, monkeypatch, capsys):
+    """``--modulo``: a few seconds of CP-SAT on q18's template; kept (and then compiled to the
+    cyclic program) exactly when its two periods are shorter than the straight two-pose
+    program; the period and the bound reported either way."""
+    k = constants(load_config("q18"))
+    _, codes, after = program.program_blocks(k, False, 2)
+    blocks = blocks_of(codes, after)
+    straight = len(placed(blocks, *hints.hint(blocks)))        # q18's kept orders, no climb
+    for kept in hints.order_files():
+        (tmp_path / kept.name).write_text(kept.read_text())
+    monkeypatch.setattr(hints, "SCHEDULES", tmp_path)
+    path, found = search.modulo_point({"config": "q18", "arm": None, "wide_product": False, "seed": 1}, 3)
+    assert (path is None) == (2 * found.clocks >= straight) and found.bound <= found.clocks
+    assert hints.modulo_hint(blocks) == (None if path is None else (found.clocks, found.starts))
+    assert search.main(["--config", "q18", "--modulo", "1"]) == 0
+    assert f"CP-SAT's bound" in capsys.readouterr().out

@@ -169,12 +169,12 @@ def renew(progress=None) -> list[tuple[Path, Path]]:
     return renewed
 
 
-def modulo_point(point: dict, seconds: float, log=None) -> Path | None:
+def modulo_point(point: dict, seconds: float, log=None) -> tuple[Path | None, cpsat.Placement]:
     """A modulo schedule (:mod:`.modulo`) of the two-pose program of design point ``point``: its
     template, one pose's blocks, placed by the constraint solver for ``seconds`` from the kept
     template (else from the one-pose program's placement), kept where its two periods are
-    shorter than the kept template's and the straight two-pose program. Returns its file, or
-    None if none was kept."""
+    shorter than the kept template's and the straight two-pose program. Returns its file (None
+    if it was not kept) and the solver's result."""
     k = constants(load_config(point["config"]), load_arm(point["arm"]))
     _, codes, after = program_blocks(k, point["wide_product"], 2)
     _, one, _ = program_blocks(k, point["wide_product"], 1)
@@ -190,7 +190,7 @@ def modulo_point(point: dict, seconds: float, log=None) -> Path | None:
                         log=log, modulo=True, period=period)
     straight = len(placed(blocks, *hints.hint(blocks))) if hints.hint(blocks) else len(climbed(blocks)[0])
     if 2 * found.clocks >= min(straight, 2 * (period or straight)):
-        return None
+        return None, found
     fold(codes, after, two_pose_starts(found.starts, found.clocks), 2 * found.clocks, 2)   # checks it
     path = hints.SCHEDULES / "modulo" / f"{fingerprint(blocks)}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -199,7 +199,7 @@ def modulo_point(point: dict, seconds: float, log=None) -> Path | None:
                                 "cp_sat_seconds": seconds, "period": found.clocks,
                                 "cp_sat_bound": found.bound, "straight_clocks": straight,
                                 "starts": found.starts}, indent=1) + "\n")
-    return path
+    return path, found
 
 
 def _args(argv):
@@ -239,9 +239,9 @@ def main(argv=None) -> int:
         return 0
     if args.modulo:
         point = {"config": args.config, "arm": args.arm, "wide_product": args.wide_product, "seed": args.seed}
-        path = modulo_point(point, args.modulo, _solver_progress if progress else None)
-        print(f"{path}: a pose every {json.loads(path.read_text())['period']} clocks" if path
-              else "no modulo schedule shorter than the kept one and the two-pose program")
+        path, found = modulo_point(point, args.modulo, _solver_progress if progress else None)
+        print(f"{path or 'not kept'}: a pose every {found.clocks} clocks (CP-SAT's bound: "
+              f"{found.bound}){'' if path else ', not shorter than the kept template or the two-pose program'}")
         return 0
     path = search_point({"config": args.config, "arm": args.arm, "poses": args.poses,
                          "wide_product": args.wide_product, "evaluations": args.evaluations,
