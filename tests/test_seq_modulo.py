@@ -1,7 +1,7 @@
 """Modulo schedules of the compact core's two-pose programs (``hdl/sequenced/modulo.py``): a kept
 template is of a design point this checkout compiles and gives a cyclic program of two periods;
 that program is bit-exact on the interpreter run after run, with poses skipped where none is
-there; the fold refuses a clash and the word sharing respects lifetimes across the program's
+there; the cyclic code refuses a clash and the word sharing respects lifetimes across the program's
 end; the constraint solver's template is valid. (The engine running a cyclic program:
 ``tests/test_seq_core.py``, the two-pose core's test at q18.)"""
 
@@ -71,14 +71,14 @@ def test_kept_template_program_on_interpreter(path, data):
     _stream(k, program.ik_program(k, wide_product=data["wide_product"], poses=2), 7)
 
 
-def test_the_fold_refuses_a_clash(cyclic_q18):
+def test_the_cyclic_code_refuses_a_clash(cyclic_q18):
     """Both poses' inputs in the same clocks: the word port claimed twice."""
     _, codes, after = program.program_blocks(cyclic_q18, False, 2)
     period, starts = hints.modulo_hint(blocks_of(codes, after))
     both = modulo.two_pose_starts(starts, period)
-    modulo.fold(codes, after, both, 2 * period, 2)
+    modulo.cyclic_code(codes, after, both, 2 * period, 2)
     with pytest.raises(ValueError, match="claimed twice"):
-        modulo.fold(codes, after, [both[0], both[0]] + both[2:], 2 * period, 2)
+        modulo.cyclic_code(codes, after, [both[0], both[0]] + both[2:], 2 * period, 2)
 
 
 def test_words_shared_on_the_circle():

@@ -12,10 +12,10 @@ the engine's pose 0 skipped like pose 1 when no input is there but a pose is in 
 
 The template is found offline by the constraint solver (:func:`.cpsat.solve` with
 ``modulo=True``, ``python -m ik5r.hdl.sequenced.search --modulo SECONDS``) and kept
-(:func:`.hints.modulo_hint`); :func:`fold` builds the cyclic program from the two poses' starts,
-checking every claim, condition, store-to-read distance and span again, and :func:`share_words`
-shares memory words between values whose lifetimes do not meet on the circle of the program's
-clocks.
+(:func:`.hints.modulo_hint`); :func:`cyclic_code` builds the cyclic program from the two
+poses' starts, checking every claim, condition, store-to-read distance and span again, and
+:func:`share_words` shares memory words between values whose lifetimes do not meet on the
+circle of the program's clocks.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from dataclasses import replace
 from .isa import READ_AHEAD, Ins, Var
 from .schedule import _dependencies, _var_read, blocks_of
 
-__all__ = ["two_pose_starts", "fold", "share_words"]
+__all__ = ["two_pose_starts", "cyclic_code", "share_words"]
 
 
 def two_pose_starts(starts: list, period: int) -> list:
@@ -45,7 +45,7 @@ def _check_span(blocks, starts, clocks: int, poses: int):
             raise ValueError(f"pose {p} spans {span} clocks, more than the program's {clocks}")
 
 
-def fold(codes: list, after: tuple, starts: list, clocks: int, poses: int) -> list[Ins]:
+def cyclic_code(codes: list, after: tuple, starts: list, clocks: int, poses: int) -> list[Ins]:
     """The cyclic program of ``clocks`` clocks with each block of ``codes`` at its start, an
     instruction at clock t at t mod ``clocks``; every claim, condition, store-to-read distance
     and pose span checked; the memory words shared (:func:`share_words`)."""

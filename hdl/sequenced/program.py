@@ -20,7 +20,7 @@ from .asm import Asm, limbs_of, widths_of
 from .isa import IO_FLAGS, IO_IN, Program, pose_of
 from .lower import Lower
 from .hints import hint, modulo_hint
-from .modulo import fold, two_pose_starts
+from .modulo import cyclic_code, two_pose_starts
 from .schedule import blocks_of, schedule
 from ..graph.trace import trace
 
@@ -87,7 +87,7 @@ def _compile(k: Constants, wide_product: bool = False, poses: int = 1) -> Progra
     cyclic = modulo_hint(blocks) if poses == 2 else None
     if cyclic:
         period, starts = cyclic
-        code = fold(codes, after, two_pose_starts(starts, period), 2 * period, poses)
+        code = cyclic_code(codes, after, two_pose_starts(starts, period), 2 * period, poses)
     else:
         code = schedule(codes, after, *(hint(blocks) or ()))
     widths = widths_of(k)

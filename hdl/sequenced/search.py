@@ -44,7 +44,7 @@ from ik5r.core.fxconfig import constants, load_config
 
 from . import cpsat, hints
 from .hints import fingerprint
-from .modulo import fold, two_pose_starts
+from .modulo import cyclic_code, two_pose_starts
 from .program import POSES, program_blocks
 from .schedule import blocks_of, climbed, placed
 
@@ -191,7 +191,7 @@ def modulo_point(point: dict, seconds: float, log=None) -> tuple[Path | None, cp
     straight = len(placed(blocks, *hints.hint(blocks))) if hints.hint(blocks) else len(climbed(blocks)[0])
     if 2 * found.clocks >= min(straight, 2 * (period or straight)):
         return None, found
-    fold(codes, after, two_pose_starts(found.starts, found.clocks), 2 * found.clocks, 2)   # checks it
+    cyclic_code(codes, after, two_pose_starts(found.starts, found.clocks), 2 * found.clocks, 2)   # checks it
     path = hints.SCHEDULES / "modulo" / f"{fingerprint(blocks)}.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps({"config": k.cfg.name, "arm": k.arm.name, "poses": 2,
