@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import gc
+import itertools
 import random
 import re
 
@@ -188,6 +189,39 @@ def test_program_is_short_and_shared():
     assert len(ik_program(_k("q18")).code) < len(ik_program(_k("q32")).code) < len(prog.code)
 
 
+def test_shift_ops_are_the_fewest():
+    """An accumulator shift by n is the fewest ops of the three amounts (checked against every
+    multiset of them), or refused when none adds up to n."""
+    sizes = (3, 4, 32)
+    for n in range(1, 80):
+        ops = seq_asm.shift_ops(n, sizes)
+        counts = [r for r in range(1, 12)
+                  for c in itertools.combinations_with_replacement(sizes, r) if sum(c) == n]
+        if not counts:
+            assert ops is None, n
+            continue
+        assert sum(ops) == n and len(ops) == min(counts) and ops == sorted(ops, reverse=True)
+    with pytest.raises(ValueError, match="no sum"):
+        seq_asm.Asm(_k("q18"), acc_shifts=(3, 4, 32)).shr(5)
+
+
+def test_acc_shifts_fewest_over_every_choice():
+    """The program's three shifts: no other three (brute force over a small range) do its shifts
+    in fewer ops; the program's own shifts are the ones it asked for, each of them exact."""
+    amounts = {3: 6, 4: 4, 6: 5, 9: 2, 13: 1}
+    chosen = seq_asm.acc_shifts_for(amounts)
+
+    def cost(sizes):
+        ops = [seq_asm.shift_ops(n, sizes) for n in amounts]
+        return None if None in ops else sum(t * len(o) for t, o in zip(amounts.values(), ops))
+    costs = [c for sizes in itertools.combinations(range(1, 14), 3) if (c := cost(sizes)) is not None]
+    assert cost(chosen) == min(costs) < cost((1, 4, 16))
+    prog = ik_program(_k("q32w"), wide_product=True)
+    assert prog.acc_shifts != (1, 4, 16)
+    shifts = [i for i in prog.code if i.alu in seq_isa.SHIFTS]
+    assert {i.alu for i in shifts} <= set(seq_isa.SHIFTS)
+
+
 @pytest.mark.parametrize("cfg", ("q18", "q32w"))
 def test_rotation_of_a_constant_vector_is_gained_before_its_quadrant_step(cfg):
     """The IK's rotations of constant vectors: their gain products are constants, loaded instead
@@ -225,7 +259,7 @@ def test_register_occupancy_lets_a_load_share_the_last_read():
     store = schedule.Block([Ins(alu=AluOp.LD, rd=Const(1)), Ins(alu=AluOp.ADD, rd=Const(2)),
                             Ins(wr=1, wa=Var("a"))])
     load = schedule.Block([Ins(alu=AluOp.LD, rd=Const(3)), Ins(wr=1, wa=Var("b"))])
-    reader = schedule.Block([Ins(alu=AluOp.SHR1), Ins(wr=1, wa=Var("c"))])
+    reader = schedule.Block([Ins(alu=AluOp.SHRA), Ins(wr=1, wa=Var("c"))])
     assert ["acc" in keys for keys in store.claims] == [False, True, True]
     table = schedule.Table()
     table.place(store, 0)

@@ -160,7 +160,7 @@ def test_search_is_deterministic_and_never_longer():
     _, _, _, blocks = _q18_blocks()
     table, prio = climbed(blocks)
     seen = []
-    runs = [search.evolve(blocks, prio, evaluations=400, seed=3, progress=lambda d, n: seen.append(n))
+    runs = [search.evolve(blocks, prio, evaluations=1000, seed=3, progress=lambda d, n: seen.append(n))
             for _ in range(2)]
     assert runs[0] == runs[1]
     length, order = runs[0]

@@ -6,6 +6,8 @@ and :meth:`Asm.finish`, which resolves constants and variables to data-memory ad
 
 from __future__ import annotations
 
+import itertools
+from collections import Counter
 from dataclasses import dataclass, replace
 
 from ik5r.core import fixedpoint
@@ -79,14 +81,32 @@ def st(name: str) -> Ins:
     return Ins(wr=1, wa=Var(name))
 
 
-def shr(n: int) -> list:
-    """acc >>= n (arithmetic): the largest shifts first."""
-    ops = []
-    for op, size in sorted(SHIFTS.items(), key=lambda item: -item[1]):
-        while n >= size:
-            ops.append(alu(op))
-            n -= size
-    return ops
+def shift_ops(n: int, sizes: tuple) -> list:
+    """The fewest shifts of ``sizes`` (bits by op of :data:`~.isa.SHIFTS`) that add up to ``n``,
+    largest first, or None if none do."""
+    best: list = [[]] + [None] * n      # best[m]: the fewest sizes adding up to m
+    for m in range(1, n + 1):
+        ways = [best[m - s] + [s] for s in sizes if s <= m and best[m - s] is not None]
+        best[m] = min(ways, key=len, default=None)
+    if best[n] is None:
+        return None
+    return sorted(best[n], reverse=True)
+
+
+def acc_shifts_for(amounts: dict) -> tuple:
+    """The accumulator's three shift amounts for a program shifting by ``amounts`` (bits ->
+    times): the fewest shift ops in all, then the smallest amounts. The three are inputs of
+    the accumulator's result mux whatever they are, so each program picks its own."""
+    top = max(amounts, default=1)
+    best, cost = (1, 4, 16), None
+    for sizes in itertools.combinations(range(1, top + 1), len(SHIFTS)):
+        fewest = [0] + [top + 1] * top     # fewest[m]: shifts adding up to m (top + 1: none)
+        for m in range(1, top + 1):
+            fewest[m] = min([fewest[m - s] + 1 for s in sizes if s <= m], default=top + 1)
+        total = sum(times * fewest[n] for n, times in amounts.items())
+        if all(fewest[n] <= top for n in amounts) and (cost is None or total < cost):
+            best, cost = sizes, total
+    return best
 
 
 def normalising_shifts(most: int) -> list[int]:
@@ -104,8 +124,12 @@ def normalising_shifts(most: int) -> list[int]:
 class Asm:
     """Builds the instruction list; resolves constants and variables to memory addresses."""
 
-    def __init__(self, k: Constants, *, wide_product: bool = False):
+    def __init__(self, k: Constants, *, wide_product: bool = False, acc_shifts: tuple = (1, 4, 16)):
         self.k, self.ki = k, k.internal
+        #: The accumulator's shifts right (bits of each op of SHIFTS), and the amounts asked of
+        #: them (bits -> times: :func:`acc_shifts_for` picks a program's three).
+        self.acc_shifts = tuple(acc_shifts)
+        self.shifted: Counter = Counter()
         #: Limbs of the B operand per pick (the wide product step multiplies 16 x 31 bits).
         self.b_size = 2 if wide_product else 1
         self.nearest = k.cfg.round_nearest
@@ -118,7 +142,15 @@ class Asm:
         """acc = rshift_round(acc, n)."""
         if n <= 0:
             return []
-        return ([alu(A_ADD, Const(1 << (n - 1)))] if self.nearest else []) + shr(n)
+        return ([alu(A_ADD, Const(1 << (n - 1)))] if self.nearest else []) + self.shr(n)
+
+    def shr(self, n: int) -> list:
+        """acc >>= n (arithmetic), in the fewest of the accumulator's shifts."""
+        self.shifted[n] += 1
+        sizes = shift_ops(n, self.acc_shifts)
+        if sizes is None:
+            raise ValueError(f"no sum of the accumulator's shifts {self.acc_shifts} is {n}")
+        return [alu(SHIFTS[self.acc_shifts.index(size)]) for size in sizes]
 
     def clip(self, lo: int | None, hi: int | None) -> list:
         """acc = clip(acc, lo, hi) (None: no bound that side): one saturation (no status bit)
@@ -314,7 +346,7 @@ class Asm:
         widths.acc = max(widths.acc, widths.mem + 2)
         atan = list(self.ki.atan_table) + [self.ki.half_pi_z]
         return Program(code=code, mem_init=mem_init, atan=atan, shifts=list(self.shifts),
-                       widths=widths, names=names, cyclic=cyclic)
+                       widths=widths, names=names, cyclic=cyclic, acc_shifts=self.acc_shifts)
 
 
 def reads_mem(ins: Ins) -> bool:

@@ -140,7 +140,7 @@ class SeqEngine(wiring.Component):
                 & (select(sources, Value.cast(ins.cb)) ^ ins.cbi))
         #: The registers by name, for test benches that trace the engine.
         self.trace = dict(regs, acc=acc, pc=pc, exe=ins, bus=bus)
-        U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs)
+        U.alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, prog.acc_shifts, pose_regs)
         U.cordic(m, ins, dec, shift, bus, cond, step, regs, run, w)
         U.multiplier(m, ins, pre.sh, bus, regs, run, w, prog.shifts, self.dsp)
         U.sqrt(m, ins, acc, regs, run, w)

@@ -37,8 +37,9 @@ class BusSource(enum.Enum, shape=3):
 
 
 class AluOp(enum.Enum, shape=4):
-    """Accumulator operations (``alu``); ``SHRn``: arithmetic shift right by n (:data:`SHIFTS`)."""
-    NOP, LD, ADD, SUB, NEG, CMPGT, CMPLT, SHR1, SHR4, SHR16, SATI, SATW, MLD, MACC, SETF = range(15)
+    """Accumulator operations (``alu``); ``SHRA``, ``SHRB``, ``SHRC``: arithmetic shifts right by
+    the program's three amounts (:attr:`Program.acc_shifts`)."""
+    NOP, LD, ADD, SUB, NEG, CMPGT, CMPLT, SHRA, SHRB, SHRC, SATI, SATW, MLD, MACC, SETF = range(15)
 
 
 class CondSource(enum.Enum, shape=3):
@@ -78,7 +79,7 @@ class IoOp(enum.Enum, shape=3):
 
 # The assembler's mnemonics (the lowering, :mod:`.lower`, writes its blocks with them).
 B_MEM, B_IN, B_CX, B_CY, B_CZ, B_ROOT, B_REM, B_ACC = BusSource
-(A_NOP, A_LD, A_ADD, A_SUB, A_NEG, A_CMPGT, A_CMPLT, A_SHR1, A_SHR4, A_SHR16, A_SATI, A_SATW,
+(A_NOP, A_LD, A_ADD, A_SUB, A_NEG, A_CMPGT, A_CMPLT, A_SHRA, A_SHRB, A_SHRC, A_SATI, A_SATW,
  A_MLD, A_MACC, A_SETF) = AluOp
 C_ONE, C_F, C_BACK, C_DOWN, C_ROLL, C_ZERO = CondSource
 (K_NOP, K_LDX, K_LDY, K_LDXG, K_LDYG, K_LDZA, K_COARSE, K_QROT, K_NORM8, K_NORM1, K_VEC,
@@ -86,14 +87,15 @@ C_ONE, C_F, C_BACK, C_DOWN, C_ROLL, C_ZERO = CondSource
 Q_NOP, Q_LOAD, Q_STEP, Q_STEP2 = SqrtOp
 IO_NOP, IO_IN, IO_FLAGS, IO_OUT, IO_STATUS = IoOp
 
-#: The accumulator's shifts right (:func:`.asm.shr`) and the CORDIC's normalising shifts left
+#: The accumulator's shifts right (three ops, their amounts chosen per program:
+#: :func:`.asm.acc_shifts_for`) and the CORDIC's normalising shifts left
 #: (:meth:`.asm.Asm.atan2_body`), by their bits. Three normalising shifts (8, 2, 1: M bits in
 #: M // 8 + 4 clocks at most) rather than five (16, 8, 4, 2, 1: about log2(M)): each shift is an
 #: option of the x and y registers' mux, on the micro-rotation's path; the two more cost more
-#: LUTs and clock than their few clocks are worth. Shifts of the accumulator by 2 and 8 as well
-#: save a few clocks more, but put its wide result mux a level deeper: more LUTs than the clocks
-#: are worth. (The figures: the commits that made these choices.)
-SHIFTS = {A_SHR1: 1, A_SHR4: 4, A_SHR16: 16}
+#: LUTs and clock than their few clocks are worth. A fourth shift of the accumulator would put
+#: its wide result mux a level deeper: more LUTs than the clocks are worth. (The figures: the
+#: commits that made these choices.)
+SHIFTS = (A_SHRA, A_SHRB, A_SHRC)
 NORMS = {K_NORM1: 1, K_NORM2: 2, K_NORM8: 8}
 
 #: The B-bus sources an adding ALU operation (``ADDING``) may take: the adder has its own operand
@@ -243,6 +245,7 @@ class Program:
     names: dict = field(default_factory=dict)   # variable name -> address
     poses: int = 1           # poses per run of the code (:func:`.program.interleave`)
     cyclic: bool = False     # poses run on into the next run (a modulo schedule, :mod:`.modulo`)
+    acc_shifts: tuple = (1, 4, 16)  # bits of the accumulator's shifts right by SHIFTS' ops
 
 
 def _number(ins: Ins, name: str) -> int:

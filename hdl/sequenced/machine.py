@@ -144,6 +144,8 @@ class Machine:
                 f = event = int(acc > b if op == AluOp.CMPGT else acc < b)
         elif op == AluOp.SETF:
             f = cond
+        elif op in SHIFTS:
+            acc = acc >> self.p.acc_shifts[SHIFTS.index(op)] if cond else acc
         elif op in (AluOp.SATI, AluOp.SATW):
             # Always clips; the condition gates only the status event.
             bits = self.w.internal if op == AluOp.SATI else self.w.word
@@ -159,7 +161,6 @@ class Machine:
     _ARITHMETIC = {AluOp.NOP: lambda acc, b, prod: acc, AluOp.LD: lambda acc, b, prod: b,
                    AluOp.ADD: lambda acc, b, prod: acc + b, AluOp.SUB: lambda acc, b, prod: acc - b,
                    AluOp.NEG: lambda acc, b, prod: -acc,
-                   **{op: (lambda bits: lambda acc, b, prod: acc >> bits)(bits) for op, bits in SHIFTS.items()},
                    AluOp.MLD: lambda acc, b, prod: prod, AluOp.MACC: lambda acc, b, prod: acc + prod}
 
     def _cordic(self, ins: Ins, b: int, cond: int):

@@ -16,7 +16,7 @@ from functools import lru_cache
 
 from ik5r.core.fxconfig import Constants
 
-from .asm import Asm, limbs_of, widths_of
+from .asm import Asm, acc_shifts_for, limbs_of, widths_of
 from .isa import IO_FLAGS, IO_IN, Program, pose_of
 from .lower import Lower
 from .hints import hint, modulo_hint
@@ -69,8 +69,12 @@ def interleave(blocks: list, poses: int) -> tuple[list, tuple]:
 def program_blocks(k: Constants, wide_product: bool = False, poses: int = 1) -> tuple:
     """The assembler (its constants and widths) and the blocks of a program of ``poses`` poses
     with their order constraints, to be scheduled: ``(asm, codes, after)``."""
-    a = Asm(k, wide_product=wide_product)
     joints, events, _ = trace(k)
+    # Lowered twice: first to learn the shifts the program asks for, then with the accumulator's
+    # three shifts that do them in the fewest clocks.
+    first = Asm(k, wide_product=wide_product)
+    Lower(first, joints, events)
+    a = Asm(k, wide_product=wide_product, acc_shifts=acc_shifts_for(first.shifted))
     return (a, *interleave(Lower(a, joints, events).blocks, poses))
 
 

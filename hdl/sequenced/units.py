@@ -39,9 +39,9 @@ def registers(w, dsp: str = Dsp.GENERIC):
         del regs["la"], regs["lb"]
     return regs
 
-def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs=None):
-    """The accumulator ALU: the adder, compares, shifts, saturations, F and the status bits (of
-    the event's pose, ``pose_regs``, in a program of several)."""
+def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, acc_shifts, pose_regs=None):
+    """The accumulator ALU: the adder, compares, shifts (by ``acc_shifts``), saturations, F and
+    the status bits (of the event's pose, ``pose_regs``, in a program of several)."""
     # The adder: its right operand a one-hot AND-OR of its own few sources (not the B bus),
     # inverted for a subtraction; the carry in enters as a bit below the operands (one chain).
     right = Signal(signed(w.acc), name="alu_right")
@@ -69,7 +69,7 @@ def alu(m, ins, dec, acc, bus, mem_q, cond, regs, run, w, pose_regs=None):
     with m.Switch(ins.alu):
         with m.Case(X.A_LD):
             m.d.comb += early.eq(bus)
-        for op, bits in X.SHIFTS.items():
+        for op, bits in zip(X.SHIFTS, acc_shifts):
             with m.Case(op):
                 m.d.comb += early.eq(acc.shift_right(bits))
         with m.Case(X.A_SATI):
