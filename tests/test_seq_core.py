@@ -31,6 +31,7 @@ from ik5r.hdl.graph.inputs import INPUT_WORDS
 from ik5r.hdl.sequenced import asm as seq_asm
 from ik5r.hdl.sequenced import isa as seq_isa
 from ik5r.hdl.sequenced import machine
+from ik5r.hdl.sequenced import shifts as seq_shifts
 from ik5r.hdl.generate import generate
 from ik5r.hdl.sequenced.engine import STATUS_BITS, SequencedIKCore
 from ik5r.hdl.sequenced.serial import SerialIK
@@ -194,7 +195,7 @@ def test_shift_ops_are_the_fewest():
     multiset of them), or refused when none adds up to n."""
     sizes = (3, 4, 32)
     for n in range(1, 80):
-        ops = seq_asm.shift_ops(n, sizes)
+        ops = seq_shifts.shift_ops(n, sizes)
         counts = [r for r in range(1, 12)
                   for c in itertools.combinations_with_replacement(sizes, r) if sum(c) == n]
         if not counts:
@@ -209,10 +210,10 @@ def test_acc_shifts_fewest_over_every_choice():
     """The program's three shifts: no other three (brute force over a small range) do its shifts
     in fewer ops; the program's own shifts are the ones it asked for, each of them exact."""
     amounts = {3: 6, 4: 4, 6: 5, 9: 2, 13: 1}
-    chosen = seq_asm.acc_shifts_for(amounts)
+    chosen = seq_shifts.acc_shifts_for(amounts)
 
     def cost(sizes):
-        ops = [seq_asm.shift_ops(n, sizes) for n in amounts]
+        ops = [seq_shifts.shift_ops(n, sizes) for n in amounts]
         return None if None in ops else sum(t * len(o) for t, o in zip(amounts.values(), ops))
     costs = [c for sizes in itertools.combinations(range(1, 14), 3) if (c := cost(sizes)) is not None]
     assert cost(chosen) == min(costs) < cost((1, 4, 16))

@@ -6,7 +6,6 @@ and :meth:`Asm.finish`, which resolves constants and variables to data-memory ad
 
 from __future__ import annotations
 
-import itertools
 from collections import Counter
 from dataclasses import dataclass, replace
 
@@ -18,6 +17,7 @@ from .isa import (A_ADD, A_CMPGT, A_CMPLT, A_LD, A_MACC, A_MLD, A_NEG, A_SATI, A
                   B_ACC, B_CX, B_CY, B_CZ, B_MEM, B_REM, B_ROOT, C_F, C_ZERO, K_COARSE, K_LDX,
                   K_LDXG, K_LDY, K_LDYG, K_LDZA, K_QROT, K_ROT, K_VEC, LIMB, NORMS, READ_AHEAD,
                   SHIFTS, BusSource, nonzero, Const, Ins, MulLoad, Program, Var, Widths)
+from .shifts import shift_ops
 
 __all__ = ["Asm", "Const", "Check", "Bus"]
 
@@ -81,34 +81,6 @@ def st(name: str) -> Ins:
     return Ins(wr=1, wa=Var(name))
 
 
-def shift_ops(n: int, sizes: tuple) -> list:
-    """The fewest shifts of ``sizes`` (bits by op of :data:`~.isa.SHIFTS`) that add up to ``n``,
-    largest first, or None if none do."""
-    best: list = [[]] + [None] * n      # best[m]: the fewest sizes adding up to m
-    for m in range(1, n + 1):
-        ways = [best[m - s] + [s] for s in sizes if s <= m and best[m - s] is not None]
-        best[m] = min(ways, key=len, default=None)
-    if best[n] is None:
-        return None
-    return sorted(best[n], reverse=True)
-
-
-def acc_shifts_for(amounts: dict) -> tuple:
-    """The accumulator's three shift amounts for a program shifting by ``amounts`` (bits ->
-    times): the fewest shift ops in all, then the smallest amounts. The three are inputs of
-    the accumulator's result mux whatever they are, so each program picks its own."""
-    top = max(amounts, default=1)
-    best, cost = (1, 4, 16), None
-    for sizes in itertools.combinations(range(1, top + 1), len(SHIFTS)):
-        fewest = [0] + [top + 1] * top     # fewest[m]: shifts adding up to m (top + 1: none)
-        for m in range(1, top + 1):
-            fewest[m] = min([fewest[m - s] + 1 for s in sizes if s <= m], default=top + 1)
-        total = sum(times * fewest[n] for n, times in amounts.items())
-        if all(fewest[n] <= top for n in amounts) and (cost is None or total < cost):
-            best, cost = sizes, total
-    return best
-
-
 def normalising_shifts(most: int) -> list[int]:
     """Shifts (each of :data:`~.isa.NORMS`) whose conditional sequence, each taken if x and y
     both still fit, shifts by exactly ``min(headroom, most)``: each at most one more than the
@@ -127,7 +99,7 @@ class Asm:
     def __init__(self, k: Constants, *, wide_product: bool = False, acc_shifts: tuple = (1, 4, 16)):
         self.k, self.ki = k, k.internal
         #: The accumulator's shifts right (bits of each op of SHIFTS), and the amounts asked of
-        #: them (bits -> times: :func:`acc_shifts_for` picks a program's three).
+        #: them (bits -> times: :func:`.shifts.acc_shifts_for` picks a program's three).
         self.acc_shifts = tuple(acc_shifts)
         self.shifted: Counter = Counter()
         #: Limbs of the B operand per pick (the wide product step multiplies 16 x 31 bits).

@@ -88,7 +88,7 @@ Q_NOP, Q_LOAD, Q_STEP, Q_STEP2 = SqrtOp
 IO_NOP, IO_IN, IO_FLAGS, IO_OUT, IO_STATUS = IoOp
 
 #: The accumulator's shifts right (three ops, their amounts chosen per program:
-#: :func:`.asm.acc_shifts_for`) and the CORDIC's normalising shifts left
+#: :func:`.shifts.acc_shifts_for`) and the CORDIC's normalising shifts left
 #: (:meth:`.asm.Asm.atan2_body`), by their bits. Three normalising shifts (8, 2, 1: M bits in
 #: M // 8 + 4 clocks at most) rather than five (16, 8, 4, 2, 1: about log2(M)): each shift is an
 #: option of the x and y registers' mux, on the micro-rotation's path; the two more cost more

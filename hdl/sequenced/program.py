@@ -16,12 +16,13 @@ from functools import lru_cache
 
 from ik5r.core.fxconfig import Constants
 
-from .asm import Asm, acc_shifts_for, limbs_of, widths_of
+from .asm import Asm, limbs_of, widths_of
 from .isa import IO_FLAGS, IO_IN, Program, pose_of
 from .lower import Lower
 from .hints import hint, modulo_hint
 from .modulo import cyclic_code, two_pose_starts
 from .schedule import blocks_of, schedule
+from .shifts import acc_shifts_for
 from ..graph.trace import trace
 
 __all__ = ["ik_program"]
